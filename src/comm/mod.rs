@@ -1,0 +1,107 @@
+//! Transport between ranks. Physics never sees it: the domain layer (halo exchange, migration)
+//! and the diagnostics are the only users.
+//!
+//! Three implementations share one trait:
+//! - [`SerialComm`]: one rank that exchanges with itself, so a serial run builds its periodic and
+//!   Lees–Edwards images through the same halo code as a parallel one;
+//! - [`LocalComm`]: P ranks as threads of one process, used by the tests to check P = 1…4
+//!   without `mpirun`;
+//! - `MpiComm` (feature `mpi`): real processes through rsmpi.
+//!
+//! All payloads are `f64` words; integers (global ids, image counts) travel as exact bit patterns
+//! (`f64::from_bits`) or small exactly-representable values.
+
+mod local;
+#[cfg(feature = "mpi")]
+mod mpi_comm;
+
+pub use local::{LocalComm, local_universe};
+#[cfg(feature = "mpi")]
+pub use mpi_comm::MpiComm;
+
+/// Bitwise or arithmetic reductions on 64-bit unsigned integers.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum U64Op {
+    /// Wrapping sum.
+    Sum,
+    /// Bitwise exclusive or.
+    Xor,
+    /// Maximum.
+    Max,
+}
+
+/// Message transport. Every call is collective over the ranks that take part and is made from
+/// the rank's main thread (MPI "funneled").
+pub trait Comm {
+    /// This rank's index, `0..size`.
+    fn rank(&self) -> usize;
+    /// Number of ranks.
+    fn size(&self) -> usize;
+    /// Sends `send` to `dest` and receives the message that `src` sent with the same `tag`.
+    fn sendrecv(&self, send: Vec<f64>, dest: usize, src: usize, tag: u32) -> Vec<f64>;
+    /// Element-wise sum over ranks, in rank order (identical result on every rank; the rounding
+    /// depends on the rank count, so only diagnostics use it).
+    fn allreduce_sum(&self, values: &mut [f64]);
+    /// Element-wise maximum over ranks (exact).
+    fn allreduce_max(&self, values: &mut [f64]);
+    /// Element-wise exact integer reduction.
+    fn allreduce_u64(&self, values: &mut [u64], op: U64Op);
+    /// Every rank's buffer, in rank order, on every rank.
+    fn allgather(&self, mine: &[f64]) -> Vec<Vec<f64>>;
+    /// Waits for every rank.
+    fn barrier(&self);
+    /// Whether this is a real multi-process MPI run.
+    fn is_mpi(&self) -> bool {
+        false
+    }
+}
+
+/// The one-rank communicator: every message goes to itself.
+#[derive(Default)]
+pub struct SerialComm {
+    pending: std::cell::RefCell<Vec<(u32, Vec<f64>)>>,
+}
+
+impl SerialComm {
+    /// A new serial communicator.
+    pub fn new() -> Self {
+        Self::default()
+    }
+}
+
+impl Comm for SerialComm {
+    fn rank(&self) -> usize {
+        0
+    }
+    fn size(&self) -> usize {
+        1
+    }
+    fn sendrecv(&self, send: Vec<f64>, dest: usize, src: usize, tag: u32) -> Vec<f64> {
+        assert!(dest == 0 && src == 0, "serial communicator has only rank 0");
+        let mut pending = self.pending.borrow_mut();
+        pending.push((tag, send));
+        let pos = pending
+            .iter()
+            .position(|(t, _)| *t == tag)
+            .expect("message just queued");
+        pending.remove(pos).1
+    }
+    fn allreduce_sum(&self, _values: &mut [f64]) {}
+    fn allreduce_max(&self, _values: &mut [f64]) {}
+    fn allreduce_u64(&self, _values: &mut [u64], _op: U64Op) {}
+    fn allgather(&self, mine: &[f64]) -> Vec<Vec<f64>> {
+        vec![mine.to_vec()]
+    }
+    fn barrier(&self) {}
+}
+
+/// Combines per-rank integer vectors with `op` (shared by the thread and serial paths).
+pub(crate) fn reduce_u64(acc: &mut [u64], other: &[u64], op: U64Op) {
+    for (a, b) in acc.iter_mut().zip(other) {
+        *a = match op {
+            U64Op::Sum => a.wrapping_add(*b),
+            U64Op::Xor => *a ^ *b,
+            U64Op::Max => (*a).max(*b),
+        };
+    }
+}

@@ -1,0 +1,472 @@
+//! Case files: a TOML *scene* deserialised with serde, then validated.
+//!
+//! Every error names the file, line and column, the key path, what was found and what would be
+//! valid; nothing panics and nothing runs on a bad case. The key reference in
+//! `docs/case-reference.md` is generated from [`reference::KEYS`], and a test checks that the
+//! table, the structs and the document agree.
+
+pub mod reference;
+mod spans;
+mod validate;
+
+use crate::geometry::Boundary;
+use crate::models::dpd::Noise;
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+
+pub use spans::CaseError;
+
+/// A whole case file.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Case {
+    /// Free-text title.
+    #[serde(default)]
+    pub title: String,
+    /// 2 or 3.
+    pub dimension: usize,
+    /// Seed of every random number of the run.
+    #[serde(default = "default_seed")]
+    pub seed: u64,
+    /// Box, boundaries and shear.
+    #[serde(rename = "box")]
+    pub domain: BoxCfg,
+    /// Slab decomposition.
+    #[serde(default)]
+    pub decomposition: DecompositionCfg,
+    /// Initial particles.
+    pub particles: ParticlesCfg,
+    /// The fluid model.
+    pub fluid: FluidCfg,
+    /// Time integration.
+    pub integrator: IntegratorCfg,
+    /// Neighbour lists.
+    #[serde(default)]
+    pub neighbour: NeighbourCfg,
+    /// Run length and sampling.
+    pub run: RunCfg,
+    /// Observables.
+    #[serde(default)]
+    pub diagnostics: DiagnosticsCfg,
+    /// Known answers the run checks itself against.
+    #[serde(default)]
+    pub reference: Vec<ReferenceCfg>,
+}
+
+fn default_seed() -> u64 {
+    1
+}
+
+/// `[box]`
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct BoxCfg {
+    /// Edge lengths, one per dimension.
+    pub lengths: Vec<f64>,
+    /// Boundary per axis; default all periodic.
+    #[serde(default)]
+    pub boundaries: Option<Vec<Boundary>>,
+    /// Lees–Edwards shear rate (flow x, gradient y).
+    #[serde(default)]
+    pub shear_rate: f64,
+}
+
+/// Axis names.
+#[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq, Eq, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum Axis {
+    /// x
+    X,
+    /// y
+    #[default]
+    Y,
+    /// z
+    Z,
+}
+
+impl Axis {
+    /// Axis index.
+    pub fn index(self) -> usize {
+        match self {
+            Axis::X => 0,
+            Axis::Y => 1,
+            Axis::Z => 2,
+        }
+    }
+}
+
+/// `[decomposition]`
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq, Default)]
+#[serde(deny_unknown_fields)]
+pub struct DecompositionCfg {
+    /// Slab axis.
+    #[serde(default)]
+    pub axis: Axis,
+}
+
+/// Initial arrangement.
+#[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum Lattice {
+    /// Simple cubic (square in 2D), one particle per cell.
+    Cubic,
+    /// Face-centred cubic (centred square in 2D).
+    Fcc,
+    /// Uniformly random positions.
+    Random,
+}
+
+impl Lattice {
+    /// Particles per lattice cell.
+    pub fn basis(self, dimension: usize) -> usize {
+        match (self, dimension) {
+            (Lattice::Cubic | Lattice::Random, _) => 1,
+            (Lattice::Fcc, 2) => 2,
+            (Lattice::Fcc, _) => 4,
+        }
+    }
+}
+
+/// Initial velocity field.
+#[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq, Eq, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum VelocityProfile {
+    /// The linear shear profile γ̇ (y − L_y/2) when sheared, else at rest.
+    #[default]
+    Auto,
+    /// Maxwellian only.
+    Rest,
+    /// Maxwellian plus γ̇ (y − L_y/2) along x.
+    Shear,
+}
+
+/// `[particles]`
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct ParticlesCfg {
+    /// Arrangement.
+    pub lattice: Lattice,
+    /// Number density.
+    pub density: f64,
+    /// Particle mass.
+    #[serde(default = "one")]
+    pub mass: f64,
+    /// Initial temperature k_BT of the Maxwellian.
+    pub temperature: f64,
+    /// Initial mean velocity field.
+    #[serde(default)]
+    pub velocity_profile: VelocityProfile,
+}
+
+fn one() -> f64 {
+    1.0
+}
+
+/// `[fluid]`, selected by `kind`.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum FluidCfg {
+    /// Dissipative particle dynamics.
+    Dpd(DpdCfg),
+}
+
+/// `[fluid] kind = "dpd"`
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct DpdCfg {
+    /// Conservative repulsion a.
+    pub a: f64,
+    /// Dissipation γ.
+    pub gamma: f64,
+    /// k_BT.
+    pub kt: f64,
+    /// Cutoff r_c.
+    #[serde(default = "one")]
+    pub cutoff: f64,
+    /// Exponent s of w_D = (1 − r/r_c)^s.
+    #[serde(default = "two")]
+    pub weight_exponent: f64,
+    /// Noise distribution.
+    #[serde(default)]
+    pub noise: Noise,
+}
+
+fn two() -> f64 {
+    2.0
+}
+
+/// `[integrator]`, selected by `kind`.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum IntegratorCfg {
+    /// Groot–Warren modified velocity Verlet.
+    GrootWarren(GrootWarrenCfg),
+}
+
+/// `[integrator] kind = "groot_warren"`
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct GrootWarrenCfg {
+    /// Time step Δt.
+    pub dt: f64,
+    /// Velocity-prediction factor λ (0.5 = plain velocity Verlet).
+    #[serde(default = "half")]
+    pub lambda: f64,
+}
+
+fn half() -> f64 {
+    0.5
+}
+
+impl IntegratorCfg {
+    /// Time step.
+    pub fn dt(&self) -> f64 {
+        match self {
+            IntegratorCfg::GrootWarren(g) => g.dt,
+        }
+    }
+}
+
+/// `[neighbour]`
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct NeighbourCfg {
+    /// Verlet skin.
+    #[serde(default = "default_skin")]
+    pub skin: f64,
+}
+
+fn default_skin() -> f64 {
+    0.3
+}
+
+impl Default for NeighbourCfg {
+    fn default() -> Self {
+        Self {
+            skin: default_skin(),
+        }
+    }
+}
+
+/// `[run]`
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct RunCfg {
+    /// Time steps.
+    pub steps: u64,
+    /// Steps discarded before averaging.
+    #[serde(default)]
+    pub equilibration: u64,
+    /// Sampling interval in steps.
+    #[serde(default = "ten")]
+    pub sample_every: u64,
+    /// Seconds between progress lines (0: none).
+    #[serde(default = "ten_f")]
+    pub progress_seconds: f64,
+}
+
+fn ten() -> u64 {
+    10
+}
+fn ten_f() -> f64 {
+    10.0
+}
+
+/// Observables a run can average.
+#[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq, Eq, Hash, PartialOrd, Ord)]
+#[serde(rename_all = "snake_case")]
+pub enum Observable {
+    /// Kinetic k_BT (profile-unbiased under shear).
+    Temperature,
+    /// Scalar pressure tr(P)/D.
+    Pressure,
+    /// Full pressure tensor components (kinetic + conservative + dissipative + random).
+    Stress,
+    /// η = −⟨P_xy⟩ / γ̇ (needs shear).
+    Viscosity,
+    /// N₁ = σ_xx − σ_yy = P_yy − P_xx (needs shear).
+    FirstNormalStressDifference,
+    /// N₂ = σ_yy − σ_zz = P_zz − P_yy (needs shear, 3D).
+    SecondNormalStressDifference,
+    /// Total peculiar momentum Σ m (v − γ̇ (y − L_y/2) x̂).
+    Momentum,
+    /// Binned mean velocity u_x(y) (needs shear).
+    VelocityProfile,
+}
+
+impl Observable {
+    /// Name in summary.json.
+    pub fn name(self) -> &'static str {
+        match self {
+            Observable::Temperature => "temperature",
+            Observable::Pressure => "pressure",
+            Observable::Stress => "stress",
+            Observable::Viscosity => "viscosity",
+            Observable::FirstNormalStressDifference => "first_normal_stress_difference",
+            Observable::SecondNormalStressDifference => "second_normal_stress_difference",
+            Observable::Momentum => "momentum",
+            Observable::VelocityProfile => "velocity_profile",
+        }
+    }
+}
+
+/// `[diagnostics]`
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct DiagnosticsCfg {
+    /// What to average.
+    #[serde(default = "default_observables")]
+    pub observables: Vec<Observable>,
+    /// Bins along y for the velocity profile and the profile-unbiased temperature.
+    #[serde(default = "ten_usize")]
+    pub profile_bins: usize,
+    /// Number of blocks for the block-averaged standard errors.
+    #[serde(default = "default_blocks")]
+    pub blocks: usize,
+}
+
+fn ten_usize() -> usize {
+    10
+}
+fn default_blocks() -> usize {
+    10
+}
+fn default_observables() -> Vec<Observable> {
+    vec![Observable::Temperature, Observable::Pressure]
+}
+
+impl Default for DiagnosticsCfg {
+    fn default() -> Self {
+        Self {
+            observables: default_observables(),
+            profile_bins: ten_usize(),
+            blocks: default_blocks(),
+        }
+    }
+}
+
+/// How a reference value is compared.
+#[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum Metric {
+    /// |x − ref| / |ref|
+    RelativeError,
+    /// |x − ref|
+    AbsoluteError,
+}
+
+/// `[[reference]]`: a known answer the run must reproduce.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum ReferenceCfg {
+    /// A published or analytic number for a scalar observable.
+    Value(ValueReference),
+    /// The linear profile u_x = γ̇ (y − L_y/2) through the Lees–Edwards plane.
+    LinearShearProfile(ProfileReference),
+}
+
+/// `[[reference]] kind = "value"`
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct ValueReference {
+    /// Short name.
+    pub name: String,
+    /// Scalar observable (a name from summary.json `observables`).
+    pub observable: String,
+    /// Expected value.
+    pub value: f64,
+    /// Comparison.
+    pub metric: Metric,
+    /// Largest acceptable metric.
+    pub tolerance: f64,
+    /// Where the value comes from.
+    #[serde(default)]
+    pub source: String,
+}
+
+/// `[[reference]] kind = "linear_shear_profile"`
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct ProfileReference {
+    /// Short name.
+    pub name: String,
+    /// Largest acceptable max_b |u_b − γ̇ (y_b − L_y/2)| / (γ̇ L_y).
+    pub tolerance: f64,
+}
+
+/// A parsed, validated case and where it came from.
+#[derive(Clone, Debug)]
+pub struct LoadedCase {
+    /// The case.
+    pub case: Case,
+    /// The file.
+    pub path: PathBuf,
+    /// The original text.
+    pub source: String,
+}
+
+/// Reads, parses and validates a case file.
+pub fn load(path: &Path) -> Result<LoadedCase, CaseError> {
+    let source = std::fs::read_to_string(path).map_err(|e| CaseError {
+        file: path.display().to_string(),
+        line: 0,
+        column: 0,
+        key: String::new(),
+        message: format!("cannot read the case file: {e}"),
+    })?;
+    let case = parse(&source, path)?;
+    Ok(LoadedCase {
+        case,
+        path: path.to_path_buf(),
+        source,
+    })
+}
+
+/// Parses and validates case text (`path` is used in messages).
+pub fn parse(source: &str, path: &Path) -> Result<Case, CaseError> {
+    let index = spans::SpanIndex::new(source, path)?;
+    let de = toml::Deserializer::parse(source).map_err(|e| index.syntax_error(&e))?;
+    let case: Case = serde_path_to_error::deserialize(de).map_err(|e| index.serde_error(&e))?;
+    validate::validate(&case, &index)?;
+    Ok(case)
+}
+
+impl Case {
+    /// Boundaries, all periodic by default.
+    pub fn boundaries(&self) -> Vec<Boundary> {
+        self.domain
+            .boundaries
+            .clone()
+            .unwrap_or_else(|| vec![Boundary::Periodic; self.dimension])
+    }
+
+    /// Interaction cutoff of the fluid model.
+    pub fn cutoff(&self) -> f64 {
+        match &self.fluid {
+            FluidCfg::Dpd(d) => d.cutoff,
+        }
+    }
+
+    /// Particles per lattice axis and the total, as the initialiser will create them.
+    pub fn lattice_counts(&self) -> (Vec<usize>, u64) {
+        let basis = self.particles.lattice.basis(self.dimension) as f64;
+        let lengths = &self.domain.lengths;
+        if self.particles.lattice == Lattice::Random {
+            let volume: f64 = lengths.iter().product();
+            let n = (self.particles.density * volume).round().max(0.0) as u64;
+            return (vec![], n);
+        }
+        let spacing = (basis / self.particles.density).powf(1.0 / self.dimension as f64);
+        let cells: Vec<usize> = lengths
+            .iter()
+            .map(|l| (l / spacing).round().max(1.0) as usize)
+            .collect();
+        let n = cells.iter().map(|&c| c as u64).product::<u64>() * basis as u64;
+        (cells, n)
+    }
+
+    /// Whether an observable was asked for.
+    pub fn wants(&self, o: Observable) -> bool {
+        self.diagnostics.observables.contains(&o)
+    }
+}

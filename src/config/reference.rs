@@ -1,0 +1,87 @@
+//! The case-file key reference: one table, rendered into `docs/case-reference.md`
+//! (`mesorheo keys > docs/case-reference.md`). A test checks that the table lists exactly the
+//! keys the structs accept and that the document is up to date.
+
+/// One documented key.
+pub struct KeyDoc {
+    /// Dotted path; `[]` marks an array of tables.
+    pub path: &'static str,
+    /// Type and allowed values.
+    pub kind: &'static str,
+    /// Default, or "required".
+    pub default: &'static str,
+    /// Meaning.
+    pub doc: &'static str,
+}
+
+const fn key(path: &'static str, kind: &'static str, default: &'static str, doc: &'static str) -> KeyDoc {
+    KeyDoc {
+        path,
+        kind,
+        default,
+        doc,
+    }
+}
+
+/// Every key of a case file.
+pub const KEYS: &[KeyDoc] = &[
+    key("title", "string", "\"\"", "Free text shown in logs and echoed in summary.json."),
+    key("dimension", "integer: 2 or 3", "required", "Spatial dimension of the scene."),
+    key("seed", "integer ≥ 0", "1", "Seed of every random number (pair noise, initial state). Same seed ⇒ bitwise identical run on any rank/thread count."),
+    key("box.lengths", "array of D floats > 0", "required", "Box edge lengths L_x, L_y[, L_z]; the box is [0, L_x) × [0, L_y) [× [0, L_z)]."),
+    key("box.boundaries", "array of D of \"periodic\" | \"wall\"", "all \"periodic\"", "Per-axis boundary: periodic images, or specular reflecting walls at 0 and L."),
+    key("box.shear_rate", "float", "0.0", "Lees–Edwards shear rate γ̇ (flow along x, gradient along y; needs x and y periodic). Images above/below slide by s(t) = (γ̇ L_y t) mod L_x with velocity ±γ̇ L_y."),
+    key("decomposition.axis", "\"x\" | \"y\" | \"z\"", "\"y\"", "Slab axis of the domain decomposition. Not \"x\" under shear. Slab width L/ranks must be ≥ cutoff + skin."),
+    key("particles.lattice", "\"cubic\" | \"fcc\" | \"random\"", "required", "Initial arrangement: simple cubic (square in 2D), face-centred cubic (4 per cell; centred square in 2D), or uniform random."),
+    key("particles.density", "float > 0", "required", "Number density n. Lattices use round(L·(n/basis)^(1/D)) cells per axis, so the actual density can differ slightly (`check` prints it)."),
+    key("particles.mass", "float > 0", "1.0", "Particle mass m."),
+    key("particles.temperature", "float ≥ 0", "required", "k_BT of the initial Maxwellian (centre-of-mass motion removed, rescaled to exactly this value)."),
+    key("particles.velocity_profile", "\"auto\" | \"rest\" | \"shear\"", "\"auto\"", "Mean initial velocity: \"shear\" adds γ̇ (y − L_y/2) along x; \"auto\" does so when box.shear_rate ≠ 0."),
+    key("fluid.kind", "\"dpd\"", "required", "Fluid model. \"dpd\": dissipative particle dynamics (Groot–Warren)."),
+    key("fluid.a", "float ≥ 0", "required (dpd)", "Conservative repulsion a: F^C = a (1 − r/r_c) e_ij."),
+    key("fluid.gamma", "float > 0", "required (dpd)", "Dissipation γ: F^D = −γ w_D (e_ij·v_ij) e_ij."),
+    key("fluid.kt", "float > 0", "required (dpd)", "Thermostat temperature k_BT; σ = √(2γ k_BT)."),
+    key("fluid.cutoff", "float > 0", "1.0", "Cutoff r_c of all three forces. cutoff + neighbour.skin must not exceed half the box on periodic axes."),
+    key("fluid.weight_exponent", "float > 0", "2.0", "s in w_D = (1 − r/r_c)^s, w_R = √w_D (2: standard DPD; 0.5: modified)."),
+    key("fluid.noise", "\"gaussian\" | \"uniform\"", "\"gaussian\"", "Distribution of θ_ij: standard normal, or √3(2u − 1) (unit variance)."),
+    key("integrator.kind", "\"groot_warren\"", "required", "Time integrator. \"groot_warren\": modified velocity Verlet."),
+    key("integrator.dt", "float > 0", "required", "Time step Δt. Refused beyond the dissipative limit m/(γ Σw_D) and the Verlet limit 2/ω (see `check`)."),
+    key("integrator.lambda", "float in [0, 1]", "0.5", "Velocity-prediction factor λ (0.5: plain velocity Verlet; 0.65: Groot–Warren)."),
+    key("neighbour.skin", "float > 0", "0.3", "Verlet skin; lists are rebuilt when 2·max displacement + LE offset drift > skin."),
+    key("run.steps", "integer ≥ 1", "required", "Number of time steps."),
+    key("run.equilibration", "integer < steps", "0", "Steps before averaging starts."),
+    key("run.sample_every", "integer ≥ 1", "10", "Sampling interval (steps) of the observables."),
+    key("run.progress_seconds", "float ≥ 0", "10.0", "Seconds between progress lines on rank 0 (0: off)."),
+    key("diagnostics.observables", "array of observable names", "[\"temperature\", \"pressure\"]", "What to average: \"temperature\", \"pressure\", \"stress\" (full tensor by contribution), \"viscosity\", \"first_normal_stress_difference\", \"second_normal_stress_difference\", \"momentum\", \"velocity_profile\". The shear ones need box.shear_rate ≠ 0."),
+    key("diagnostics.profile_bins", "integer ≥ 1", "10", "Bins along y for the velocity profile and the profile-unbiased temperature under shear."),
+    key("diagnostics.blocks", "integer ≥ 2", "10", "Blocks of the block-averaged standard errors."),
+    key("reference[].kind", "\"value\" | \"linear_shear_profile\"", "required", "What the run checks itself against."),
+    key("reference[].name", "string", "required", "Short name printed with PASS/FAIL."),
+    key("reference[].observable", "scalar observable name", "required (value)", "A name from summary.json `observables` (e.g. \"temperature\", \"stress_total_xy\")."),
+    key("reference[].value", "float", "required (value)", "Expected value (analytic or published)."),
+    key("reference[].metric", "\"relative_error\" | \"absolute_error\"", "required (value)", "How the time average is compared with `value`."),
+    key("reference[].tolerance", "float > 0", "required", "Largest acceptable metric; for linear_shear_profile, max over bins of |u_x − γ̇(y − L_y/2)| / (γ̇ L_y)."),
+    key("reference[].source", "string", "\"\"", "Where the reference value comes from."),
+];
+
+/// The Markdown reference.
+pub fn render_markdown() -> String {
+    let mut s = String::from(
+        "# Case-file reference\n\n\
+         Generated by `mesorheo keys` from `src/config/reference.rs`; a test fails if this file, \
+         that table and the parser disagree. A case file is TOML; unknown keys, missing keys, \
+         wrong types and impossible values are refused with file:line:column, the key and what \
+         would be valid. `mesorheo check CASE` prints the derived numbers.\n\n\
+         | key | type | default | meaning |\n|---|---|---|---|\n",
+    );
+    for k in KEYS {
+        s.push_str(&format!(
+            "| `{}` | {} | {} | {} |\n",
+            k.path,
+            k.kind.replace('|', "\\|"),
+            k.default.replace('|', "\\|"),
+            k.doc.replace('|', "\\|")
+        ));
+    }
+    s
+}

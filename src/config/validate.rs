@@ -1,0 +1,306 @@
+//! Checks of values and of their combinations, after the structure has been parsed.
+
+use super::spans::{Segment, SpanIndex};
+use super::*;
+use crate::stability;
+
+fn k(s: &str) -> Segment {
+    Segment::Key(s.to_owned())
+}
+
+fn path(keys: &[&str]) -> Vec<Segment> {
+    keys.iter().map(|s| k(s)).collect()
+}
+
+/// Largest particle count the 32-bit id fields of the random-number keys support.
+pub const MAX_PARTICLES: u64 = u32::MAX as u64;
+
+/// All value checks; the first failure is reported.
+pub fn validate(case: &Case, ix: &SpanIndex) -> Result<(), CaseError> {
+    let dim = case.dimension;
+    let err = |keys: &[&str], msg: String| Err(ix.error(&path(keys), msg));
+    if dim != 2 && dim != 3 {
+        return err(&["dimension"], format!("found {dim}; valid values are 2 and 3"));
+    }
+    // [box]
+    let lengths = &case.domain.lengths;
+    if lengths.len() != dim {
+        return err(
+            &["box", "lengths"],
+            format!(
+                "found {} lengths for a {dim}-dimensional case; give exactly {dim}",
+                lengths.len()
+            ),
+        );
+    }
+    for (i, l) in lengths.iter().enumerate() {
+        if !(l.is_finite() && *l > 0.0) {
+            return Err(ix.error(
+                &[k("box"), k("lengths"), Segment::Index(i)],
+                format!("found {l}; box lengths must be finite and > 0"),
+            ));
+        }
+    }
+    if let Some(b) = &case.domain.boundaries
+        && b.len() != dim
+    {
+        return err(
+            &["box", "boundaries"],
+            format!("found {} boundaries for a {dim}-dimensional case; give exactly {dim}", b.len()),
+        );
+    }
+    let boundaries = case.boundaries();
+    let shear = case.domain.shear_rate;
+    if !shear.is_finite() {
+        return err(&["box", "shear_rate"], format!("found {shear}; must be a finite number"));
+    }
+    if shear != 0.0 && (boundaries[0] != Boundary::Periodic || boundaries[1] != Boundary::Periodic) {
+        return err(
+            &["box", "shear_rate"],
+            "Lees–Edwards shear needs periodic x (flow) and y (gradient) axes; set \
+             boundaries[0] and boundaries[1] to \"periodic\" or shear_rate = 0"
+                .into(),
+        );
+    }
+    // [decomposition]
+    let axis = case.decomposition.axis.index();
+    if axis >= dim {
+        return err(
+            &["decomposition", "axis"],
+            format!("found \"z\" in a 2-dimensional case; valid axes are \"x\" and \"y\""),
+        );
+    }
+    if shear != 0.0 && axis == 0 {
+        return err(
+            &["decomposition", "axis"],
+            "slabs along the flow axis x are not supported under Lees–Edwards shear (the rank \
+             receiving an image would change with the offset); use \"y\" or \"z\""
+                .into(),
+        );
+    }
+    // [particles]
+    let p = &case.particles;
+    if !(p.density.is_finite() && p.density > 0.0) {
+        return err(&["particles", "density"], format!("found {}; must be > 0", p.density));
+    }
+    if !(p.mass.is_finite() && p.mass > 0.0) {
+        return err(&["particles", "mass"], format!("found {}; must be > 0", p.mass));
+    }
+    if !(p.temperature.is_finite() && p.temperature >= 0.0) {
+        return err(
+            &["particles", "temperature"],
+            format!("found {}; must be ≥ 0", p.temperature),
+        );
+    }
+    if p.velocity_profile == VelocityProfile::Shear && shear == 0.0 {
+        return err(
+            &["particles", "velocity_profile"],
+            "\"shear\" needs box.shear_rate ≠ 0; use \"rest\" or \"auto\"".into(),
+        );
+    }
+    let (_, n) = case.lattice_counts();
+    if n == 0 {
+        return err(
+            &["particles", "density"],
+            format!(
+                "this density creates no particle in the box {lengths:?}; raise the density or \
+                 the box"
+            ),
+        );
+    }
+    if n > MAX_PARTICLES {
+        return err(
+            &["particles", "density"],
+            format!("{n} particles exceed the supported maximum {MAX_PARTICLES}"),
+        );
+    }
+    // [fluid]
+    let FluidCfg::Dpd(dpd) = &case.fluid;
+    let fl = |key: &str| vec![k("fluid"), k(key)];
+    if !(dpd.a.is_finite() && dpd.a >= 0.0) {
+        return Err(ix.error(&fl("a"), format!("found {}; the repulsion a must be ≥ 0", dpd.a)));
+    }
+    if !(dpd.gamma.is_finite() && dpd.gamma > 0.0) {
+        return Err(ix.error(
+            &fl("gamma"),
+            format!("found {}; the dissipation γ must be > 0", dpd.gamma),
+        ));
+    }
+    if !(dpd.kt.is_finite() && dpd.kt > 0.0) {
+        return Err(ix.error(&fl("kt"), format!("found {}; k_BT must be > 0", dpd.kt)));
+    }
+    if !(dpd.cutoff.is_finite() && dpd.cutoff > 0.0) {
+        return Err(ix.error(&fl("cutoff"), format!("found {}; must be > 0", dpd.cutoff)));
+    }
+    if !(dpd.weight_exponent.is_finite() && dpd.weight_exponent > 0.0) {
+        return Err(ix.error(
+            &fl("weight_exponent"),
+            format!(
+                "found {}; the exponent s of w_D = (1 − r/r_c)^s must be > 0 (2 standard, 0.5 \
+                 modified)",
+                dpd.weight_exponent
+            ),
+        ));
+    }
+    // [integrator]
+    let IntegratorCfg::GrootWarren(gw) = &case.integrator;
+    if !(gw.dt.is_finite() && gw.dt > 0.0) {
+        return err(&["integrator", "dt"], format!("found {}; must be > 0", gw.dt));
+    }
+    if !(gw.lambda.is_finite() && (0.0..=1.0).contains(&gw.lambda)) {
+        return err(
+            &["integrator", "lambda"],
+            format!("found {}; λ must lie in [0, 1] (0.5 plain velocity Verlet, 0.65 Groot–Warren)", gw.lambda),
+        );
+    }
+    // [neighbour]
+    let skin = case.neighbour.skin;
+    if !(skin.is_finite() && skin > 0.0) {
+        return err(&["neighbour", "skin"], format!("found {skin}; must be > 0"));
+    }
+    let range = dpd.cutoff + skin;
+    for (i, (l, b)) in lengths.iter().zip(&boundaries).enumerate() {
+        if *b == Boundary::Periodic && range > 0.5 * l {
+            return Err(ix.error(
+                &fl("cutoff"),
+                format!(
+                    "cutoff + skin = {range} is larger than half the box along axis {} \
+                     (L = {l}); a particle would meet two images of the same neighbour. Use a \
+                     box of at least {} or a smaller cutoff/skin",
+                    ["x", "y", "z"][i],
+                    2.0 * range
+                ),
+            ));
+        }
+    }
+    // Time-step stability.
+    let limits = stability::dpd_limits(case);
+    if gw.dt > limits.dissipative {
+        return err(
+            &["integrator", "dt"],
+            format!(
+                "Δt = {} is beyond the explicit stability limit of the dissipative force, \
+                 Δt < m / (γ Σ_j w_D) ≈ {:.4} for this density and γ; use a smaller time step",
+                gw.dt, limits.dissipative
+            ),
+        );
+    }
+    if gw.dt > limits.conservative {
+        return err(
+            &["integrator", "dt"],
+            format!(
+                "Δt = {} is beyond the velocity-Verlet stability limit of the conservative force, \
+                 Δt < 2/ω ≈ {:.4} (ω² = a N_c / (r_c D m)); use a smaller time step or a softer a",
+                gw.dt, limits.conservative
+            ),
+        );
+    }
+    // [run]
+    let r = &case.run;
+    if r.steps == 0 {
+        return err(&["run", "steps"], "found 0; a run needs at least one step".into());
+    }
+    if r.sample_every == 0 {
+        return err(&["run", "sample_every"], "found 0; must be ≥ 1".into());
+    }
+    if r.equilibration >= r.steps {
+        return err(
+            &["run", "equilibration"],
+            format!(
+                "found {}, which leaves no step to average over (steps = {}); use fewer",
+                r.equilibration, r.steps
+            ),
+        );
+    }
+    if !(r.progress_seconds.is_finite() && r.progress_seconds >= 0.0) {
+        return err(
+            &["run", "progress_seconds"],
+            format!("found {}; must be ≥ 0 (0 turns progress lines off)", r.progress_seconds),
+        );
+    }
+    // [diagnostics]
+    let d = &case.diagnostics;
+    if d.profile_bins == 0 {
+        return err(&["diagnostics", "profile_bins"], "found 0; must be ≥ 1".into());
+    }
+    if d.blocks < 2 {
+        return err(
+            &["diagnostics", "blocks"],
+            format!("found {}; block averaging needs at least 2 blocks", d.blocks),
+        );
+    }
+    for (i, o) in d.observables.iter().enumerate() {
+        let needs_shear = matches!(
+            o,
+            Observable::Viscosity
+                | Observable::FirstNormalStressDifference
+                | Observable::SecondNormalStressDifference
+                | Observable::VelocityProfile
+        );
+        if needs_shear && shear == 0.0 {
+            return Err(ix.error(
+                &[k("diagnostics"), k("observables"), Segment::Index(i)],
+                format!("\"{}\" needs shear; set box.shear_rate ≠ 0", o.name()),
+            ));
+        }
+        if *o == Observable::SecondNormalStressDifference && dim != 3 {
+            return Err(ix.error(
+                &[k("diagnostics"), k("observables"), Segment::Index(i)],
+                "the second normal stress difference needs a 3-dimensional case".to_string(),
+            ));
+        }
+    }
+    let samples = (r.steps - r.equilibration) / r.sample_every;
+    if samples < d.blocks as u64 {
+        return err(
+            &["run", "sample_every"],
+            format!(
+                "only {samples} samples after equilibration, fewer than the {} blocks of the \
+                 error estimate; sample more often or run longer",
+                d.blocks
+            ),
+        );
+    }
+    // [[reference]]
+    let scalars = crate::diagnostics::scalar_names(case);
+    for (i, rf) in case.reference.iter().enumerate() {
+        let at = |key: &str| vec![k("reference"), Segment::Index(i), k(key)];
+        match rf {
+            ReferenceCfg::Value(v) => {
+                if !scalars.iter().any(|s| s == &v.observable) {
+                    return Err(ix.error(
+                        &at("observable"),
+                        format!(
+                            "found \"{}\", which this case does not measure; valid: {}",
+                            v.observable,
+                            scalars.join(", ")
+                        ),
+                    ));
+                }
+                if !(v.tolerance.is_finite() && v.tolerance > 0.0) {
+                    return Err(ix.error(&at("tolerance"), format!("found {}; must be > 0", v.tolerance)));
+                }
+                if !v.value.is_finite() || (v.metric == Metric::RelativeError && v.value == 0.0) {
+                    return Err(ix.error(
+                        &at("value"),
+                        format!("found {}; must be finite (and ≠ 0 for a relative error)", v.value),
+                    ));
+                }
+            }
+            ReferenceCfg::LinearShearProfile(pr) => {
+                if shear == 0.0 || !case.wants(Observable::VelocityProfile) {
+                    return Err(ix.error(
+                        &at("kind"),
+                        "a linear_shear_profile reference needs box.shear_rate ≠ 0 and \
+                         \"velocity_profile\" among diagnostics.observables"
+                            .to_string(),
+                    ));
+                }
+                if !(pr.tolerance.is_finite() && pr.tolerance > 0.0) {
+                    return Err(ix.error(&at("tolerance"), format!("found {}; must be > 0", pr.tolerance)));
+                }
+            }
+        }
+    }
+    Ok(())
+}

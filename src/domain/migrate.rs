@@ -1,0 +1,73 @@
+//! Migration: owned particles that left their slab move to the neighbouring rank, with every
+//! registered per-particle field. Before that, each owned particle is wrapped back into the box
+//! (periodic wrap with the Lees–Edwards remap x ∓ s, v_x ∓ γ̇ L_y; reflection at walls).
+
+use super::slab::Slab;
+use super::tags;
+use crate::comm::Comm;
+use crate::geometry::SimBox;
+use crate::particles::Particles;
+
+/// Wraps and migrates the owned particles (ghosts must have been dropped). Errors, on every
+/// rank alike, if a particle moved further than one slab since the last call.
+pub fn migrate<const D: usize>(
+    particles: &mut Particles<D>,
+    sim_box: &SimBox<D>,
+    slab: &Slab,
+    comm: &dyn Comm,
+    offset: f64,
+) -> Result<(), String> {
+    particles.clear_ghosts();
+    let n = particles.n_owned;
+    let mut keep = vec![true; n];
+    let mut to_up = Vec::new();
+    let mut to_down = Vec::new();
+    let mut lost: Option<(u64, [f64; D])> = None;
+    for i in 0..n {
+        let Particles {
+            pos,
+            vel,
+            vel_half,
+            image,
+            ..
+        } = &mut *particles;
+        sim_box.wrap(
+            &mut pos[i],
+            &mut [&mut vel[i], &mut vel_half[i]],
+            &mut image[i],
+            offset,
+        );
+        let owner = slab.owner_of(particles.pos[i][slab.axis]);
+        if owner == slab.rank {
+            continue;
+        }
+        keep[i] = false;
+        if owner == slab.up() {
+            particles.pack_owned(i, &mut to_up);
+        } else if owner == slab.down() {
+            particles.pack_owned(i, &mut to_down);
+        } else {
+            lost.get_or_insert((particles.gid[i], particles.pos[i]));
+            keep[i] = true;
+        }
+    }
+    let mut flag = [if lost.is_some() { 1.0 } else { 0.0 }];
+    comm.allreduce_max(&mut flag);
+    if flag[0] > 0.0 {
+        return Err(match lost {
+            Some((gid, pos)) => format!(
+                "particle {gid} at {pos:?} moved more than one slab width between neighbour-list \
+                 rebuilds; reduce the time step or use fewer ranks"
+            ),
+            None => "a particle on another rank moved more than one slab width between \
+                     neighbour-list rebuilds; reduce the time step or use fewer ranks"
+                .to_owned(),
+        });
+    }
+    particles.retain_owned(&keep);
+    let from_down = comm.sendrecv(to_up, slab.up(), slab.down(), tags::MIGRATE_UP);
+    let from_up = comm.sendrecv(to_down, slab.down(), slab.up(), tags::MIGRATE_DOWN);
+    particles.unpack_owned(&from_down);
+    particles.unpack_owned(&from_up);
+    Ok(())
+}

@@ -1,0 +1,24 @@
+//! # mesorheo
+//!
+//! An MPI domain-decomposed particle solver for polymeric and viscoelastic flows.
+//!
+//! Architecture (see `../shared/DESIGN.md`): a case file ([`config`]) describes a scene; the
+//! [`sim::Simulation`] owns the state of one rank and steps it: migration and halo exchange
+//! ([`domain`], over a [`comm::Comm`]), neighbour lists ([`neighbour`]), models
+//! ([`models`]), integration, and diagnostics ([`diagnostics`]). Physics never sees MPI; the
+//! same code runs on one rank talking to itself, on P in-process ranks, and under `mpirun`.
+
+pub mod check;
+pub mod comm;
+pub mod config;
+pub mod diagnostics;
+pub mod domain;
+pub mod driver;
+pub mod geometry;
+pub mod models;
+pub mod neighbour;
+pub mod particles;
+pub mod rng;
+pub mod sim;
+pub mod stability;
+pub mod summary;

@@ -1,0 +1,261 @@
+//! Particle storage: owned particles first (`0..n_owned`), then ghosts (`n_owned..len`).
+//!
+//! Core fields are stored as arrays of `[f64; D]`. Models register extra per-particle fields:
+//! fixed-width ones ([`ExtraField`], e.g. a stress tensor, D² numbers) and variable-length ones
+//! ([`VarField`], e.g. an ensemble of N_d connector vectors). Both migrate with their particle
+//! and enter the state digest; fixed-width fields can also be sent to ghosts on request.
+
+/// A fixed-width per-particle field, `width` numbers per particle (owned and ghosts).
+#[derive(Clone, Debug, PartialEq)]
+pub struct ExtraField {
+    /// Name (appears in outputs).
+    pub name: String,
+    /// Numbers per particle.
+    pub width: usize,
+    /// `width × len` numbers.
+    pub data: Vec<f64>,
+}
+
+/// A variable-length per-particle field, owned particles only.
+#[derive(Clone, Debug, PartialEq, Default)]
+pub struct VarField {
+    /// Name (appears in outputs).
+    pub name: String,
+    /// One array per owned particle.
+    pub data: Vec<Vec<f64>>,
+}
+
+/// All particles a rank holds.
+#[derive(Clone, Debug, Default)]
+pub struct Particles<const D: usize> {
+    /// Number of owned particles; the rest are ghosts.
+    pub n_owned: usize,
+    /// Global ids (owned and ghosts; a ghost carries its original's id).
+    pub gid: Vec<u64>,
+    /// Positions (owned and ghosts).
+    pub pos: Vec<[f64; D]>,
+    /// Velocities as seen by the forces (owned and ghosts).
+    pub vel: Vec<[f64; D]>,
+    /// Forces on owned particles.
+    pub force: Vec<[f64; D]>,
+    /// Half-step velocity v + ½Δt f/m of owned particles (integrator scratch that must migrate).
+    pub vel_half: Vec<[f64; D]>,
+    /// Periodic crossings of owned particles.
+    pub image: Vec<[i32; D]>,
+    /// Registered fixed-width fields.
+    pub extra: Vec<ExtraField>,
+    /// Registered variable-length fields.
+    pub var: Vec<VarField>,
+}
+
+impl<const D: usize> Particles<D> {
+    /// Total held (owned + ghosts).
+    pub fn len(&self) -> usize {
+        self.pos.len()
+    }
+
+    /// Whether the rank holds nothing.
+    pub fn is_empty(&self) -> bool {
+        self.pos.is_empty()
+    }
+
+    /// Registers a fixed-width field initialised to zero; returns its index.
+    pub fn register_extra(&mut self, name: &str, width: usize) -> usize {
+        self.extra.push(ExtraField {
+            name: name.to_owned(),
+            width,
+            data: vec![0.0; width * self.len()],
+        });
+        self.extra.len() - 1
+    }
+
+    /// Registers a variable-length field (empty arrays); returns its index.
+    pub fn register_var(&mut self, name: &str) -> usize {
+        self.var.push(VarField {
+            name: name.to_owned(),
+            data: vec![Vec::new(); self.n_owned],
+        });
+        self.var.len() - 1
+    }
+
+    /// Appends an owned particle (before any ghost exists).
+    pub fn push_owned(&mut self, gid: u64, pos: [f64; D], vel: [f64; D]) {
+        debug_assert_eq!(self.n_owned, self.len(), "ghosts must be dropped first");
+        self.gid.push(gid);
+        self.pos.push(pos);
+        self.vel.push(vel);
+        self.force.push([0.0; D]);
+        self.vel_half.push(vel);
+        self.image.push([0; D]);
+        for f in &mut self.extra {
+            f.data.extend(std::iter::repeat_n(0.0, f.width));
+        }
+        for f in &mut self.var {
+            f.data.push(Vec::new());
+        }
+        self.n_owned += 1;
+    }
+
+    /// Drops every ghost.
+    pub fn clear_ghosts(&mut self) {
+        let n = self.n_owned;
+        self.gid.truncate(n);
+        self.pos.truncate(n);
+        self.vel.truncate(n);
+        for f in &mut self.extra {
+            f.data.truncate(n * f.width);
+        }
+    }
+
+    /// Appends a ghost.
+    pub fn push_ghost(&mut self, gid: u64, pos: [f64; D], vel: [f64; D], extra: &[f64]) {
+        self.gid.push(gid);
+        self.pos.push(pos);
+        self.vel.push(vel);
+        let mut offset = 0;
+        for f in &mut self.extra {
+            f.data.extend_from_slice(&extra[offset..offset + f.width]);
+            offset += f.width;
+        }
+    }
+
+    /// Total width of the fixed-width extra fields.
+    pub fn extra_width(&self) -> usize {
+        self.extra.iter().map(|f| f.width).sum()
+    }
+
+    /// Appends particle `i`'s extra fields to `out`.
+    pub fn extra_of(&self, i: usize, out: &mut Vec<f64>) {
+        for f in &self.extra {
+            out.extend_from_slice(&f.data[i * f.width..(i + 1) * f.width]);
+        }
+    }
+
+    /// Number of words [`Self::pack_owned`] writes before the variable-length payload.
+    fn fixed_record_len(&self) -> usize {
+        1 + 4 * D + D + self.extra_width() + self.var.len()
+    }
+
+    /// Serialises owned particle `i` with everything that must travel when it migrates.
+    pub fn pack_owned(&self, i: usize, out: &mut Vec<f64>) {
+        out.push(f64::from_bits(self.gid[i]));
+        out.extend_from_slice(&self.pos[i]);
+        out.extend_from_slice(&self.vel[i]);
+        out.extend_from_slice(&self.force[i]);
+        out.extend_from_slice(&self.vel_half[i]);
+        out.extend(self.image[i].iter().map(|&k| f64::from(k)));
+        self.extra_of(i, out);
+        for f in &self.var {
+            out.push(f.data[i].len() as f64);
+        }
+        for f in &self.var {
+            out.extend_from_slice(&f.data[i]);
+        }
+    }
+
+    /// Appends owned particles from a buffer written by [`Self::pack_owned`] (no ghosts present).
+    pub fn unpack_owned(&mut self, buf: &[f64]) {
+        debug_assert_eq!(self.n_owned, self.len());
+        let mut at = 0;
+        let fixed = self.fixed_record_len();
+        while at < buf.len() {
+            let rec = &buf[at..at + fixed];
+            let arr = |k: usize| -> [f64; D] {
+                let mut a = [0.0; D];
+                a.copy_from_slice(&rec[1 + k * D..1 + (k + 1) * D]);
+                a
+            };
+            self.gid.push(rec[0].to_bits());
+            self.pos.push(arr(0));
+            self.vel.push(arr(1));
+            self.force.push(arr(2));
+            self.vel_half.push(arr(3));
+            let mut img = [0i32; D];
+            for (d, v) in img.iter_mut().enumerate() {
+                *v = rec[1 + 4 * D + d] as i32;
+            }
+            self.image.push(img);
+            let mut off = 1 + 5 * D;
+            for f in &mut self.extra {
+                f.data.extend_from_slice(&rec[off..off + f.width]);
+                off += f.width;
+            }
+            let lens: Vec<usize> = rec[off..off + self.var.len()]
+                .iter()
+                .map(|&l| l as usize)
+                .collect();
+            at += fixed;
+            for (f, len) in self.var.iter_mut().zip(lens) {
+                f.data.push(buf[at..at + len].to_vec());
+                at += len;
+            }
+            self.n_owned += 1;
+        }
+    }
+
+    /// Keeps only the owned particles for which `keep` is true (order preserved). Ghosts must
+    /// have been dropped.
+    pub fn retain_owned(&mut self, keep: &[bool]) {
+        debug_assert_eq!(self.n_owned, self.len());
+        fn filter<T: Clone>(v: &mut Vec<T>, keep: &[bool], width: usize) {
+            let mut w = 0;
+            for (i, &k) in keep.iter().enumerate() {
+                if k {
+                    for c in 0..width {
+                        v.swap(w * width + c, i * width + c);
+                    }
+                    w += 1;
+                }
+            }
+            v.truncate(w * width);
+        }
+        filter(&mut self.gid, keep, 1);
+        filter(&mut self.pos, keep, 1);
+        filter(&mut self.vel, keep, 1);
+        filter(&mut self.force, keep, 1);
+        filter(&mut self.vel_half, keep, 1);
+        filter(&mut self.image, keep, 1);
+        for f in &mut self.extra {
+            filter(&mut f.data, keep, f.width);
+        }
+        for f in &mut self.var {
+            filter(&mut f.data, keep, 1);
+        }
+        self.n_owned = self.gid.len();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn pack_unpack_round_trip_with_fields() {
+        let mut p = Particles::<3>::default();
+        p.register_extra("tensor", 9);
+        p.register_var("ensemble");
+        for g in 0..4u64 {
+            p.push_owned(g + 10, [g as f64, 1.0, 2.0], [0.5, -0.5, g as f64]);
+            p.image[g as usize] = [g as i32 - 2, 1, 0];
+            let w = p.extra[0].width;
+            p.extra[0].data[g as usize * w] = g as f64 * 3.0;
+            p.var[0].data[g as usize] = (0..g).map(|x| x as f64 * 0.1).collect();
+        }
+        let mut buf = Vec::new();
+        for i in [3, 1] {
+            p.pack_owned(i, &mut buf);
+        }
+        let mut q = Particles::<3>::default();
+        q.register_extra("tensor", 9);
+        q.register_var("ensemble");
+        q.unpack_owned(&buf);
+        assert_eq!(q.gid, vec![13, 11]);
+        assert_eq!(q.image[0], [1, 1, 0]);
+        assert_eq!(q.extra[0].data[9], 3.0);
+        assert_eq!(q.var[0].data[0].len(), 3);
+        p.retain_owned(&[true, false, true, false]);
+        assert_eq!(p.gid, vec![10, 12]);
+        assert_eq!(p.var[0].data[1].len(), 2);
+        assert_eq!(p.extra[0].data[9], 6.0);
+    }
+}

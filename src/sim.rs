@@ -1,0 +1,599 @@
+//! The time-stepping driver: initial state, the step, sampling and the state digest.
+//!
+//! Groot–Warren modified velocity Verlet (Groot & Warren 1997, Eq. 23; spec
+//! `dpd-physical-parameters.md` §1.5):
+//!
+//! ```text
+//! r(t+Δt) = r + Δt v + ½ Δt² f(t)/m
+//! ṽ       = v + λ Δt f(t)/m                   (velocity the new forces see)
+//! f(t+Δt) = F(r(t+Δt), ṽ)
+//! v(t+Δt) = v + ½ Δt (f(t) + f(t+Δt))/m       (stored as v_half = v + ½Δt f(t)/m, then + ½Δt f(t+Δt)/m)
+//! ```
+//!
+//! λ = ½ is plain velocity Verlet. Neighbour lists are rebuilt, and particles migrated, when
+//! 2 max|Δx| + |Δs| exceeds the skin (Δs: Lees–Edwards offset drift since the last build);
+//! otherwise only the ghosts are refreshed.
+
+use crate::comm::{Comm, U64Op};
+use crate::config::{Case, FluidCfg, IntegratorCfg, Lattice, Observable, VelocityProfile};
+use crate::diagnostics::{STRESS_PARTS, Series, tensor_components};
+use crate::domain::{HaloPlan, Slab, migrate};
+use crate::geometry::{GRADIENT, SimBox};
+use crate::models::dpd::Dpd;
+use crate::models::pair_loop::{PairTerms, compute_forces, pair_virial};
+use crate::neighbour::NeighbourList;
+use crate::particles::Particles;
+use crate::rng::{Purpose, StreamKey};
+use rayon::prelude::*;
+use std::time::{Duration, Instant};
+
+/// Wall time spent per phase of the step (this rank).
+#[derive(Clone, Debug, Default, serde::Serialize)]
+pub struct PhaseTimes {
+    /// Integration (both half steps).
+    pub integrate: f64,
+    /// Neighbour-list builds.
+    pub neighbour: f64,
+    /// Migration and halo build at rebuilds.
+    pub rebuild_comm: f64,
+    /// Ghost refresh between rebuilds.
+    pub halo: f64,
+    /// Pair evaluation and gather.
+    pub forces: f64,
+    /// Sampling of observables.
+    pub diagnostics: f64,
+    /// Number of neighbour-list builds.
+    pub rebuilds: u64,
+}
+
+/// A running simulation on one rank.
+pub struct Simulation<'c, const D: usize> {
+    /// The case.
+    pub case: Case,
+    comm: &'c dyn Comm,
+    /// Box.
+    pub sim_box: SimBox<D>,
+    slab: Slab,
+    /// Particles of this rank.
+    pub particles: Particles<D>,
+    halo: HaloPlan,
+    /// Neighbour lists.
+    pub list: NeighbourList<D>,
+    dpd: Dpd,
+    terms: Vec<PairTerms<D>>,
+    /// Current step.
+    pub step: u64,
+    dt: f64,
+    lambda: f64,
+    mass: f64,
+    skin: f64,
+    /// Total particle count.
+    pub total_particles: u64,
+    /// Sampled time series.
+    pub series: Series,
+    /// Phase timers.
+    pub times: PhaseTimes,
+    /// This rank's worker threads.
+    pool: rayon::ThreadPool,
+}
+
+impl<'c, const D: usize> Simulation<'c, D> {
+    /// Sets up the initial state on this rank and computes the initial forces.
+    /// `threads` rayon workers serve this rank (0: all available cores).
+    pub fn new(case: &Case, comm: &'c dyn Comm, threads: usize) -> Result<Self, String> {
+        assert_eq!(case.dimension, D, "dimension dispatch");
+        let mut lengths = [0.0; D];
+        lengths.copy_from_slice(&case.domain.lengths);
+        let mut boundaries = [crate::geometry::Boundary::Periodic; D];
+        boundaries.copy_from_slice(&case.boundaries());
+        let sim_box = SimBox {
+            lengths,
+            boundaries,
+            shear_rate: case.domain.shear_rate,
+        };
+        let axis = case.decomposition.axis.index();
+        let slab = Slab {
+            axis,
+            length: lengths[axis],
+            rank: comm.rank(),
+            size: comm.size(),
+            periodic: boundaries[axis] == crate::geometry::Boundary::Periodic,
+        };
+        let skin = case.neighbour.skin;
+        let range = case.cutoff() + skin;
+        if slab.width() < range {
+            let max_ranks = (lengths[axis] / range).floor().max(1.0) as usize;
+            return Err(format!(
+                "{} ranks give slabs {:.4} wide along {}, thinner than cutoff + skin = {range}; \
+                 use at most {max_ranks} ranks for this case (or decompose along another axis)",
+                comm.size(),
+                slab.width(),
+                ["x", "y", "z"][axis]
+            ));
+        }
+        let IntegratorCfg::GrootWarren(gw) = &case.integrator;
+        let FluidCfg::Dpd(d) = &case.fluid;
+        let dpd = Dpd::new(
+            d.a,
+            d.gamma,
+            d.kt,
+            d.cutoff,
+            d.weight_exponent,
+            d.noise,
+            gw.dt,
+            case.seed,
+        );
+        let (particles, total) = initial_particles(case, &sim_box, &slab);
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .map_err(|e| format!("cannot start {threads} worker threads: {e}"))?;
+        let mut sim = Simulation {
+            case: case.clone(),
+            comm,
+            sim_box,
+            slab,
+            particles,
+            halo: HaloPlan::default(),
+            list: NeighbourList::default(),
+            dpd,
+            terms: Vec::new(),
+            step: 0,
+            dt: gw.dt,
+            lambda: gw.lambda,
+            mass: case.particles.mass,
+            skin,
+            total_particles: total,
+            series: Series::default(),
+            times: PhaseTimes::default(),
+            pool,
+        };
+        sim.rebuild()?;
+        sim.compute_forces();
+        Ok(sim)
+    }
+
+    fn range(&self) -> f64 {
+        self.dpd.cutoff + self.skin
+    }
+
+    /// Migrates, rebuilds the halo and the neighbour lists.
+    fn rebuild(&mut self) -> Result<(), String> {
+        let t0 = Instant::now();
+        let offset = self.sim_box.le_offset(self.step, self.dt);
+        let range = self.range();
+        migrate(
+            &mut self.particles,
+            &self.sim_box,
+            &self.slab,
+            self.comm,
+            offset,
+        )?;
+        self.halo = HaloPlan::build(
+            &mut self.particles,
+            &self.sim_box,
+            &self.slab,
+            self.comm,
+            range,
+            self.step,
+            self.dt,
+            false,
+        );
+        let t1 = Instant::now();
+        let particles = &self.particles;
+        self.list = self.pool.install(|| NeighbourList::build(particles, range));
+        self.times.rebuild_comm += (t1 - t0).as_secs_f64();
+        self.times.neighbour += t1.elapsed().as_secs_f64();
+        self.times.rebuilds += 1;
+        Ok(())
+    }
+
+    fn compute_forces(&mut self) {
+        let t0 = Instant::now();
+        let mut force = std::mem::take(&mut self.particles.force);
+        let (dpd, particles, list, step, terms) =
+            (&self.dpd, &self.particles, &self.list, self.step, &mut self.terms);
+        self.pool
+            .install(|| compute_forces(dpd, particles, list, step, terms, &mut force));
+        self.particles.force = force;
+        self.times.forces += t0.elapsed().as_secs_f64();
+    }
+
+    /// Advances one time step.
+    pub fn advance(&mut self) -> Result<(), String> {
+        let t0 = Instant::now();
+        let (dt, lambda, inv_m) = (self.dt, self.lambda, 1.0 / self.mass);
+        let n = self.particles.n_owned;
+        {
+            let p = &mut self.particles;
+            self.pool.install(|| p.pos[..n]
+                .par_iter_mut()
+                .zip(p.vel[..n].par_iter_mut())
+                .zip(p.vel_half.par_iter_mut())
+                .zip(p.force.par_iter())
+                .for_each(|(((x, v), vh), f)| {
+                    for d in 0..D {
+                        let acc = f[d] * inv_m;
+                        x[d] += dt * v[d] + 0.5 * dt * dt * acc;
+                        vh[d] = v[d] + 0.5 * dt * acc;
+                        v[d] += lambda * dt * acc;
+                    }
+                }));
+        }
+        self.step += 1;
+        self.times.integrate += t0.elapsed().as_secs_f64();
+
+        let t1 = Instant::now();
+        let (list, particles) = (&self.list, &self.particles);
+        let mut moved = [self.pool.install(|| list.max_displacement(particles))];
+        self.comm.allreduce_max(&mut moved);
+        let drift = if self.sim_box.sheared() {
+            self.sim_box.le_velocity_jump()
+                * dt
+                * (self.step - self.halo.step_at_build()) as f64
+        } else {
+            0.0
+        };
+        if 2.0 * moved[0] + drift.abs() > self.skin {
+            self.times.halo += t1.elapsed().as_secs_f64();
+            self.rebuild()?;
+        } else {
+            self.halo.forward(
+                &mut self.particles,
+                &self.sim_box,
+                &self.slab,
+                self.comm,
+                self.step,
+                dt,
+            );
+            self.times.halo += t1.elapsed().as_secs_f64();
+        }
+        self.compute_forces();
+
+        let t2 = Instant::now();
+        let p = &mut self.particles;
+        self.pool.install(|| {
+            p.vel[..n]
+                .par_iter_mut()
+                .zip(p.vel_half.par_iter())
+                .zip(p.force.par_iter())
+                .for_each(|((v, vh), f)| {
+                    for d in 0..D {
+                        v[d] = vh[d] + 0.5 * dt * f[d] * inv_m;
+                    }
+                })
+        });
+        self.times.integrate += t2.elapsed().as_secs_f64();
+        Ok(())
+    }
+
+    /// Whether the current step is a sampling step.
+    pub fn is_sample_step(&self) -> bool {
+        let r = &self.case.run;
+        self.step > r.equilibration && self.step % r.sample_every == 0
+    }
+
+    /// Samples every observable the case asked for (collective).
+    pub fn sample(&mut self) {
+        let t0 = Instant::now();
+        let values = self.measure();
+        for (name, v) in values.scalars {
+            self.series.push(&name, v);
+        }
+        if let Some(profile) = values.profile {
+            self.series.profile.push(profile);
+        }
+        self.series.steps.push(self.step);
+        self.times.diagnostics += t0.elapsed().as_secs_f64();
+    }
+
+    /// Instantaneous observables (collective).
+    pub fn measure(&self) -> Measurement {
+        let case = &self.case;
+        let sheared = self.sim_box.sheared();
+        let bins = if sheared {
+            case.diagnostics.profile_bins
+        } else {
+            1
+        };
+        let ly = self.sim_box.lengths[GRADIENT];
+        let bin_of = |y: f64| -> usize { ((y / ly * bins as f64).floor().max(0.0) as usize).min(bins - 1) };
+        let n = self.particles.n_owned;
+        let m = self.mass;
+        let (pos, vel) = (&self.particles.pos[..n], &self.particles.vel[..n]);
+        // Pass 1: bin counts and momenta → mean velocity per bin.
+        let mut first = vec![0.0; bins * (1 + D)];
+        for (x, v) in pos.iter().zip(vel) {
+            let b = bin_of(x[GRADIENT]);
+            first[b] += 1.0;
+            for d in 0..D {
+                first[bins + b * D + d] += v[d];
+            }
+        }
+        self.comm.allreduce_sum(&mut first);
+        let mean: Vec<[f64; D]> = (0..bins)
+            .map(|b| {
+                let c = first[b].max(1.0);
+                let mut u = [0.0; D];
+                for d in 0..D {
+                    u[d] = first[bins + b * D + d] / c;
+                }
+                u
+            })
+            .collect();
+        // Pass 2: kinetic tensor, peculiar momentum, virial.
+        let dd = D * D;
+        let mut second = vec![0.0; dd + D + 3 * dd];
+        for (x, v) in pos.iter().zip(vel) {
+            let u = &mean[bin_of(x[GRADIENT])];
+            for a in 0..D {
+                let va = v[a] - u[a];
+                for b in 0..D {
+                    second[a * D + b] += m * va * (v[b] - u[b]);
+                }
+            }
+            let mut p = *v;
+            p[0] -= self.sim_box.streaming_velocity(x[GRADIENT]);
+            for d in 0..D {
+                second[dd + d] += m * p[d];
+            }
+        }
+        let (particles, list, terms) = (&self.particles, &self.list, &self.terms);
+        let virial = self.pool.install(|| pair_virial(particles, list, terms));
+        for (k, w) in virial.iter().enumerate() {
+            second[dd + D + k * dd..dd + D + (k + 1) * dd].copy_from_slice(w);
+        }
+        self.comm.allreduce_sum(&mut second);
+        let volume = self.sim_box.volume();
+        let kinetic = &second[..dd];
+        let mut parts: Vec<Vec<f64>> = vec![kinetic.iter().map(|k| k / volume).collect()];
+        for k in 0..3 {
+            let w = &second[dd + D + k * dd..dd + D + (k + 1) * dd];
+            parts.push(w.iter().map(|x| x / volume).collect());
+        }
+        let total: Vec<f64> = (0..dd).map(|i| parts.iter().map(|p| p[i]).sum()).collect();
+        let trace_k: f64 = (0..D).map(|a| kinetic[a * D + a]).sum();
+        let dof = (D as f64) * (self.total_particles as f64 - bins as f64);
+        let mut out = Measurement::default();
+        let pt = |a: usize, b: usize| total[a * D + b];
+        for o in &case.diagnostics.observables {
+            match o {
+                Observable::Temperature => out.scalars.push(("temperature".into(), trace_k / dof)),
+                Observable::Pressure => out.scalars.push((
+                    "pressure".into(),
+                    (0..D).map(|a| pt(a, a)).sum::<f64>() / D as f64,
+                )),
+                Observable::Stress => {
+                    let all: Vec<&Vec<f64>> =
+                        std::iter::once(&total).chain(parts.iter()).collect();
+                    for (part, tensor) in STRESS_PARTS.iter().zip(all) {
+                        for (a, b, c) in tensor_components(D) {
+                            out.scalars
+                                .push((format!("stress_{part}_{c}"), tensor[a * D + b]));
+                        }
+                    }
+                }
+                Observable::Viscosity => out
+                    .scalars
+                    .push(("viscosity".into(), -pt(0, 1) / self.sim_box.shear_rate)),
+                Observable::FirstNormalStressDifference => out.scalars.push((
+                    "first_normal_stress_difference".into(),
+                    pt(1, 1) - pt(0, 0),
+                )),
+                Observable::SecondNormalStressDifference => out.scalars.push((
+                    "second_normal_stress_difference".into(),
+                    pt(2, 2) - pt(1, 1),
+                )),
+                Observable::Momentum => {
+                    for d in 0..D {
+                        out.scalars
+                            .push((format!("momentum_{}", ["x", "y", "z"][d]), second[dd + d]));
+                    }
+                }
+                Observable::VelocityProfile => {
+                    out.profile = Some(mean.iter().map(|u| u[0]).collect());
+                }
+            }
+        }
+        out
+    }
+
+    /// A hash of the complete owned state — id, position, velocity, force, image counts and
+    /// every registered field of every particle — combined over particles with an
+    /// order-independent wrapping sum and xor, so it is the same for any decomposition
+    /// (collective).
+    pub fn state_digest(&self) -> String {
+        let p = &self.particles;
+        let mut acc = [0u64, 0u64];
+        for i in 0..p.n_owned {
+            let mut words: Vec<u64> = vec![p.gid[i]];
+            words.extend(p.pos[i].iter().map(|x| x.to_bits()));
+            words.extend(p.vel[i].iter().map(|x| x.to_bits()));
+            words.extend(p.force[i].iter().map(|x| x.to_bits()));
+            words.extend(p.image[i].iter().map(|&k| k as u32 as u64));
+            for f in &p.extra {
+                words.extend(f.data[i * f.width..(i + 1) * f.width].iter().map(|x| x.to_bits()));
+            }
+            for f in &p.var {
+                words.push(f.data[i].len() as u64);
+                words.extend(f.data[i].iter().map(|x| x.to_bits()));
+            }
+            let h = hash_words(&words);
+            acc[0] = acc[0].wrapping_add(h);
+            acc[1] ^= h.rotate_left(17).wrapping_mul(0x9E37_79B9_7F4A_7C15);
+        }
+        let mut sum = [acc[0]];
+        let mut xor = [acc[1]];
+        self.comm.allreduce_u64(&mut sum, U64Op::Sum);
+        self.comm.allreduce_u64(&mut xor, U64Op::Xor);
+        format!("{:016x}{:016x}", sum[0], xor[0])
+    }
+
+    /// Runs `steps` steps, sampling on schedule and calling `progress` every step (rank-local).
+    pub fn run_steps(
+        &mut self,
+        steps: u64,
+        mut progress: impl FnMut(&Self),
+    ) -> Result<Duration, String> {
+        let start = Instant::now();
+        for _ in 0..steps {
+            self.advance()?;
+            if self.is_sample_step() {
+                self.sample();
+            }
+            progress(self);
+        }
+        Ok(start.elapsed())
+    }
+
+    /// Simulated time.
+    pub fn time(&self) -> f64 {
+        self.step as f64 * self.dt
+    }
+
+    /// The communicator.
+    pub fn comm(&self) -> &dyn Comm {
+        self.comm
+    }
+}
+
+/// Observables at one instant.
+#[derive(Clone, Debug, Default)]
+pub struct Measurement {
+    /// Scalar values by name.
+    pub scalars: Vec<(String, f64)>,
+    /// Binned u_x(y).
+    pub profile: Option<Vec<f64>>,
+}
+
+/// splitmix64-style mixing of a word sequence.
+pub fn hash_words(words: &[u64]) -> u64 {
+    let mut h: u64 = 0x6A09_E667_F3BC_C909;
+    for &w in words {
+        h ^= w;
+        h = h.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = h;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        h = z ^ (z >> 31);
+    }
+    h
+}
+
+/// Builds the initial particles of the whole system in global-id order — the same on every
+/// rank, so nothing depends on the decomposition — and keeps this rank's. Returns them and the
+/// total count.
+///
+/// Velocities: Maxwellian at k_BT from Philox keyed by id, centre-of-mass motion removed and
+/// rescaled to exactly k_BT over D(N − 1) degrees of freedom; then the shear profile if asked.
+pub fn initial_particles<const D: usize>(
+    case: &Case,
+    sim_box: &SimBox<D>,
+    slab: &Slab,
+) -> (Particles<D>, u64) {
+    let dim = D;
+    let (cells, total) = case.lattice_counts();
+    let mut positions: Vec<[f64; D]> = Vec::with_capacity(total as usize);
+    match case.particles.lattice {
+        Lattice::Random => {
+            let key = StreamKey::new(case.seed, Purpose::InitialPosition, 0);
+            for g in 0..total {
+                let mut x = [0.0; D];
+                let (a, b) = key.uniform2(0, g as u32, 0);
+                let (c, _) = key.uniform2(0, g as u32, 1);
+                let u = [a, b, c];
+                for d in 0..D {
+                    x[d] = u[d] * sim_box.lengths[d];
+                }
+                positions.push(x);
+            }
+        }
+        lattice => {
+            let basis: Vec<[f64; 3]> = match (lattice, dim) {
+                (Lattice::Fcc, 3) => vec![
+                    [0.0, 0.0, 0.0],
+                    [0.5, 0.5, 0.0],
+                    [0.5, 0.0, 0.5],
+                    [0.0, 0.5, 0.5],
+                ],
+                (Lattice::Fcc, _) => vec![[0.0, 0.0, 0.0], [0.5, 0.5, 0.0]],
+                _ => vec![[0.0; 3]],
+            };
+            let ncell: usize = cells.iter().product();
+            for c in 0..ncell {
+                let mut idx = [0usize; 3];
+                let mut rem = c;
+                for d in 0..D {
+                    idx[d] = rem % cells[d];
+                    rem /= cells[d];
+                }
+                for b in &basis {
+                    let mut x = [0.0; D];
+                    for d in 0..D {
+                        let spacing = sim_box.lengths[d] / cells[d] as f64;
+                        x[d] = (idx[d] as f64 + b[d] + 0.25) * spacing;
+                    }
+                    positions.push(x);
+                }
+            }
+        }
+    }
+    let key = StreamKey::new(case.seed, Purpose::InitialVelocity, 0);
+    let m = case.particles.mass;
+    let kt = case.particles.temperature;
+    let scale = (kt / m).sqrt();
+    let mut velocities: Vec<[f64; D]> = (0..total)
+        .map(|g| {
+            let (a, b) = key.gaussian2(0, g as u32, 0);
+            let (c, _) = key.gaussian2(0, g as u32, 1);
+            let gs = [a, b, c];
+            let mut v = [0.0; D];
+            for d in 0..D {
+                v[d] = scale * gs[d];
+            }
+            v
+        })
+        .collect();
+    if total > 1 {
+        let mut com = [0.0; D];
+        for v in &velocities {
+            for d in 0..D {
+                com[d] += v[d];
+            }
+        }
+        for c in &mut com {
+            *c /= total as f64;
+        }
+        let mut ke2 = 0.0;
+        for v in &mut velocities {
+            for d in 0..D {
+                v[d] -= com[d];
+                ke2 += m * v[d] * v[d];
+            }
+        }
+        let t_now = ke2 / (D as f64 * (total as f64 - 1.0));
+        if t_now > 0.0 {
+            let f = (kt / t_now).sqrt();
+            for v in &mut velocities {
+                for x in v.iter_mut() {
+                    *x *= f;
+                }
+            }
+        }
+    }
+    let shear_profile = match case.particles.velocity_profile {
+        VelocityProfile::Auto => sim_box.sheared(),
+        VelocityProfile::Shear => true,
+        VelocityProfile::Rest => false,
+    };
+    let mut particles = Particles::default();
+    for (g, (x, mut v)) in positions.into_iter().zip(velocities).enumerate() {
+        if shear_profile {
+            v[0] += sim_box.streaming_velocity(x[GRADIENT]);
+        }
+        if slab.owner_of(x[slab.axis]) == slab.rank {
+            particles.push_owned(g as u64, x, v);
+        }
+    }
+    (particles, total)
+}
