@@ -22,3 +22,4 @@ pub mod rng;
 pub mod sim;
 pub mod stability;
 pub mod summary;
+pub mod fixed_sum;

@@ -1,29 +1,24 @@
-//! Neighbour search: a cell list over owned + ghost particles and Verlet lists with a skin.
+//! Neighbour search: a cell list over owned + ghost particles and a Verlet pair list with a skin.
 //!
-//! Each owned particle gets a *full* list of partners within r_list = r_c + skin, sorted by global
-//! id, so any per-particle sum over neighbours runs in an order that depends neither on cells,
-//! ranks nor threads (DESIGN.md, determinism rule 2). On top of the full lists the builder
-//! numbers the distinct pairs — owned–owned pairs once (from the smaller id), owned–ghost pairs
-//! on each rank that holds the owned end — so pair terms are evaluated once and then gathered
-//! per particle in canonical order.
+//! The list holds every pair within r_list = r_c + skin that has at least one owned end, once,
+//! as `[i, j]` with i owned. Cells are at least r_list wide; each cell is paired with itself and
+//! its forward half of the 3^D stencil, so every pair is examined exactly once. An owned–ghost
+//! pair is also listed on the rank (or for the image) that owns the other end, which applies
+//! the force only to its own particle. The order of the list does not matter for the result:
+//! forces are accumulated exactly ([`crate::fixed_sum`]).
 //!
-//! Rebuild criterion (checked by the caller): 2 max|Δx| + |Δs| > skin, where Δs is the change of
-//! the Lees–Edwards offset since the build: no pair outside r_list at build time can then have
-//! come within r_c.
+//! Rebuild criterion (checked by the caller): 2 max|Δx| + |Δs| > skin, where Δs is the drift of
+//! the Lees–Edwards offset since the build: no pair outside r_list at build time can have come
+//! within r_c.
 
 use crate::particles::Particles;
 use rayon::prelude::*;
 
-/// Verlet lists for the owned particles.
+
+/// The Verlet pair list of this rank.
 #[derive(Clone, Debug, Default)]
 pub struct NeighbourList<const D: usize> {
-    /// `offsets[i]..offsets[i+1]` indexes particle i's entries.
-    pub offsets: Vec<usize>,
-    /// Local index (owned or ghost) of each neighbour, sorted by global id per particle.
-    pub entries: Vec<u32>,
-    /// Distinct pair each entry belongs to.
-    pub pair_of_entry: Vec<u32>,
-    /// Distinct pairs `[i, j]` (i owned; the pair's terms are stored as seen from i).
+    /// Pairs `[i, j]`, i owned, j owned or ghost.
     pub pairs: Vec<[u32; 2]>,
     /// Owned positions at build time (for the displacement criterion).
     pub build_pos: Vec<[f64; D]>,
@@ -31,7 +26,7 @@ pub struct NeighbourList<const D: usize> {
     pub radius: f64,
 }
 
-#[inline]
+#[inline(always)]
 fn dist2<const D: usize>(a: &[f64; D], b: &[f64; D]) -> f64 {
     let mut s = 0.0;
     for d in 0..D {
@@ -41,13 +36,22 @@ fn dist2<const D: usize>(a: &[f64; D], b: &[f64; D]) -> f64 {
     s
 }
 
-impl<const D: usize> NeighbourList<D> {
-    /// Builds the lists of all owned particles over owned + ghost particles.
-    pub fn build(particles: &Particles<D>, radius: f64) -> Self {
-        let n_all = particles.len();
-        let n_owned = particles.n_owned;
-        let pos = &particles.pos;
-        // Cell grid over the bounding box of everything held.
+/// A uniform grid of cells over a bounding box, with particles sorted by cell.
+pub struct CellGrid<const D: usize> {
+    lo: [f64; D],
+    inv_cell: [f64; D],
+    cell: [f64; D],
+    /// Cells per axis.
+    pub ncell: [usize; D],
+    /// `start[c]..start[c+1]` indexes `sorted` for cell c.
+    pub start: Vec<usize>,
+    /// Particle indices sorted by cell.
+    pub sorted: Vec<u32>,
+}
+
+impl<const D: usize> CellGrid<D> {
+    /// Bins `pos` into cells at least `width` wide.
+    pub fn new(pos: &[[f64; D]], width: f64) -> Self {
         let mut lo = [f64::INFINITY; D];
         let mut hi = [f64::NEG_INFINITY; D];
         for p in pos {
@@ -58,119 +62,156 @@ impl<const D: usize> NeighbourList<D> {
         }
         let mut ncell = [1usize; D];
         let mut inv_cell = [0.0; D];
+        let mut cell = [width; D];
         for d in 0..D {
-            if n_all > 0 {
-                let extent = hi[d] - lo[d];
-                ncell[d] = ((extent / radius).floor() as usize).clamp(1, 1 << 20);
-                inv_cell[d] = ncell[d] as f64 / extent.max(f64::MIN_POSITIVE);
+            if !pos.is_empty() {
+                let extent = (hi[d] - lo[d]).max(f64::MIN_POSITIVE);
+                ncell[d] = ((extent / width).floor() as usize).clamp(1, 1 << 16);
+                inv_cell[d] = ncell[d] as f64 / extent;
+                cell[d] = extent / ncell[d] as f64;
+            } else {
+                lo[d] = 0.0;
             }
         }
-        let total_cells: usize = ncell.iter().product();
-        let cell_of = |p: &[f64; D]| -> [usize; D] {
-            let mut c = [0usize; D];
-            for d in 0..D {
-                c[d] = (((p[d] - lo[d]) * inv_cell[d]) as usize).min(ncell[d] - 1);
-            }
-            c
+        let total: usize = ncell.iter().product();
+        let mut grid = CellGrid {
+            lo,
+            inv_cell,
+            cell,
+            ncell,
+            start: vec![0; total + 1],
+            sorted: vec![0; pos.len()],
         };
-        let flat = |c: &[usize; D]| -> usize {
-            let mut f = 0;
-            for d in (0..D).rev() {
-                f = f * ncell[d] + c[d];
-            }
-            f
-        };
-        let mut cell_start = vec![0usize; total_cells + 1];
-        let cells: Vec<usize> = pos.iter().map(|p| flat(&cell_of(p))).collect();
+        let cells: Vec<u32> = pos.iter().map(|p| grid.flat(&grid.coords(p)) as u32).collect();
         for &c in &cells {
-            cell_start[c + 1] += 1;
+            grid.start[c as usize + 1] += 1;
         }
-        for c in 0..total_cells {
-            cell_start[c + 1] += cell_start[c];
+        for c in 0..total {
+            grid.start[c + 1] += grid.start[c];
         }
-        let mut fill = cell_start.clone();
-        let mut sorted = vec![0u32; n_all];
+        let mut fill = grid.start.clone();
         for (i, &c) in cells.iter().enumerate() {
-            sorted[fill[c]] = i as u32;
-            fill[c] += 1;
+            grid.sorted[fill[c as usize]] = i as u32;
+            fill[c as usize] += 1;
         }
+        grid
+    }
+
+    /// Cell coordinates of a point (clamped to the grid).
+    #[inline(always)]
+    pub fn coords(&self, p: &[f64; D]) -> [usize; D] {
+        let mut c = [0usize; D];
+        for d in 0..D {
+            c[d] = (((p[d] - self.lo[d]) * self.inv_cell[d]).max(0.0) as usize).min(self.ncell[d] - 1);
+        }
+        c
+    }
+
+    /// Cell coordinates of a flat index.
+    #[inline(always)]
+    pub fn unflat(&self, mut f: usize) -> [usize; D] {
+        let mut c = [0usize; D];
+        for d in 0..D {
+            c[d] = f % self.ncell[d];
+            f /= self.ncell[d];
+        }
+        c
+    }
+
+    /// Flat index of cell coordinates (x fastest).
+    #[inline(always)]
+    pub fn flat(&self, c: &[usize; D]) -> usize {
+        let mut f = 0;
+        for d in (0..D).rev() {
+            f = f * self.ncell[d] + c[d];
+        }
+        f
+    }
+
+    /// Forward half of the 3^D neighbour offsets (the first non-zero component, from the last
+    /// axis down, is +1).
+    fn forward_stencil() -> Vec<[isize; D]> {
+        let mut out = Vec::new();
+        for s in 0..3usize.pow(D as u32) {
+            let mut o = [0isize; D];
+            let mut rem = s;
+            for x in o.iter_mut() {
+                *x = (rem % 3) as isize - 1;
+                rem /= 3;
+            }
+            if let Some(&last) = o.iter().rev().find(|&&x| x != 0)
+                && last > 0
+            {
+                out.push(o);
+            }
+        }
+        out
+    }
+}
+
+impl<const D: usize> NeighbourList<D> {
+    /// Builds the pair list over owned + ghost particles.
+    pub fn build(particles: &Particles<D>, radius: f64) -> Self {
+        let n_owned = particles.n_owned as u32;
+        let pos = &particles.pos;
+        let grid = CellGrid::new(pos, radius);
+        let stencil = CellGrid::<D>::forward_stencil();
+        // Positions in cell order, so the inner loop streams through memory.
+        let sorted_pos: Vec<[f64; D]> = grid.sorted.iter().map(|&j| pos[j as usize]).collect();
         let r2 = radius * radius;
-        let gid = &particles.gid;
-        let lists: Vec<Vec<u32>> = (0..n_owned)
+        let total_cells = grid.start.len() - 1;
+        const CHUNK: usize = 64;
+        let chunks: Vec<Vec<[u32; 2]>> = (0..total_cells.div_ceil(CHUNK))
             .into_par_iter()
-            .map(|i| {
-                let ci = cell_of(&pos[i]);
-                let mut found: Vec<(u64, u32)> = Vec::with_capacity(64);
-                let mut offset = [0usize; D];
-                let stencil = 3usize.pow(D as u32);
-                for s in 0..stencil {
-                    let mut rem = s;
-                    let mut ok = true;
-                    for d in 0..D {
-                        let delta = (rem % 3) as isize - 1;
-                        rem /= 3;
-                        let c = ci[d] as isize + delta;
-                        if c < 0 || c >= ncell[d] as isize {
-                            ok = false;
-                            break;
-                        }
-                        offset[d] = c as usize;
-                    }
-                    // No wrapping (ghosts are already imaged), so the 3^D offsets are distinct cells.
-                    if !ok {
+            .map(|chunk| {
+                let mut pairs: Vec<[u32; 2]> = Vec::new();
+                let mut scratch: Vec<[u32; 2]> = Vec::new();
+                let cells = chunk * CHUNK..((chunk + 1) * CHUNK).min(total_cells);
+                for c in cells {
+                    let (a, b) = (grid.start[c], grid.start[c + 1]);
+                    if a == b {
                         continue;
                     }
-                    let c = flat(&offset);
-                    for &j in &sorted[cell_start[c]..cell_start[c + 1]] {
-                        let ju = j as usize;
-                        if ju != i && dist2(&pos[i], &pos[ju]) < r2 {
-                            found.push((gid[ju], j));
+                    let coords = grid.unflat(c);
+                    // Own cell: each unordered pair once.
+                    for ia in a..b {
+                        let pi = &sorted_pos[ia];
+                        let i = grid.sorted[ia];
+                        candidates(pi, i, &grid.sorted[ia + 1..b], &sorted_pos[ia + 1..b], r2, n_owned, &mut scratch);
+                    }
+                    // Forward neighbour cells.
+                    'stencil: for o in &stencil {
+                        let mut nc = [0usize; D];
+                        for d in 0..D {
+                            let x = coords[d] as isize + o[d];
+                            if x < 0 || x >= grid.ncell[d] as isize {
+                                continue 'stencil;
+                            }
+                            nc[d] = x as usize;
+                        }
+                        let f = grid.flat(&nc);
+                        let (fa, fb) = (grid.start[f], grid.start[f + 1]);
+                        if fa == fb {
+                            continue;
+                        }
+                        for ia in a..b {
+                            let i = grid.sorted[ia];
+                            candidates(&sorted_pos[ia], i, &grid.sorted[fa..fb], &sorted_pos[fa..fb], r2, n_owned, &mut scratch);
                         }
                     }
+                    pairs.append(&mut scratch);
                 }
-                found.sort_unstable();
-                found.into_iter().map(|(_, j)| j).collect()
+                pairs
             })
             .collect();
-        let mut offsets = Vec::with_capacity(n_owned + 1);
-        offsets.push(0);
-        for l in &lists {
-            offsets.push(offsets.last().copied().unwrap_or(0) + l.len());
+        let total: usize = chunks.iter().map(Vec::len).sum();
+        let mut pairs = Vec::with_capacity(total);
+        for c in chunks {
+            pairs.extend_from_slice(&c);
         }
-        let entries: Vec<u32> = lists.into_iter().flatten().collect();
-        // Number the distinct pairs: the owned end with the smaller id (or the only owned end).
-        let owns_pair = |i: usize, j: usize| j >= n_owned || gid[j] > gid[i];
-        let mut pair_of_entry = vec![u32::MAX; entries.len()];
-        let mut pairs = Vec::with_capacity(entries.len() / 2 + 1);
-        for i in 0..n_owned {
-            for e in offsets[i]..offsets[i + 1] {
-                let j = entries[e] as usize;
-                if owns_pair(i, j) {
-                    pair_of_entry[e] = pairs.len() as u32;
-                    pairs.push([i as u32, j as u32]);
-                }
-            }
-        }
-        let first_pass = pair_of_entry.clone();
-        pair_of_entry
-            .par_iter_mut()
-            .enumerate()
-            .filter(|(_, p)| **p == u32::MAX)
-            .for_each(|(e, p)| {
-                let i = offsets.partition_point(|&o| o <= e) - 1;
-                let j = entries[e] as usize;
-                let row = &entries[offsets[j]..offsets[j + 1]];
-                let k = row
-                    .binary_search_by_key(&gid[i], |&m| gid[m as usize])
-                    .expect("neighbour relation is symmetric");
-                *p = first_pass[offsets[j] + k];
-            });
         NeighbourList {
-            offsets,
-            entries,
-            pair_of_entry,
             pairs,
-            build_pos: pos[..n_owned].to_vec(),
+            build_pos: pos[..n_owned as usize].to_vec(),
             radius,
         }
     }
@@ -180,13 +221,48 @@ impl<const D: usize> NeighbourList<D> {
         let m2 = particles.pos[..particles.n_owned]
             .par_iter()
             .zip(self.build_pos.par_iter())
+            .with_min_len(4096)
             .map(|(p, q)| dist2(p, q))
             .reduce(|| 0.0, f64::max);
         m2.sqrt()
     }
 
-    /// Neighbours of owned particle `i`.
-    pub fn neighbours(&self, i: usize) -> &[u32] {
-        &self.entries[self.offsets[i]..self.offsets[i + 1]]
+    /// Number of listed pairs.
+    pub fn len(&self) -> usize {
+        self.pairs.len()
     }
+
+    /// Whether no pair is listed.
+    pub fn is_empty(&self) -> bool {
+        self.pairs.is_empty()
+    }
+}
+
+/// Appends the pairs of particle `i` (at `pi`) with candidates `js` (at `pjs`) within √r2 that
+/// have an owned end, owned end first. Branch-free in the distance test.
+#[inline(always)]
+fn candidates<const D: usize>(
+    pi: &[f64; D],
+    i: u32,
+    js: &[u32],
+    pjs: &[[f64; D]],
+    r2: f64,
+    n_owned: u32,
+    out: &mut Vec<[u32; 2]>,
+) {
+    let i_owned = i < n_owned;
+    let mut len = out.len();
+    out.resize(len + js.len(), [0, 0]);
+    for (&j, pj) in js.iter().zip(pjs) {
+        let j_owned = j < n_owned;
+        out[len] = if i_owned { [i, j] } else { [j, i] };
+        let hit = (dist2(pi, pj) < r2) & (i_owned | j_owned);
+        len += usize::from(hit);
+    }
+    out.truncate(len);
+}
+
+/// A spatial order of the owned particles (by cell of a grid `width` wide) for cache locality.
+pub fn spatial_order<const D: usize>(pos: &[[f64; D]], width: f64) -> Vec<u32> {
+    CellGrid::new(pos, width).sorted
 }

@@ -193,6 +193,32 @@ impl<const D: usize> Particles<D> {
         }
     }
 
+    /// Reorders the owned particles: new position k holds old particle `order[k]` (no ghosts).
+    pub fn permute_owned(&mut self, order: &[u32]) {
+        debug_assert_eq!(self.n_owned, self.len());
+        debug_assert_eq!(order.len(), self.n_owned);
+        fn apply<T: Clone>(v: &mut Vec<T>, order: &[u32], width: usize) {
+            let mut out = Vec::with_capacity(v.len());
+            for &o in order {
+                let o = o as usize;
+                out.extend_from_slice(&v[o * width..(o + 1) * width]);
+            }
+            *v = out;
+        }
+        apply(&mut self.gid, order, 1);
+        apply(&mut self.pos, order, 1);
+        apply(&mut self.vel, order, 1);
+        apply(&mut self.force, order, 1);
+        apply(&mut self.vel_half, order, 1);
+        apply(&mut self.image, order, 1);
+        for f in &mut self.extra {
+            apply(&mut f.data, order, f.width);
+        }
+        for f in &mut self.var {
+            apply(&mut f.data, order, 1);
+        }
+    }
+
     /// Keeps only the owned particles for which `keep` is true (order preserved). Ghosts must
     /// have been dropped.
     pub fn retain_owned(&mut self, keep: &[bool]) {

@@ -20,8 +20,8 @@ use crate::diagnostics::{STRESS_PARTS, Series, tensor_components};
 use crate::domain::{HaloPlan, Slab, migrate};
 use crate::geometry::{GRADIENT, SimBox};
 use crate::models::dpd::Dpd;
-use crate::models::pair_loop::{PairTerms, compute_forces, pair_virial};
-use crate::neighbour::NeighbourList;
+use crate::models::pair_loop::{PairWorkspace, Virial, compute_forces};
+use crate::neighbour::{NeighbourList, spatial_order};
 use crate::particles::Particles;
 use crate::rng::{Purpose, StreamKey};
 use rayon::prelude::*;
@@ -60,7 +60,9 @@ pub struct Simulation<'c, const D: usize> {
     /// Neighbour lists.
     pub list: NeighbourList<D>,
     dpd: Dpd,
-    terms: Vec<PairTerms<D>>,
+    workspace: PairWorkspace<D>,
+    /// Virial of the last force evaluation that computed one, and its step.
+    virial: Option<(u64, Virial)>,
     /// Current step.
     pub step: u64,
     dt: f64,
@@ -137,7 +139,8 @@ impl<'c, const D: usize> Simulation<'c, D> {
             halo: HaloPlan::default(),
             list: NeighbourList::default(),
             dpd,
-            terms: Vec::new(),
+            workspace: PairWorkspace::default(),
+            virial: None,
             step: 0,
             dt: gw.dt,
             lambda: gw.lambda,
@@ -149,7 +152,7 @@ impl<'c, const D: usize> Simulation<'c, D> {
             pool,
         };
         sim.rebuild()?;
-        sim.compute_forces();
+        sim.compute_forces(true);
         Ok(sim)
     }
 
@@ -169,6 +172,11 @@ impl<'c, const D: usize> Simulation<'c, D> {
             self.comm,
             offset,
         )?;
+        // Spatial order for cache locality (results do not depend on the order).
+        let order = self
+            .pool
+            .install(|| spatial_order(&self.particles.pos, 0.5 * range));
+        self.particles.permute_owned(&order);
         self.halo = HaloPlan::build(
             &mut self.particles,
             &self.sim_box,
@@ -182,21 +190,51 @@ impl<'c, const D: usize> Simulation<'c, D> {
         let t1 = Instant::now();
         let particles = &self.particles;
         self.list = self.pool.install(|| NeighbourList::build(particles, range));
+        tracing::debug!(
+            owned = self.particles.n_owned,
+            ghosts = self.particles.len() - self.particles.n_owned,
+            pairs = self.list.len(),
+            ms = t1.elapsed().as_secs_f64() * 1e3,
+            "neighbour list rebuilt at step {}",
+            self.step
+        );
         self.times.rebuild_comm += (t1 - t0).as_secs_f64();
         self.times.neighbour += t1.elapsed().as_secs_f64();
         self.times.rebuilds += 1;
         Ok(())
     }
 
-    fn compute_forces(&mut self) {
+    fn compute_forces(&mut self, want_virial: bool) {
         let t0 = Instant::now();
         let mut force = std::mem::take(&mut self.particles.force);
-        let (dpd, particles, list, step, terms) =
-            (&self.dpd, &self.particles, &self.list, self.step, &mut self.terms);
-        self.pool
-            .install(|| compute_forces(dpd, particles, list, step, terms, &mut force));
+        let (dpd, particles, list, step, workspace) = (
+            &self.dpd,
+            &self.particles,
+            &self.list,
+            self.step,
+            &mut self.workspace,
+        );
+        let virial = self.pool.install(|| {
+            compute_forces(dpd, particles, list, step, workspace, &mut force, want_virial)
+        });
         self.particles.force = force;
+        if let Some(v) = virial {
+            self.virial = Some((self.step, v));
+        }
         self.times.forces += t0.elapsed().as_secs_f64();
+    }
+
+    /// Virial of the current forces (recomputed if the last evaluation did not keep it).
+    fn current_virial(&mut self) -> Virial {
+        if let Some((step, v)) = &self.virial
+            && *step == self.step
+        {
+            return v.clone();
+        }
+        let saved = self.particles.force.clone();
+        self.compute_forces(true);
+        self.particles.force = saved;
+        self.virial.as_ref().map(|(_, v)| v.clone()).unwrap_or_default()
     }
 
     /// Advances one time step.
@@ -248,7 +286,8 @@ impl<'c, const D: usize> Simulation<'c, D> {
             );
             self.times.halo += t1.elapsed().as_secs_f64();
         }
-        self.compute_forces();
+        let want_virial = self.is_sample_step();
+        self.compute_forces(want_virial);
 
         let t2 = Instant::now();
         let p = &mut self.particles;
@@ -277,6 +316,7 @@ impl<'c, const D: usize> Simulation<'c, D> {
     pub fn sample(&mut self) {
         let t0 = Instant::now();
         let values = self.measure();
+        self.times.diagnostics += t0.elapsed().as_secs_f64();
         for (name, v) in values.scalars {
             self.series.push(&name, v);
         }
@@ -284,11 +324,11 @@ impl<'c, const D: usize> Simulation<'c, D> {
             self.series.profile.push(profile);
         }
         self.series.steps.push(self.step);
-        self.times.diagnostics += t0.elapsed().as_secs_f64();
     }
 
     /// Instantaneous observables (collective).
-    pub fn measure(&self) -> Measurement {
+    pub fn measure(&mut self) -> Measurement {
+        let virial = self.current_virial();
         let case = &self.case;
         let sheared = self.sim_box.sheared();
         let bins = if sheared {
@@ -338,8 +378,6 @@ impl<'c, const D: usize> Simulation<'c, D> {
                 second[dd + d] += m * p[d];
             }
         }
-        let (particles, list, terms) = (&self.particles, &self.list, &self.terms);
-        let virial = self.pool.install(|| pair_virial(particles, list, terms));
         for (k, w) in virial.iter().enumerate() {
             second[dd + D + k * dd..dd + D + (k + 1) * dd].copy_from_slice(w);
         }

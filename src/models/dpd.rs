@@ -8,14 +8,17 @@
 //! w_C = 1 − r/r_c,   w_R = (1 − r/r_c)^{s/2},   w_D = w_R²,   σ² = 2 γ k_BT
 //! ```
 //!
-//! θ_ij is a unit-variance random number drawn from the counter-based generator keyed by
-//! (seed, step, min gid, max gid), so θ_ij = θ_ji wherever the pair is evaluated. The default
-//! is Gaussian (the thesis, L444); `noise = "uniform"` gives √3(2u − 1), Groot–Warren's choice.
+//! θ_ij is a unit-variance random number from the keyed hash stream
+//! ([`crate::rng::HashStream`]) of (seed, step, min gid, max gid), so θ_ij = θ_ji wherever the
+//! pair is evaluated, on any rank. The default is Gaussian (ziggurat; the thesis, L444);
+//! `noise = "uniform"` gives √3(2u − 1), Groot–Warren's choice.
 //! With s = 2 this is standard DPD; s = 1/2 is the thesis's "modified" weight.
 
 use crate::models::pair_loop::{PairKernel, PairTerms};
-use crate::rng::{Purpose, StreamKey};
+use crate::rng::{HashStream, Purpose};
 use serde::{Deserialize, Serialize};
+
+const SQRT_3: f64 = 1.732_050_807_568_877_2;
 
 /// Distribution of the pair noise θ_ij.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
@@ -45,7 +48,7 @@ pub struct Dpd {
     pub noise: Noise,
     /// σ / √Δt, precomputed.
     sigma_over_sqrt_dt: f64,
-    key: StreamKey,
+    seed: u64,
 }
 
 impl Dpd {
@@ -69,7 +72,7 @@ impl Dpd {
             weight_exponent,
             noise,
             sigma_over_sqrt_dt: sigma / dt.sqrt(),
-            key: StreamKey::new(seed, Purpose::DpdPair, 0),
+            seed,
         }
     }
 
@@ -91,13 +94,13 @@ impl<const D: usize> PairKernel<D> for Dpd {
         v_rel: &[f64; D],
         gids: (u64, u64),
         step: u64,
-    ) -> PairTerms<D> {
+    ) -> Option<PairTerms<D>> {
         let mut r2 = 0.0;
         for x in r_vec {
             r2 += x * x;
         }
         if r2 >= self.cutoff * self.cutoff || r2 == 0.0 {
-            return PairTerms::default();
+            return None;
         }
         let r = r2.sqrt();
         let inv_r = 1.0 / r;
@@ -119,11 +122,12 @@ impl<const D: usize> PairKernel<D> for Dpd {
         } else {
             (gids.1, gids.0)
         };
+        let mut stream = HashStream::new(self.seed, Purpose::DpdPair, step, lo, hi);
         let theta = match self.noise {
-            Noise::Gaussian => self.key.gaussian(step, lo as u32, hi as u32),
-            Noise::Uniform => self.key.unit_variance_uniform(step, lo as u32, hi as u32),
+            Noise::Gaussian => stream.normal(),
+            Noise::Uniform => SQRT_3 * (2.0 * stream.uniform() - 1.0),
         };
-        PairTerms {
+        Some(PairTerms {
             e,
             r,
             parts: [
@@ -131,7 +135,7 @@ impl<const D: usize> PairKernel<D> for Dpd {
                 -self.gamma * w_d * ev,
                 self.sigma_over_sqrt_dt * w_r * theta,
             ],
-        }
+        })
     }
 }
 
@@ -144,10 +148,10 @@ mod tests {
         let dpd = Dpd::new(25.0, 4.5, 1.0, 1.0, 2.0, Noise::Gaussian, 0.04, 7);
         let r = [0.3, -0.4, 0.0];
         let v = [1.0, 0.5, -0.2];
-        let t: PairTerms<3> = dpd.eval(&r, &v, (3, 9), 11);
+        let t: PairTerms<3> = dpd.eval(&r, &v, (3, 9), 11).expect("inside the cutoff");
         let rr = [-0.3, 0.4, -0.0];
         let vv = [-1.0, -0.5, 0.2];
-        let u: PairTerms<3> = dpd.eval(&rr, &vv, (9, 3), 11);
+        let u: PairTerms<3> = dpd.eval(&rr, &vv, (9, 3), 11).expect("inside the cutoff");
         assert_eq!(t.parts, u.parts);
         for d in 0..3 {
             assert_eq!(t.e[d], -u.e[d]);
@@ -155,7 +159,7 @@ mod tests {
         // r = 0.5, w = 0.5: conservative 12.5; e·v = (0.6·1 − 0.8·0.5) = 0.2 → −4.5·0.25·0.2
         assert!((t.parts[0] - 12.5).abs() < 1e-14);
         assert!((t.parts[1] + 0.225).abs() < 1e-14);
-        let beyond: PairTerms<3> = dpd.eval(&[1.0, 0.0, 0.0], &v, (1, 2), 0);
-        assert_eq!(beyond.parts, [0.0; 3]);
+        let beyond: Option<PairTerms<3>> = dpd.eval(&[1.0, 0.0, 0.0], &v, (1, 2), 0);
+        assert!(beyond.is_none());
     }
 }

@@ -1,15 +1,17 @@
-//! The one generic pair loop (HOOMD's evaluator idea): a small kernel evaluates a pair; the
-//! loop evaluates every distinct pair once (in parallel, each into its own slot) and then
-//! gathers the force on each owned particle over its neighbour list in global-id order:
+//! The one generic pair loop (HOOMD's evaluator idea): a small kernel evaluates a pair; the loop
+//! runs over the half neighbour lists and scatters ±F_ij into exact fixed-point accumulators
+//! ([`FixedSum`], one set per thread, merged at the end), so the force on each particle is the
+//! same bits whatever the order of the pairs, the number of threads or the decomposition:
 //!
 //! ```text
-//! F_i = Σ_{j ∈ N(i), sorted by gid} ± (f_C + f_D + f_R)_ij e_ij
+//! F_i = Σ_j (f_C + f_D + f_R)_ij e_ij         (summed exactly, rounded once)
+//! W   = Σ_pairs r_ij ⊗ F_ij  per part          (virial, also exact)
 //! ```
 //!
-//! The sign is + when the pair was evaluated from i, − from j; the kernel is exactly
-//! antisymmetric (e_ji = −e_ij bit for bit), so F_i is the same bits for every rank count and
-//! thread count. Pair virials for the stress tensor come from the same stored terms.
+//! An owned–ghost pair adds to the owned end only (the other end's rank adds its own half) and
+//! contributes ½ of its virial here.
 
+use crate::fixed_sum::FixedSum;
 use crate::neighbour::NeighbourList;
 use crate::particles::Particles;
 use rayon::prelude::*;
@@ -40,12 +42,18 @@ impl<const D: usize> Default for PairTerms<D> {
 pub trait PairKernel<const D: usize>: Sync {
     /// Interaction range.
     fn cutoff(&self) -> f64;
-    /// Terms for the pair with r_ij = r_i − r_j and v_ij = v_i − v_j (zero beyond the cutoff).
-    fn eval(&self, r_vec: &[f64; D], v_rel: &[f64; D], gids: (u64, u64), step: u64)
-    -> PairTerms<D>;
+    /// Terms for the pair with r_ij = r_i − r_j and v_ij = v_i − v_j, or `None` beyond the
+    /// cutoff.
+    fn eval(
+        &self,
+        r_vec: &[f64; D],
+        v_rel: &[f64; D],
+        gids: (u64, u64),
+        step: u64,
+    ) -> Option<PairTerms<D>>;
 }
 
-/// Pair-vector r_i − r_j: the one formula for every pair on every rank.
+/// Pair vector r_i − r_j: the one formula for every pair on every rank.
 #[inline(always)]
 pub fn separation<const D: usize>(a: &[f64; D], b: &[f64; D]) -> [f64; D] {
     let mut r = [0.0; D];
@@ -55,89 +63,103 @@ pub fn separation<const D: usize>(a: &[f64; D], b: &[f64; D]) -> [f64; D] {
     r
 }
 
-/// Evaluates all pairs into `terms` and gathers the forces on owned particles into `force`.
+/// Virial Σ r_ij ⊗ F_ij per part [conservative, dissipative, random], flattened D×D.
+pub type Virial = [Vec<f64>; 3];
+
+/// Reusable accumulators of the pair loop.
+#[derive(Default)]
+pub struct PairWorkspace<const D: usize> {
+    buffers: Vec<Vec<[FixedSum; D]>>,
+}
+
+/// Evaluates all listed pairs and writes the force on every owned particle into `force`;
+/// returns the virial when asked.
 pub fn compute_forces<const D: usize, K: PairKernel<D>>(
     kernel: &K,
     particles: &Particles<D>,
     list: &NeighbourList<D>,
     step: u64,
-    terms: &mut Vec<PairTerms<D>>,
+    workspace: &mut PairWorkspace<D>,
     force: &mut [[f64; D]],
-) {
-    terms.resize(list.pairs.len(), PairTerms::default());
-    let (pos, vel, gid) = (&particles.pos, &particles.vel, &particles.gid);
-    terms
-        .par_iter_mut()
-        .zip(list.pairs.par_iter())
-        .with_min_len(1024)
-        .for_each(|(t, &[i, j])| {
-            let (i, j) = (i as usize, j as usize);
-            *t = kernel.eval(
-                &separation(&pos[i], &pos[j]),
-                &separation(&vel[i], &vel[j]),
-                (gid[i], gid[j]),
-                step,
-            );
-        });
-    let terms = &terms[..];
-    force[..particles.n_owned]
-        .par_iter_mut()
-        .enumerate()
-        .with_min_len(256)
-        .for_each(|(i, f)| {
-            let mut acc = [0.0; D];
-            for e in list.offsets[i]..list.offsets[i + 1] {
-                let p = list.pair_of_entry[e] as usize;
-                let t = &terms[p];
-                let mut s = t.parts[0] + t.parts[1] + t.parts[2];
-                if list.pairs[p][0] as usize != i {
-                    s = -s;
-                }
-                for d in 0..D {
-                    acc[d] += s * t.e[d];
-                }
-            }
-            *f = acc;
-        });
-}
-
-/// Σ over this rank's pairs of r_ij ⊗ F_ij per force part (conservative, dissipative, random),
-/// as flattened D×D matrices. An owned–ghost pair is also held by the rank (or image) owning
-/// the other end, so it counts one half here.
-pub fn pair_virial<const D: usize>(
-    particles: &Particles<D>,
-    list: &NeighbourList<D>,
-    terms: &[PairTerms<D>],
-) -> [Vec<f64>; 3] {
-    const CHUNK: usize = 4096;
+    want_virial: bool,
+) -> Option<Virial> {
     let n_owned = particles.n_owned;
-    let partial: Vec<[Vec<f64>; 3]> = list
-        .pairs
-        .par_chunks(CHUNK)
-        .zip(terms.par_chunks(CHUNK))
-        .map(|(pairs, terms)| {
-            let mut w = [vec![0.0; D * D], vec![0.0; D * D], vec![0.0; D * D]];
-            for (&[_, j], t) in pairs.iter().zip(terms) {
-                let weight = if (j as usize) < n_owned { 1.0 } else { 0.5 };
-                for (part, wp) in w.iter_mut().enumerate() {
-                    let f = weight * t.r * t.parts[part];
-                    for a in 0..D {
-                        for b in 0..D {
-                            wp[a * D + b] += f * t.e[a] * t.e[b];
+    let chunks = rayon::current_num_threads().max(1);
+    let per_chunk = list.pairs.len().div_ceil(chunks).max(1);
+    workspace.buffers.resize_with(chunks, Vec::new);
+    let (pos, vel, gid) = (&particles.pos, &particles.vel, &particles.gid);
+    let virials: Vec<[FixedSum; 27]> = workspace
+        .buffers
+        .par_iter_mut()
+        .zip(list.pairs.par_chunks(per_chunk).chain(rayon::iter::repeat_n(&[][..], chunks)))
+        .map(|(acc, pairs)| {
+            acc.clear();
+            acc.resize(n_owned, [FixedSum::ZERO; D]);
+            let mut virial = [FixedSum::ZERO; 27];
+            for &[i, j] in pairs {
+                let (i, j) = (i as usize, j as usize);
+                let Some(t) = kernel.eval(
+                    &separation(&pos[i], &pos[j]),
+                    &separation(&vel[i], &vel[j]),
+                    (gid[i], gid[j]),
+                    step,
+                ) else {
+                    continue;
+                };
+                let f = t.parts[0] + t.parts[1] + t.parts[2];
+                let owned_j = j < n_owned;
+                for d in 0..D {
+                    let fd = f * t.e[d];
+                    acc[i][d].add(fd);
+                    if owned_j {
+                        acc[j][d].add(-fd);
+                    }
+                }
+                if want_virial {
+                    let w = if owned_j { t.r } else { 0.5 * t.r };
+                    for (part, &p) in t.parts.iter().enumerate() {
+                        let s = w * p;
+                        for a in 0..D {
+                            for b in 0..D {
+                                virial[part * 9 + a * 3 + b].add(s * t.e[a] * t.e[b]);
+                            }
                         }
                     }
                 }
             }
-            w
+            virial
         })
         .collect();
-    let mut total = [vec![0.0; D * D], vec![0.0; D * D], vec![0.0; D * D]];
-    for w in partial {
-        for (t, p) in total.iter_mut().zip(w) {
-            for (x, y) in t.iter_mut().zip(p) {
-                *x += y;
+    let buffers = &workspace.buffers;
+    force[..n_owned]
+        .par_iter_mut()
+        .enumerate()
+        .with_min_len(1024)
+        .for_each(|(i, f)| {
+            for d in 0..D {
+                let mut s = FixedSum::ZERO;
+                for b in buffers {
+                    s.merge(&b[i][d]);
+                }
+                f[d] = s.value();
+            }
+        });
+    want_virial.then(|| {
+        let mut total = [FixedSum::ZERO; 27];
+        for v in &virials {
+            for (t, x) in total.iter_mut().zip(v) {
+                t.merge(x);
             }
         }
-    }
-    total
+        let part = |p: usize| -> Vec<f64> {
+            let mut w = vec![0.0; D * D];
+            for a in 0..D {
+                for b in 0..D {
+                    w[a * D + b] = total[p * 9 + a * 3 + b].value();
+                }
+            }
+            w
+        };
+        [part(0), part(1), part(2)]
+    })
 }
