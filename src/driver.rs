@@ -125,3 +125,29 @@ pub fn write_summary(summary: &Summary, out: &Path) -> std::io::Result<()> {
     std::fs::write(&tmp, text)?;
     std::fs::rename(tmp, out.join("summary.json"))
 }
+
+/// Runs a case on `ranks` in-process ranks (threads connected by channels), each with `threads`
+/// rayon workers, and returns rank 0's summary — what the tests use to check that results do
+/// not depend on the decomposition without launching `mpirun`.
+pub fn run_in_process(
+    loaded: &LoadedCase,
+    ranks: usize,
+    threads: usize,
+    steps: Option<u64>,
+) -> Result<Summary, String> {
+    let comms = crate::comm::local_universe(ranks);
+    let handles: Vec<_> = comms
+        .into_iter()
+        .map(|comm| {
+            let loaded = loaded.clone();
+            std::thread::spawn(move || {
+                run_case(&loaded, &comm, &RunOptions { threads, steps })
+            })
+        })
+        .collect();
+    let mut results: Vec<Result<Summary, String>> = handles
+        .into_iter()
+        .map(|h| h.join().unwrap_or_else(|_| Err("a rank thread panicked".into())))
+        .collect();
+    results.swap_remove(0)
+}

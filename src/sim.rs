@@ -160,6 +160,15 @@ impl<'c, const D: usize> Simulation<'c, D> {
         self.dpd.cutoff + self.skin
     }
 
+    /// Jumps to `step` (as a restart would) and rebuilds halo and lists there; used by tests
+    /// that need a non-zero Lees–Edwards offset.
+    pub fn jump_to_step(&mut self, step: u64) -> Result<(), String> {
+        self.step = step;
+        self.rebuild()?;
+        self.compute_forces(false);
+        Ok(())
+    }
+
     /// Migrates, rebuilds the halo and the neighbour lists.
     fn rebuild(&mut self) -> Result<(), String> {
         let t0 = Instant::now();
@@ -290,6 +299,7 @@ impl<'c, const D: usize> Simulation<'c, D> {
         self.compute_forces(want_virial);
 
         let t2 = Instant::now();
+        let n = self.particles.n_owned; // migration may have changed it
         let p = &mut self.particles;
         self.pool.install(|| {
             p.vel[..n]

@@ -1,0 +1,156 @@
+//! Corpus of malformed case files: every file in `tests/bad_cases/` must be rejected by
+//! `mesorheo::config::load` with an error that
+//! - contains every `# expect: <substring>` line of the file,
+//! - reports the line given by the file's `# at: <line>` header,
+//! - names the file.
+//!
+//! All failures are collected and reported together.
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+/// Fewest files the corpus must hold.
+const MIN_FILES: usize = 30;
+
+/// Expectations read from a bad case's header comments.
+struct Expectation {
+    substrings: Vec<String>,
+    lines: Vec<usize>,
+}
+
+fn corpus_dir() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests").join("bad_cases")
+}
+
+fn corpus() -> Vec<PathBuf> {
+    let dir = corpus_dir();
+    let mut files: Vec<PathBuf> = std::fs::read_dir(&dir)
+        .unwrap_or_else(|e| panic!("cannot read {}: {e}", dir.display()))
+        .map(|entry| entry.expect("directory entry").path())
+        .filter(|p| p.extension().is_some_and(|x| x == "toml"))
+        .collect();
+    files.sort();
+    files
+}
+
+/// Parses `# expect:` and `# at:` comment lines; errors describe a malformed header.
+fn expectation(source: &str) -> Result<Expectation, String> {
+    let mut substrings = Vec::new();
+    let mut lines = Vec::new();
+    for line in source.lines() {
+        let Some(comment) = line.trim_start().strip_prefix('#') else {
+            continue;
+        };
+        let comment = comment.trim_start();
+        if let Some(s) = comment.strip_prefix("expect:") {
+            let s = s.trim();
+            if s.is_empty() {
+                return Err("empty `# expect:` line".into());
+            }
+            substrings.push(s.to_owned());
+        } else if let Some(s) = comment.strip_prefix("at:") {
+            let n = s
+                .trim()
+                .parse::<usize>()
+                .map_err(|e| format!("`# at:` line is not a line number ({:?}: {e})", s.trim()))?;
+            lines.push(n);
+        }
+    }
+    if substrings.is_empty() {
+        return Err("no `# expect:` line".into());
+    }
+    match lines.len() {
+        0 => Err("no `# at:` line".into()),
+        1 => Ok(Expectation { substrings, lines }),
+        n => Err(format!("{n} `# at:` lines; give exactly one")),
+    }
+}
+
+/// Checks one file; returns a description of every mismatch.
+fn check(path: &Path) -> Vec<String> {
+    let mut problems = Vec::new();
+    let source = match std::fs::read_to_string(path) {
+        Ok(s) => s,
+        Err(e) => return vec![format!("cannot read the file: {e}")],
+    };
+    let exp = match expectation(&source) {
+        Ok(exp) => exp,
+        Err(e) => return vec![format!("malformed header: {e}")],
+    };
+    let expected_line = exp.lines[0];
+    let result = std::panic::catch_unwind(|| mesorheo::config::load(path));
+    let err = match result {
+        Err(panic) => {
+            let msg = panic
+                .downcast_ref::<String>()
+                .map(String::as_str)
+                .or_else(|| panic.downcast_ref::<&str>().copied())
+                .unwrap_or("(non-string payload)");
+            return vec![format!("load panicked: {msg}")];
+        }
+        Ok(Ok(_)) => {
+            return vec![format!(
+                "accepted as valid; expected an error at line {expected_line} containing {:?}",
+                exp.substrings
+            )];
+        }
+        Ok(Err(err)) => err,
+    };
+    let shown = err.to_string();
+    for s in &exp.substrings {
+        if !shown.contains(s.as_str()) {
+            problems.push(format!("message lacks {s:?}"));
+        }
+    }
+    if err.line != expected_line {
+        problems.push(format!("line {} instead of {expected_line}", err.line));
+    }
+    let name = path.file_name().unwrap().to_string_lossy();
+    if !shown.contains(name.as_ref()) {
+        problems.push(format!("message does not name the file {name:?}"));
+    }
+    if !problems.is_empty() {
+        problems.push(format!("actual error: {shown}"));
+    }
+    problems
+}
+
+#[test]
+fn every_bad_case_is_rejected_with_a_located_helpful_error() {
+    let files = corpus();
+    assert!(
+        files.len() >= MIN_FILES,
+        "tests/bad_cases holds {} case files; the corpus needs at least {MIN_FILES}",
+        files.len()
+    );
+    let mut report = String::new();
+    let mut failing = 0;
+    for path in &files {
+        let problems = check(path);
+        if problems.is_empty() {
+            continue;
+        }
+        failing += 1;
+        let name = path.file_name().unwrap().to_string_lossy();
+        let _ = writeln!(report, "{name}:");
+        for p in problems {
+            let _ = writeln!(report, "    {p}");
+        }
+    }
+    assert!(
+        failing == 0,
+        "{failing} of {} bad cases failed:\n{report}",
+        files.len()
+    );
+}
+
+#[test]
+fn expectation_headers_are_parsed() {
+    let exp = expectation("# expect: a\n#expect: b\n# at: 7\nx = 1\n").unwrap();
+    assert_eq!(exp.substrings, ["a", "b"]);
+    assert_eq!(exp.lines, [7]);
+    assert!(expectation("# at: 3\n").is_err());
+    assert!(expectation("# expect: a\n").is_err());
+    assert!(expectation("# expect: a\n# at: x\n").is_err());
+    assert!(expectation("# expect: a\n# at: 1\n# at: 2\n").is_err());
+}

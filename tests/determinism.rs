@@ -1,0 +1,80 @@
+//! Determinism across decompositions: the same case gives a bitwise identical final state
+//! (`state_digest`: ids, positions, velocities, forces, image counts) for 1–4 in-process ranks
+//! and 1–2 rayon threads per rank, with and without Lees–Edwards shear (DESIGN.md rule 5).
+
+mod common;
+use common::{case_from_str, small_dpd};
+use mesorheo::driver::run_in_process;
+
+fn digests(text: &str, name: &str) -> Vec<(usize, usize, String)> {
+    let loaded = case_from_str(text, name);
+    let mut out = Vec::new();
+    for ranks in 1..=4 {
+        for threads in 1..=2 {
+            let s = run_in_process(&loaded, ranks, threads, None)
+                .unwrap_or_else(|e| panic!("{name} on {ranks} ranks × {threads} threads: {e}"));
+            assert_eq!(s.steps, 200);
+            out.push((ranks, threads, s.state_digest));
+        }
+    }
+    out
+}
+
+fn assert_all_equal(name: &str, d: &[(usize, usize, String)]) {
+    let first = &d[0].2;
+    for (r, t, x) in d {
+        assert_eq!(x, first, "{name}: {r} ranks × {t} threads differs from 1 × 1");
+    }
+}
+
+#[test]
+fn periodic_dpd_3d_is_bitwise_identical_on_1_to_4_ranks_and_1_to_2_threads() {
+    let d = digests(&small_dpd(3, 6.0, 0.0, 200, ""), "periodic_3d");
+    assert_all_equal("periodic 3D", &d);
+}
+
+#[test]
+fn sheared_dpd_2d_is_bitwise_identical_on_1_to_4_ranks_and_1_to_2_threads() {
+    let d = digests(&small_dpd(2, 8.0, 0.5, 200, ""), "lees_edwards_2d");
+    assert_all_equal("Lees–Edwards 2D", &d);
+}
+
+#[test]
+fn sheared_dpd_3d_is_bitwise_identical_on_1_to_4_ranks_and_1_to_2_threads() {
+    let d = digests(&small_dpd(3, 6.0, 0.3, 200, ""), "lees_edwards_3d");
+    assert_all_equal("Lees–Edwards 3D", &d);
+}
+
+#[test]
+fn slabs_along_z_under_shear_give_the_same_state_as_slabs_along_y() {
+    let y = case_from_str(&small_dpd(3, 6.0, 0.3, 200, ""), "y");
+    let z = case_from_str(
+        &small_dpd(3, 6.0, 0.3, 200, "[decomposition]\naxis = \"z\"\n"),
+        "z",
+    );
+    let a = run_in_process(&y, 2, 1, None).expect("y slabs");
+    let b = run_in_process(&z, 3, 2, None).expect("z slabs");
+    // Different slab axes build the self-images in a different order, so the ghosts' arithmetic
+    // differs; both must still be decomposition-invariant within themselves (tested above) and
+    // agree physically. Here we require the same particle count and temperature within noise.
+    assert_eq!(a.particles, b.particles);
+    let (ta, tb) = (a.observables["temperature"].mean, b.observables["temperature"].mean);
+    assert!((ta - tb).abs() < 0.05, "{ta} vs {tb}");
+}
+
+#[test]
+fn a_different_seed_gives_a_different_trajectory() {
+    let a = case_from_str(&small_dpd(3, 6.0, 0.0, 20, ""), "a");
+    let text = small_dpd(3, 6.0, 0.0, 20, "").replace("seed = 11", "seed = 12");
+    let b = case_from_str(&text, "b");
+    let da = run_in_process(&a, 1, 1, None).expect("a").state_digest;
+    let db = run_in_process(&b, 1, 1, None).expect("b").state_digest;
+    assert_ne!(da, db);
+}
+
+#[test]
+fn too_many_ranks_for_the_slab_width_is_refused_with_the_usable_maximum() {
+    let loaded = case_from_str(&small_dpd(3, 6.0, 0.0, 10, ""), "thin");
+    let err = run_in_process(&loaded, 5, 1, None).expect_err("slabs 1.2 < 1.3");
+    assert!(err.contains("at most 4 ranks"), "{err}");
+}
