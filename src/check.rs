@@ -27,7 +27,14 @@ pub fn report(case: &Case, ranks: usize) -> String {
         s.push_str(&t);
         s.push('\n');
     };
-    line(format!("case: {}", if case.title.is_empty() { "(untitled)" } else { &case.title }));
+    line(format!(
+        "case: {}",
+        if case.title.is_empty() {
+            "(untitled)"
+        } else {
+            &case.title
+        }
+    ));
     line(format!(
         "particles: {n} ({}; lattice cells {:?}), number density {density:.4} (asked {})",
         format!("{:?}", case.particles.lattice).to_lowercase(),
@@ -77,13 +84,21 @@ pub fn report(case: &Case, ranks: usize) -> String {
         ok(lim.dissipative),
         lim.conservative,
         ok(lim.conservative),
-        if dt <= 0.06 { "ok" } else { "expect k_BT errors > few %" }
+        if dt <= 0.06 {
+            "ok"
+        } else {
+            "expect k_BT errors > few %"
+        }
     ));
     let slab = l_axis / ranks as f64;
     line(format!(
         "decomposition: slabs along {}, {ranks} rank(s) → width {slab:.3} (needs ≥ {range}); at most {max_ranks} ranks [{}]",
         ["x", "y", "z"][axis],
-        if ranks <= max_ranks { "ok" } else { "TOO MANY RANKS" }
+        if ranks <= max_ranks {
+            "ok"
+        } else {
+            "TOO MANY RANKS"
+        }
     ));
     let owned = n as f64 / ranks as f64;
     let ghosts = if ranks == 1 {

@@ -155,6 +155,11 @@ mod tests {
         let expected = (1.0f64 / 12.0 / 20_000.0).sqrt();
         assert!((e.mean - 0.5).abs() < 5.0 * expected);
         // The block estimate of the error has ~1/√(2·19) ≈ 16 % relative spread.
-        assert!((e.stderr / expected - 1.0).abs() < 0.5, "{} vs {}", e.stderr, expected);
+        assert!(
+            (e.stderr / expected - 1.0).abs() < 0.5,
+            "{} vs {}",
+            e.stderr,
+            expected
+        );
     }
 }

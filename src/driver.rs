@@ -140,14 +140,15 @@ pub fn run_in_process(
         .into_iter()
         .map(|comm| {
             let loaded = loaded.clone();
-            std::thread::spawn(move || {
-                run_case(&loaded, &comm, &RunOptions { threads, steps })
-            })
+            std::thread::spawn(move || run_case(&loaded, &comm, &RunOptions { threads, steps }))
         })
         .collect();
     let mut results: Vec<Result<Summary, String>> = handles
         .into_iter()
-        .map(|h| h.join().unwrap_or_else(|_| Err("a rank thread panicked".into())))
+        .map(|h| {
+            h.join()
+                .unwrap_or_else(|_| Err("a rank thread panicked".into()))
+        })
         .collect();
     results.swap_remove(0)
 }

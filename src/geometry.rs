@@ -121,12 +121,14 @@ impl<const D: usize> SimBox<D> {
                 Boundary::Periodic => {
                     while pos[axis] >= length {
                         self.shift_position(pos, axis, -1, offset);
-                        vels.iter_mut().for_each(|v| self.shift_velocity(v, axis, -1));
+                        vels.iter_mut()
+                            .for_each(|v| self.shift_velocity(v, axis, -1));
                         image[axis] += 1;
                     }
                     while pos[axis] < 0.0 {
                         self.shift_position(pos, axis, 1, offset);
-                        vels.iter_mut().for_each(|v| self.shift_velocity(v, axis, 1));
+                        vels.iter_mut()
+                            .for_each(|v| self.shift_velocity(v, axis, 1));
                         image[axis] -= 1;
                         if pos[axis] >= length {
                             // −tiny + L rounded up to L: the particle sits on the lower face.

@@ -12,7 +12,11 @@ use tracing_subscriber::util::SubscriberInitExt;
 use tracing_subscriber::{EnvFilter, Layer, fmt};
 
 #[derive(Parser)]
-#[command(name = "mesorheo", version, about = "Particle solver for polymeric and viscoelastic flows")]
+#[command(
+    name = "mesorheo",
+    version,
+    about = "Particle solver for polymeric and viscoelastic flows"
+)]
 struct Cli {
     /// Only warnings and errors on the console.
     #[arg(long, short, global = true)]

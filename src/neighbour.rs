@@ -14,7 +14,6 @@
 use crate::particles::Particles;
 use rayon::prelude::*;
 
-
 /// The Verlet pair list of this rank.
 #[derive(Clone, Debug, Default)]
 pub struct NeighbourList<const D: usize> {
@@ -82,7 +81,10 @@ impl<const D: usize> CellGrid<D> {
             start: vec![0; total + 1],
             sorted: vec![0; pos.len()],
         };
-        let cells: Vec<u32> = pos.iter().map(|p| grid.flat(&grid.coords(p)) as u32).collect();
+        let cells: Vec<u32> = pos
+            .iter()
+            .map(|p| grid.flat(&grid.coords(p)) as u32)
+            .collect();
         for &c in &cells {
             grid.start[c as usize + 1] += 1;
         }
@@ -102,7 +104,8 @@ impl<const D: usize> CellGrid<D> {
     pub fn coords(&self, p: &[f64; D]) -> [usize; D] {
         let mut c = [0usize; D];
         for d in 0..D {
-            c[d] = (((p[d] - self.lo[d]) * self.inv_cell[d]).max(0.0) as usize).min(self.ncell[d] - 1);
+            c[d] =
+                (((p[d] - self.lo[d]) * self.inv_cell[d]).max(0.0) as usize).min(self.ncell[d] - 1);
         }
         c
     }
@@ -177,7 +180,15 @@ impl<const D: usize> NeighbourList<D> {
                     for ia in a..b {
                         let pi = &sorted_pos[ia];
                         let i = grid.sorted[ia];
-                        candidates(pi, i, &grid.sorted[ia + 1..b], &sorted_pos[ia + 1..b], r2, n_owned, &mut scratch);
+                        candidates(
+                            pi,
+                            i,
+                            &grid.sorted[ia + 1..b],
+                            &sorted_pos[ia + 1..b],
+                            r2,
+                            n_owned,
+                            &mut scratch,
+                        );
                     }
                     // Forward neighbour cells.
                     'stencil: for o in &stencil {
@@ -196,7 +207,15 @@ impl<const D: usize> NeighbourList<D> {
                         }
                         for ia in a..b {
                             let i = grid.sorted[ia];
-                            candidates(&sorted_pos[ia], i, &grid.sorted[fa..fb], &sorted_pos[fa..fb], r2, n_owned, &mut scratch);
+                            candidates(
+                                &sorted_pos[ia],
+                                i,
+                                &grid.sorted[fa..fb],
+                                &sorted_pos[fa..fb],
+                                r2,
+                                n_owned,
+                                &mut scratch,
+                            );
                         }
                     }
                     pairs.append(&mut scratch);

@@ -271,7 +271,10 @@ mod tests {
         let (m1, m2, m4) = (m1 / nf, m2 / nf, m4 / nf);
         assert!(m1.abs() < 5.0 / nf.sqrt(), "mean {m1}");
         assert!((m2 - 1.0).abs() < 5.0 * (2.0 / nf).sqrt(), "variance {m2}");
-        assert!((m4 - 3.0).abs() < 5.0 * (96.0 / nf).sqrt(), "fourth moment {m4}");
+        assert!(
+            (m4 - 3.0).abs() < 5.0 * (96.0 / nf).sqrt(),
+            "fourth moment {m4}"
+        );
     }
 
     /// Pair keys are symmetric by construction and neighbouring keys are uncorrelated:
@@ -330,7 +333,10 @@ mod tests {
         assert!(m1.abs() < 5.0 / nf.sqrt(), "mean {m1}");
         assert!((m2 - 1.0).abs() < 5.0 * (2.0 / nf).sqrt(), "variance {m2}");
         assert!(m3.abs() < 5.0 * (15.0 / nf).sqrt(), "third moment {m3}");
-        assert!((m4 - 3.0).abs() < 5.0 * (96.0 / nf).sqrt(), "fourth moment {m4}");
+        assert!(
+            (m4 - 3.0).abs() < 5.0 * (96.0 / nf).sqrt(),
+            "fourth moment {m4}"
+        );
         for (count, p) in [(t3, 2.699_796_063e-3), (t4, 6.334_248_4e-5)] {
             let expected = p * nf;
             assert!(

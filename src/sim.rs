@@ -224,7 +224,15 @@ impl<'c, const D: usize> Simulation<'c, D> {
             &mut self.workspace,
         );
         let virial = self.pool.install(|| {
-            compute_forces(dpd, particles, list, step, workspace, &mut force, want_virial)
+            compute_forces(
+                dpd,
+                particles,
+                list,
+                step,
+                workspace,
+                &mut force,
+                want_virial,
+            )
         });
         self.particles.force = force;
         if let Some(v) = virial {
@@ -243,7 +251,10 @@ impl<'c, const D: usize> Simulation<'c, D> {
         let saved = self.particles.force.clone();
         self.compute_forces(true);
         self.particles.force = saved;
-        self.virial.as_ref().map(|(_, v)| v.clone()).unwrap_or_default()
+        self.virial
+            .as_ref()
+            .map(|(_, v)| v.clone())
+            .unwrap_or_default()
     }
 
     /// Advances one time step.
@@ -253,19 +264,21 @@ impl<'c, const D: usize> Simulation<'c, D> {
         let n = self.particles.n_owned;
         {
             let p = &mut self.particles;
-            self.pool.install(|| p.pos[..n]
-                .par_iter_mut()
-                .zip(p.vel[..n].par_iter_mut())
-                .zip(p.vel_half.par_iter_mut())
-                .zip(p.force.par_iter())
-                .for_each(|(((x, v), vh), f)| {
-                    for d in 0..D {
-                        let acc = f[d] * inv_m;
-                        x[d] += dt * v[d] + 0.5 * dt * dt * acc;
-                        vh[d] = v[d] + 0.5 * dt * acc;
-                        v[d] += lambda * dt * acc;
-                    }
-                }));
+            self.pool.install(|| {
+                p.pos[..n]
+                    .par_iter_mut()
+                    .zip(p.vel[..n].par_iter_mut())
+                    .zip(p.vel_half.par_iter_mut())
+                    .zip(p.force.par_iter())
+                    .for_each(|(((x, v), vh), f)| {
+                        for d in 0..D {
+                            let acc = f[d] * inv_m;
+                            x[d] += dt * v[d] + 0.5 * dt * dt * acc;
+                            vh[d] = v[d] + 0.5 * dt * acc;
+                            v[d] += lambda * dt * acc;
+                        }
+                    })
+            });
         }
         self.step += 1;
         self.times.integrate += t0.elapsed().as_secs_f64();
@@ -275,9 +288,7 @@ impl<'c, const D: usize> Simulation<'c, D> {
         let mut moved = [self.pool.install(|| list.max_displacement(particles))];
         self.comm.allreduce_max(&mut moved);
         let drift = if self.sim_box.sheared() {
-            self.sim_box.le_velocity_jump()
-                * dt
-                * (self.step - self.halo.step_at_build()) as f64
+            self.sim_box.le_velocity_jump() * dt * (self.step - self.halo.step_at_build()) as f64
         } else {
             0.0
         };
@@ -347,7 +358,8 @@ impl<'c, const D: usize> Simulation<'c, D> {
             1
         };
         let ly = self.sim_box.lengths[GRADIENT];
-        let bin_of = |y: f64| -> usize { ((y / ly * bins as f64).floor().max(0.0) as usize).min(bins - 1) };
+        let bin_of =
+            |y: f64| -> usize { ((y / ly * bins as f64).floor().max(0.0) as usize).min(bins - 1) };
         let n = self.particles.n_owned;
         let m = self.mass;
         let (pos, vel) = (&self.particles.pos[..n], &self.particles.vel[..n]);
@@ -412,8 +424,7 @@ impl<'c, const D: usize> Simulation<'c, D> {
                     (0..D).map(|a| pt(a, a)).sum::<f64>() / D as f64,
                 )),
                 Observable::Stress => {
-                    let all: Vec<&Vec<f64>> =
-                        std::iter::once(&total).chain(parts.iter()).collect();
+                    let all: Vec<&Vec<f64>> = std::iter::once(&total).chain(parts.iter()).collect();
                     for (part, tensor) in STRESS_PARTS.iter().zip(all) {
                         for (a, b, c) in tensor_components(D) {
                             out.scalars
@@ -424,10 +435,9 @@ impl<'c, const D: usize> Simulation<'c, D> {
                 Observable::Viscosity => out
                     .scalars
                     .push(("viscosity".into(), -pt(0, 1) / self.sim_box.shear_rate)),
-                Observable::FirstNormalStressDifference => out.scalars.push((
-                    "first_normal_stress_difference".into(),
-                    pt(1, 1) - pt(0, 0),
-                )),
+                Observable::FirstNormalStressDifference => out
+                    .scalars
+                    .push(("first_normal_stress_difference".into(), pt(1, 1) - pt(0, 0))),
                 Observable::SecondNormalStressDifference => out.scalars.push((
                     "second_normal_stress_difference".into(),
                     pt(2, 2) - pt(1, 1),
@@ -460,7 +470,11 @@ impl<'c, const D: usize> Simulation<'c, D> {
             words.extend(p.force[i].iter().map(|x| x.to_bits()));
             words.extend(p.image[i].iter().map(|&k| k as u32 as u64));
             for f in &p.extra {
-                words.extend(f.data[i * f.width..(i + 1) * f.width].iter().map(|x| x.to_bits()));
+                words.extend(
+                    f.data[i * f.width..(i + 1) * f.width]
+                        .iter()
+                        .map(|x| x.to_bits()),
+                );
             }
             for f in &p.var {
                 words.push(f.data[i].len() as u64);

@@ -19,7 +19,9 @@ struct Expectation {
 }
 
 fn corpus_dir() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests").join("bad_cases")
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests")
+        .join("bad_cases")
 }
 
 fn corpus() -> Vec<PathBuf> {

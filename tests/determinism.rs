@@ -23,7 +23,10 @@ fn digests(text: &str, name: &str) -> Vec<(usize, usize, String)> {
 fn assert_all_equal(name: &str, d: &[(usize, usize, String)]) {
     let first = &d[0].2;
     for (r, t, x) in d {
-        assert_eq!(x, first, "{name}: {r} ranks × {t} threads differs from 1 × 1");
+        assert_eq!(
+            x, first,
+            "{name}: {r} ranks × {t} threads differs from 1 × 1"
+        );
     }
 }
 
@@ -58,7 +61,10 @@ fn slabs_along_z_under_shear_give_the_same_state_as_slabs_along_y() {
     // differs; both must still be decomposition-invariant within themselves (tested above) and
     // agree physically. Here we require the same particle count and temperature within noise.
     assert_eq!(a.particles, b.particles);
-    let (ta, tb) = (a.observables["temperature"].mean, b.observables["temperature"].mean);
+    let (ta, tb) = (
+        a.observables["temperature"].mean,
+        b.observables["temperature"].mean,
+    );
     assert!((ta - tb).abs() < 0.05, "{ta} vs {tb}");
 }
 

@@ -56,7 +56,11 @@ fn check<const D: usize>(text: &str, ranks: usize, step: u64) {
                 sim.jump_to_step(step).expect("rebuild");
                 let p = &sim.particles;
                 let n = p.n_owned;
-                let owned = (p.gid[..n].to_vec(), p.pos[..n].to_vec(), p.vel[..n].to_vec());
+                let owned = (
+                    p.gid[..n].to_vec(),
+                    p.pos[..n].to_vec(),
+                    p.vel[..n].to_vec(),
+                );
                 let _ = comm.rank();
                 (listed(&sim), owned, sim.sim_box.clone(), sim.list.radius)
             })
@@ -139,7 +143,10 @@ fn check<const D: usize>(text: &str, ranks: usize, step: u64) {
         }
     }
     for k in found.keys() {
-        assert!(reference.contains_key(k), "spurious pair {k:?} ({ranks} ranks, step {step})");
+        assert!(
+            reference.contains_key(k),
+            "spurious pair {k:?} ({ranks} ranks, step {step})"
+        );
     }
 }
 
@@ -150,9 +157,15 @@ fn lists_match_brute_force_in_2d_and_3d_with_lees_edwards_offsets() {
     // boxes away along x appear).
     for (seed, step3, step2) in [(1u64, 0u64, 0u64), (2, 37, 13), (3, 35, 27), (4, 517, 111)] {
         for ranks in 1..=3 {
-            let text3 = small_dpd(3, 4.0, 0.7, 10, "").replace("seed = 11", &format!("seed = {seed}"));
-            check::<3>(&text3.replace("density = 3.0", "density = 1.5"), ranks, step3);
-            let text2 = small_dpd(2, 7.0, 0.9, 10, "").replace("seed = 11", &format!("seed = {seed}"));
+            let text3 =
+                small_dpd(3, 4.0, 0.7, 10, "").replace("seed = 11", &format!("seed = {seed}"));
+            check::<3>(
+                &text3.replace("density = 3.0", "density = 1.5"),
+                ranks,
+                step3,
+            );
+            let text2 =
+                small_dpd(2, 7.0, 0.9, 10, "").replace("seed = 11", &format!("seed = {seed}"));
             check::<2>(&text2, ranks, step2);
             configs += 2;
         }

@@ -20,7 +20,10 @@ pub fn validate(case: &Case, ix: &SpanIndex) -> Result<(), CaseError> {
     let dim = case.dimension;
     let err = |keys: &[&str], msg: String| Err(ix.error(&path(keys), msg));
     if dim != 2 && dim != 3 {
-        return err(&["dimension"], format!("found {dim}; valid values are 2 and 3"));
+        return err(
+            &["dimension"],
+            format!("found {dim}; valid values are 2 and 3"),
+        );
     }
     // [box]
     let lengths = &case.domain.lengths;
@@ -46,15 +49,22 @@ pub fn validate(case: &Case, ix: &SpanIndex) -> Result<(), CaseError> {
     {
         return err(
             &["box", "boundaries"],
-            format!("found {} boundaries for a {dim}-dimensional case; give exactly {dim}", b.len()),
+            format!(
+                "found {} boundaries for a {dim}-dimensional case; give exactly {dim}",
+                b.len()
+            ),
         );
     }
     let boundaries = case.boundaries();
     let shear = case.domain.shear_rate;
     if !shear.is_finite() {
-        return err(&["box", "shear_rate"], format!("found {shear}; must be a finite number"));
+        return err(
+            &["box", "shear_rate"],
+            format!("found {shear}; must be a finite number"),
+        );
     }
-    if shear != 0.0 && (boundaries[0] != Boundary::Periodic || boundaries[1] != Boundary::Periodic) {
+    if shear != 0.0 && (boundaries[0] != Boundary::Periodic || boundaries[1] != Boundary::Periodic)
+    {
         return err(
             &["box", "shear_rate"],
             "Lees–Edwards shear needs periodic x (flow) and y (gradient) axes; set \
@@ -81,10 +91,16 @@ pub fn validate(case: &Case, ix: &SpanIndex) -> Result<(), CaseError> {
     // [particles]
     let p = &case.particles;
     if !(p.density.is_finite() && p.density > 0.0) {
-        return err(&["particles", "density"], format!("found {}; must be > 0", p.density));
+        return err(
+            &["particles", "density"],
+            format!("found {}; must be > 0", p.density),
+        );
     }
     if !(p.mass.is_finite() && p.mass > 0.0) {
-        return err(&["particles", "mass"], format!("found {}; must be > 0", p.mass));
+        return err(
+            &["particles", "mass"],
+            format!("found {}; must be > 0", p.mass),
+        );
     }
     if !(p.temperature.is_finite() && p.temperature >= 0.0) {
         return err(
@@ -118,7 +134,10 @@ pub fn validate(case: &Case, ix: &SpanIndex) -> Result<(), CaseError> {
     let FluidCfg::Dpd(dpd) = &case.fluid;
     let fl = |key: &str| vec![k("fluid"), k(key)];
     if !(dpd.a.is_finite() && dpd.a >= 0.0) {
-        return Err(ix.error(&fl("a"), format!("found {}; the repulsion a must be ≥ 0", dpd.a)));
+        return Err(ix.error(
+            &fl("a"),
+            format!("found {}; the repulsion a must be ≥ 0", dpd.a),
+        ));
     }
     if !(dpd.gamma.is_finite() && dpd.gamma > 0.0) {
         return Err(ix.error(
@@ -145,12 +164,18 @@ pub fn validate(case: &Case, ix: &SpanIndex) -> Result<(), CaseError> {
     // [integrator]
     let IntegratorCfg::GrootWarren(gw) = &case.integrator;
     if !(gw.dt.is_finite() && gw.dt > 0.0) {
-        return err(&["integrator", "dt"], format!("found {}; must be > 0", gw.dt));
+        return err(
+            &["integrator", "dt"],
+            format!("found {}; must be > 0", gw.dt),
+        );
     }
     if !(gw.lambda.is_finite() && (0.0..=1.0).contains(&gw.lambda)) {
         return err(
             &["integrator", "lambda"],
-            format!("found {}; λ must lie in [0, 1] (0.5 plain velocity Verlet, 0.65 Groot–Warren)", gw.lambda),
+            format!(
+                "found {}; λ must lie in [0, 1] (0.5 plain velocity Verlet, 0.65 Groot–Warren)",
+                gw.lambda
+            ),
         );
     }
     // [neighbour]
@@ -198,7 +223,10 @@ pub fn validate(case: &Case, ix: &SpanIndex) -> Result<(), CaseError> {
     // [run]
     let r = &case.run;
     if r.steps == 0 {
-        return err(&["run", "steps"], "found 0; a run needs at least one step".into());
+        return err(
+            &["run", "steps"],
+            "found 0; a run needs at least one step".into(),
+        );
     }
     if r.sample_every == 0 {
         return err(&["run", "sample_every"], "found 0; must be ≥ 1".into());
@@ -215,18 +243,27 @@ pub fn validate(case: &Case, ix: &SpanIndex) -> Result<(), CaseError> {
     if !(r.progress_seconds.is_finite() && r.progress_seconds >= 0.0) {
         return err(
             &["run", "progress_seconds"],
-            format!("found {}; must be ≥ 0 (0 turns progress lines off)", r.progress_seconds),
+            format!(
+                "found {}; must be ≥ 0 (0 turns progress lines off)",
+                r.progress_seconds
+            ),
         );
     }
     // [diagnostics]
     let d = &case.diagnostics;
     if d.profile_bins == 0 {
-        return err(&["diagnostics", "profile_bins"], "found 0; must be ≥ 1".into());
+        return err(
+            &["diagnostics", "profile_bins"],
+            "found 0; must be ≥ 1".into(),
+        );
     }
     if d.blocks < 2 {
         return err(
             &["diagnostics", "blocks"],
-            format!("found {}; block averaging needs at least 2 blocks", d.blocks),
+            format!(
+                "found {}; block averaging needs at least 2 blocks",
+                d.blocks
+            ),
         );
     }
     for (i, o) in d.observables.iter().enumerate() {
@@ -278,12 +315,18 @@ pub fn validate(case: &Case, ix: &SpanIndex) -> Result<(), CaseError> {
                     ));
                 }
                 if !(v.tolerance.is_finite() && v.tolerance > 0.0) {
-                    return Err(ix.error(&at("tolerance"), format!("found {}; must be > 0", v.tolerance)));
+                    return Err(ix.error(
+                        &at("tolerance"),
+                        format!("found {}; must be > 0", v.tolerance),
+                    ));
                 }
                 if !v.value.is_finite() || (v.metric == Metric::RelativeError && v.value == 0.0) {
                     return Err(ix.error(
                         &at("value"),
-                        format!("found {}; must be finite (and ≠ 0 for a relative error)", v.value),
+                        format!(
+                            "found {}; must be finite (and ≠ 0 for a relative error)",
+                            v.value
+                        ),
                     ));
                 }
             }
@@ -297,7 +340,10 @@ pub fn validate(case: &Case, ix: &SpanIndex) -> Result<(), CaseError> {
                     ));
                 }
                 if !(pr.tolerance.is_finite() && pr.tolerance > 0.0) {
-                    return Err(ix.error(&at("tolerance"), format!("found {}; must be > 0", pr.tolerance)));
+                    return Err(ix.error(
+                        &at("tolerance"),
+                        format!("found {}; must be > 0", pr.tolerance),
+                    ));
                 }
             }
         }

@@ -142,7 +142,13 @@ impl HaloPlan {
         k: i32,
         offset: f64,
     ) -> Vec<f64> {
-        let width = 1 + 2 * D + if self.with_extra { particles.extra_width() } else { 0 };
+        let width = 1
+            + 2 * D
+            + if self.with_extra {
+                particles.extra_width()
+            } else {
+                0
+            };
         let mut buf = Vec::with_capacity(list.len() * width);
         for &i in list {
             let i = i as usize;
@@ -178,7 +184,12 @@ impl HaloPlan {
     }
 
     fn record_width<const D: usize>(&self, particles: &Particles<D>) -> usize {
-        1 + 2 * D + if self.with_extra { particles.extra_width() } else { 0 }
+        1 + 2 * D
+            + if self.with_extra {
+                particles.extra_width()
+            } else {
+                0
+            }
     }
 
     /// Appends received ghosts (build time).
@@ -189,7 +200,11 @@ impl HaloPlan {
         for buf in [a, b] {
             for rec in buf.chunks_exact(width) {
                 let (p, v) = split_record::<D>(rec);
-                let extra = if self.with_extra { &rec[1 + 2 * D..] } else { &zeros[..] };
+                let extra = if self.with_extra {
+                    &rec[1 + 2 * D..]
+                } else {
+                    &zeros[..]
+                };
                 particles.push_ghost(rec[0].to_bits(), p, v, extra);
             }
         }

@@ -91,7 +91,11 @@ pub fn compute_forces<const D: usize, K: PairKernel<D>>(
     let virials: Vec<[FixedSum; 27]> = workspace
         .buffers
         .par_iter_mut()
-        .zip(list.pairs.par_chunks(per_chunk).chain(rayon::iter::repeat_n(&[][..], chunks)))
+        .zip(
+            list.pairs
+                .par_chunks(per_chunk)
+                .chain(rayon::iter::repeat_n(&[][..], chunks)),
+        )
         .map(|(acc, pairs)| {
             acc.clear();
             acc.resize(n_owned, [FixedSum::ZERO; D]);

@@ -17,7 +17,9 @@ pub fn case_from_str(text: &str, name: &str) -> LoadedCase {
 
 /// Loads a stock case from `cases/`.
 pub fn stock_case(name: &str) -> LoadedCase {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("cases").join(name);
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("cases")
+        .join(name);
     config::load(&path).unwrap_or_else(|e| panic!("{e}"))
 }
 

@@ -1,0 +1,136 @@
+//! The key reference cannot drift: `docs/case-reference.md` is what `mesorheo keys` prints, and
+//! the documented keys are exactly the fields the case structs serialise (a case using every
+//! key and every reference kind, parsed and written back, gives the set of key paths).
+
+mod common;
+use common::case_from_str;
+use mesorheo::config::reference::{KEYS, render_markdown};
+use std::collections::BTreeSet;
+
+const EVERY_KEY: &str = r#"
+title = "every key"
+dimension = 3
+seed = 3
+[box]
+lengths = [10.0, 10.0, 10.0]
+boundaries = ["periodic", "periodic", "wall"]
+shear_rate = 0.1
+[decomposition]
+axis = "y"
+[particles]
+lattice = "fcc"
+density = 3.0
+mass = 1.0
+temperature = 1.0
+velocity_profile = "shear"
+[fluid]
+kind = "dpd"
+a = 25.0
+gamma = 4.5
+kt = 1.0
+cutoff = 1.0
+weight_exponent = 2.0
+noise = "uniform"
+[integrator]
+kind = "groot_warren"
+dt = 0.02
+lambda = 0.65
+[neighbour]
+skin = 0.3
+[run]
+steps = 100
+equilibration = 10
+sample_every = 5
+progress_seconds = 1.0
+[diagnostics]
+observables = ["temperature", "velocity_profile"]
+profile_bins = 4
+blocks = 4
+[[reference]]
+kind = "value"
+name = "t"
+observable = "temperature"
+value = 1.0
+metric = "relative_error"
+tolerance = 0.1
+source = "s"
+[[reference]]
+kind = "linear_shear_profile"
+name = "p"
+tolerance = 0.1
+"#;
+
+fn paths(prefix: &str, v: &toml::Value, out: &mut BTreeSet<String>) {
+    match v {
+        toml::Value::Table(t) => {
+            for (k, x) in t {
+                let p = if prefix.is_empty() {
+                    k.clone()
+                } else {
+                    format!("{prefix}.{k}")
+                };
+                paths(&p, x, out);
+            }
+        }
+        toml::Value::Array(a) if a.iter().all(|x| x.is_table()) && !a.is_empty() => {
+            for x in a {
+                paths(&format!("{prefix}[]"), x, out);
+            }
+        }
+        _ => {
+            out.insert(prefix.to_owned());
+        }
+    }
+}
+
+#[test]
+fn documented_keys_are_exactly_the_parsed_keys() {
+    let loaded = case_from_str(EVERY_KEY, "every_key.toml");
+    let text = toml::to_string(&loaded.case).expect("serialise");
+    let value: toml::Value = toml::from_str(&text).expect("re-parse");
+    let mut found = BTreeSet::new();
+    paths("", &value, &mut found);
+    let documented: BTreeSet<String> = KEYS.iter().map(|k| k.path.to_owned()).collect();
+    let missing: Vec<_> = found.difference(&documented).collect();
+    let stale: Vec<_> = documented.difference(&found).collect();
+    assert!(
+        missing.is_empty(),
+        "keys without documentation: {missing:?}"
+    );
+    assert!(
+        stale.is_empty(),
+        "documented keys the parser does not know: {stale:?}"
+    );
+    // The case itself uses every documented key.
+    let mut in_text = BTreeSet::new();
+    paths(
+        "",
+        &toml::from_str::<toml::Value>(EVERY_KEY).expect("toml"),
+        &mut in_text,
+    );
+    assert_eq!(in_text, documented);
+}
+
+#[test]
+fn docs_case_reference_is_up_to_date() {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/case-reference.md");
+    let on_disk = std::fs::read_to_string(&path).expect("docs/case-reference.md");
+    assert!(
+        on_disk == render_markdown(),
+        "docs/case-reference.md is stale: regenerate with `mesorheo keys > docs/case-reference.md`"
+    );
+}
+
+#[test]
+fn every_stock_case_is_valid() {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("cases");
+    let mut n = 0;
+    for entry in std::fs::read_dir(dir).expect("cases/") {
+        let path = entry.expect("entry").path();
+        if path.extension().is_some_and(|e| e == "toml") {
+            mesorheo::config::load(&path).unwrap_or_else(|e| panic!("{e}"));
+            n += 1;
+        }
+    }
+    assert!(n >= 6);
+}

@@ -1,0 +1,99 @@
+//! DPD physics against known answers: the thermostat (fluctuation–dissipation), the pressure of
+//! the Groot–Warren fluid, momentum conservation, and the linear profile of Lees–Edwards shear.
+//! Each stock scene carries its `[[reference]]` checks; here they must all pass.
+
+mod common;
+use common::{case_from_str, small_dpd, stock_case};
+use mesorheo::comm::SerialComm;
+use mesorheo::driver::run_in_process;
+use mesorheo::sim::Simulation;
+
+fn assert_validations_pass(name: &str, ranks: usize, threads: usize) {
+    let loaded = stock_case(name);
+    let s = run_in_process(&loaded, ranks, threads, None).unwrap_or_else(|e| panic!("{e}"));
+    assert!(!s.validation.is_empty(), "{name} carries no reference");
+    for v in &s.validation {
+        assert!(
+            v.pass,
+            "{name}: {} — {} = {} > tolerance {}",
+            v.name, v.metric, v.value, v.tolerance
+        );
+    }
+}
+
+/// k_BT within 2 % and p within 2 % of LAMMPS's 23.86 at ρ = 3, a = 25, γ = 4.5, Δt = 0.04,
+/// λ = 0.65 (3D); thermostat and momentum in 2D.
+#[test]
+fn equilibrium_temperature_and_pressure_match_references() {
+    assert_validations_pass("dpd_equilibrium_3d.toml", 1, 2);
+    assert_validations_pass("dpd_equilibrium_2d.toml", 2, 1);
+}
+
+/// Linear profile through the Lees–Edwards plane (no kink), thermostat, momentum: 2D on 2 ranks.
+#[test]
+fn lees_edwards_shear_profile_is_linear_through_the_plane() {
+    assert_validations_pass("dpd_shear_2d.toml", 2, 1);
+}
+
+/// Total (peculiar) momentum stays at its initial value to round-off, with and without shear.
+#[test]
+fn momentum_is_conserved_to_round_off() {
+    for (dim, shear) in [(3usize, 0.0), (3, 0.5), (2, 0.5)] {
+        let text = small_dpd(
+            dim,
+            6.0,
+            shear,
+            10,
+            "[diagnostics]\nobservables = [\"momentum\"]\n",
+        );
+        let loaded = case_from_str(&text, "momentum");
+        let comm = SerialComm::new();
+        let worst = if dim == 3 {
+            let mut sim = Simulation::<3>::new(&loaded.case, &comm, 1).expect("setup");
+            drift(&mut sim)
+        } else {
+            let mut sim = Simulation::<2>::new(&loaded.case, &comm, 1).expect("setup");
+            drift(&mut sim)
+        };
+        // ~600 particles with |m v| ~ 1: round-off of the sum is ~1e-13.
+        assert!(
+            worst < 1e-10,
+            "{dim}D shear {shear}: momentum drift {worst}"
+        );
+    }
+}
+
+fn drift<const D: usize>(sim: &mut Simulation<D>) -> f64 {
+    let p0: Vec<f64> = sim.measure().scalars.iter().map(|(_, v)| *v).collect();
+    let mut worst = 0.0f64;
+    for _ in 0..20 {
+        sim.run_steps(25, |_| {}).expect("steps");
+        let p: Vec<f64> = sim.measure().scalars.iter().map(|(_, v)| *v).collect();
+        for (a, b) in p.iter().zip(&p0) {
+            worst = worst.max((a - b).abs());
+        }
+    }
+    worst
+}
+
+/// Forces sum to zero exactly for owned–owned pairs; with images, to round-off.
+#[test]
+fn forces_sum_to_zero() {
+    let loaded = case_from_str(&small_dpd(3, 6.0, 0.4, 10, ""), "forces");
+    let comm = SerialComm::new();
+    let sim = Simulation::<3>::new(&loaded.case, &comm, 2).expect("setup");
+    let mut total = [0.0f64; 3];
+    let mut scale = 0.0f64;
+    for f in &sim.particles.force[..sim.particles.n_owned] {
+        for d in 0..3 {
+            total[d] += f[d];
+            scale = scale.max(f[d].abs());
+        }
+    }
+    for t in total {
+        assert!(
+            t.abs() < 1e-11 * scale * sim.particles.n_owned as f64,
+            "{total:?}"
+        );
+    }
+}
