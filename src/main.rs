@@ -40,9 +40,12 @@ enum Command {
         /// rayon threads per rank (0: all cores available to the rank).
         #[arg(long, short = 't', default_value_t = 0)]
         threads: usize,
-        /// Override the case's run.steps.
+        /// Override the case's run.steps (validated like the file).
         #[arg(long)]
         steps: Option<u64>,
+        /// Override any key: `--set integrator.dt=0.02` (repeatable; TOML values).
+        #[arg(long = "set", value_name = "KEY=VALUE")]
+        overrides: Vec<String>,
     },
     /// Validate a case and print particle count, neighbours, dimensionless groups, time-step
     /// limits, memory and cost.
@@ -52,6 +55,9 @@ enum Command {
         /// Rank count to check the decomposition for.
         #[arg(long, short = 'n', default_value_t = 1)]
         ranks: usize,
+        /// Override any key: `--set integrator.dt=0.02` (repeatable; TOML values).
+        #[arg(long = "set", value_name = "KEY=VALUE")]
+        overrides: Vec<String>,
     },
     /// Print the case-file key reference (Markdown).
     Keys,
@@ -79,7 +85,11 @@ fn main() -> ExitCode {
             }
             ExitCode::SUCCESS
         }
-        Command::Check { case, ranks } => match config::load(&case) {
+        Command::Check {
+            case,
+            ranks,
+            overrides,
+        } => match config::load_with_overrides(&case, &overrides) {
             Ok(loaded) => {
                 if root {
                     print!("{}", mesorheo::check::report(&loaded.case, ranks.max(1)));
@@ -98,7 +108,21 @@ fn main() -> ExitCode {
             out,
             threads,
             steps,
-        } => run(&*comm, &case, &out, threads, steps, cli.quiet, cli.verbose),
+            mut overrides,
+        } => {
+            if let Some(n) = steps {
+                overrides.push(format!("run.steps={n}"));
+            }
+            run(
+                &*comm,
+                &case,
+                &out,
+                threads,
+                &overrides,
+                cli.quiet,
+                cli.verbose,
+            )
+        }
     }
 }
 
@@ -107,12 +131,12 @@ fn run(
     case: &std::path::Path,
     out: &std::path::Path,
     threads: usize,
-    steps: Option<u64>,
+    overrides: &[String],
     quiet: bool,
     verbose: bool,
 ) -> ExitCode {
     let root = comm.rank() == 0;
-    let loaded = match config::load(case) {
+    let loaded = match config::load_with_overrides(case, overrides) {
         Ok(l) => l,
         Err(e) => {
             if root {
@@ -128,7 +152,10 @@ fn run(
             return ExitCode::FAILURE;
         }
     };
-    let options = RunOptions { threads, steps };
+    let options = RunOptions {
+        threads,
+        steps: None,
+    };
     match run_case(&loaded, comm, &options) {
         Ok(summary) => {
             if root {

@@ -39,7 +39,6 @@ fn dist2<const D: usize>(a: &[f64; D], b: &[f64; D]) -> f64 {
 pub struct CellGrid<const D: usize> {
     lo: [f64; D],
     inv_cell: [f64; D],
-    cell: [f64; D],
     /// Cells per axis.
     pub ncell: [usize; D],
     /// `start[c]..start[c+1]` indexes `sorted` for cell c.
@@ -61,13 +60,11 @@ impl<const D: usize> CellGrid<D> {
         }
         let mut ncell = [1usize; D];
         let mut inv_cell = [0.0; D];
-        let mut cell = [width; D];
         for d in 0..D {
             if !pos.is_empty() {
                 let extent = (hi[d] - lo[d]).max(f64::MIN_POSITIVE);
                 ncell[d] = ((extent / width).floor() as usize).clamp(1, 1 << 16);
                 inv_cell[d] = ncell[d] as f64 / extent;
-                cell[d] = extent / ncell[d] as f64;
             } else {
                 lo[d] = 0.0;
             }
@@ -76,7 +73,6 @@ impl<const D: usize> CellGrid<D> {
         let mut grid = CellGrid {
             lo,
             inv_cell,
-            cell,
             ncell,
             start: vec![0; total + 1],
             sorted: vec![0; pos.len()],

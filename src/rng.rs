@@ -202,7 +202,7 @@ impl HashStream {
 }
 
 const ZIG_LAYERS: usize = 256;
-const ZIG_R: f64 = 3.654_152_885_361_008_8;
+const ZIG_R: f64 = 3.654_152_885_361_009;
 const ZIG_V: f64 = 0.004_928_673_233_99;
 
 struct Ziggurat {

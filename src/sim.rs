@@ -103,7 +103,7 @@ impl<'c, const D: usize> Simulation<'c, D> {
         };
         let skin = case.neighbour.skin;
         let range = case.cutoff() + skin;
-        if slab.width() < range {
+        if comm.size() > 1 && slab.width() < range {
             let max_ranks = (lengths[axis] / range).floor().max(1.0) as usize;
             return Err(format!(
                 "{} ranks give slabs {:.4} wide along {}, thinner than cutoff + skin = {range}; \
@@ -115,16 +115,7 @@ impl<'c, const D: usize> Simulation<'c, D> {
         }
         let IntegratorCfg::GrootWarren(gw) = &case.integrator;
         let FluidCfg::Dpd(d) = &case.fluid;
-        let dpd = Dpd::new(
-            d.a,
-            d.gamma,
-            d.kt,
-            d.cutoff,
-            d.weight_exponent,
-            d.noise,
-            gw.dt,
-            case.seed,
-        );
+        let dpd = Dpd::new(d, gw.dt, case.seed);
         let (particles, total) = initial_particles(case, &sim_box, &slab);
         let pool = rayon::ThreadPoolBuilder::new()
             .num_threads(threads)
@@ -330,7 +321,7 @@ impl<'c, const D: usize> Simulation<'c, D> {
     /// Whether the current step is a sampling step.
     pub fn is_sample_step(&self) -> bool {
         let r = &self.case.run;
-        self.step > r.equilibration && self.step % r.sample_every == 0
+        self.step > r.equilibration && self.step.is_multiple_of(r.sample_every)
     }
 
     /// Samples every observable the case asked for (collective).

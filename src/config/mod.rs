@@ -7,6 +7,7 @@
 
 pub mod reference;
 mod spans;
+mod tagged;
 mod validate;
 
 use crate::geometry::Boundary;
@@ -422,9 +423,117 @@ pub fn load(path: &Path) -> Result<LoadedCase, CaseError> {
     })
 }
 
+/// Reads a case file, applies `key.path=value` overrides (as `--set` on the command line gives
+/// them; values are TOML literals, bare words are taken as strings), then parses and validates
+/// the result, so an override is checked like any other key.
+pub fn load_with_overrides(path: &Path, overrides: &[String]) -> Result<LoadedCase, CaseError> {
+    let mut loaded = load_text(path)?;
+    if overrides.is_empty() {
+        let case = parse(&loaded.source, path)?;
+        loaded.case = case;
+        return Ok(loaded);
+    }
+    let bad = |message: String| CaseError {
+        file: path.display().to_string(),
+        line: 0,
+        column: 0,
+        key: String::new(),
+        message,
+    };
+    let mut doc: toml_edit::DocumentMut = loaded
+        .source
+        .parse()
+        .map_err(|e: toml_edit::TomlError| bad(format!("invalid TOML: {}", e.message())))?;
+    for o in overrides {
+        let Some((key, value)) = o.split_once('=') else {
+            return Err(bad(format!(
+                "--set {o}: expected KEY=VALUE, e.g. integrator.dt=0.02"
+            )));
+        };
+        let value: toml_edit::Value = value
+            .trim()
+            .parse()
+            .unwrap_or_else(|_| toml_edit::Value::from(value.trim()));
+        let parts: Vec<&str> = key.trim().split('.').collect();
+        let mut table = doc.as_table_mut();
+        for part in &parts[..parts.len() - 1] {
+            let entry = table
+                .entry(part)
+                .or_insert_with(|| toml_edit::Item::Table(toml_edit::Table::new()));
+            table = entry
+                .as_table_mut()
+                .ok_or_else(|| bad(format!("--set {o}: `{part}` is not a table")))?;
+        }
+        table.insert(parts[parts.len() - 1], toml_edit::value(value));
+    }
+    loaded.source = doc.to_string();
+    let display = PathBuf::from(format!("{} (with --set overrides)", path.display()));
+    loaded.case = parse(&loaded.source, &display)?;
+    Ok(loaded)
+}
+
+fn load_text(path: &Path) -> Result<LoadedCase, CaseError> {
+    let source = std::fs::read_to_string(path).map_err(|e| CaseError {
+        file: path.display().to_string(),
+        line: 0,
+        column: 0,
+        key: String::new(),
+        message: format!("cannot read the case file: {e}"),
+    })?;
+    Ok(LoadedCase {
+        case: placeholder_case(),
+        path: path.to_path_buf(),
+        source,
+    })
+}
+
+fn placeholder_case() -> Case {
+    Case {
+        title: String::new(),
+        dimension: 0,
+        seed: 0,
+        domain: BoxCfg {
+            lengths: vec![],
+            boundaries: None,
+            shear_rate: 0.0,
+        },
+        decomposition: DecompositionCfg::default(),
+        particles: ParticlesCfg {
+            lattice: Lattice::Cubic,
+            density: 0.0,
+            mass: 1.0,
+            temperature: 0.0,
+            velocity_profile: VelocityProfile::Auto,
+        },
+        fluid: FluidCfg::Dpd(DpdCfg {
+            a: 0.0,
+            gamma: 0.0,
+            kt: 0.0,
+            cutoff: 1.0,
+            weight_exponent: 2.0,
+            noise: Noise::Gaussian,
+        }),
+        integrator: IntegratorCfg::GrootWarren(GrootWarrenCfg {
+            dt: 0.0,
+            lambda: 0.5,
+        }),
+        neighbour: NeighbourCfg::default(),
+        run: RunCfg {
+            steps: 0,
+            equilibration: 0,
+            sample_every: 1,
+            progress_seconds: 0.0,
+        },
+        diagnostics: DiagnosticsCfg::default(),
+        reference: vec![],
+    }
+}
+
 /// Parses and validates case text (`path` is used in messages).
 pub fn parse(source: &str, path: &Path) -> Result<Case, CaseError> {
     let index = spans::SpanIndex::new(source, path)?;
+    let table: toml::Table = toml::from_str(source).map_err(|e| index.syntax_error(&e))?;
+    tagged::precheck(&table, &index)?;
     let de = toml::Deserializer::parse(source).map_err(|e| index.syntax_error(&e))?;
     let case: Case = serde_path_to_error::deserialize(de).map_err(|e| index.serde_error(&e))?;
     validate::validate(&case, &index)?;
@@ -447,22 +556,33 @@ impl Case {
         }
     }
 
-    /// Particles per lattice axis and the total, as the initialiser will create them.
+    /// Particles per lattice axis and the total, as the initialiser will create them
+    /// (saturating at `u64::MAX` for absurd boxes, which validation then refuses).
     pub fn lattice_counts(&self) -> (Vec<usize>, u64) {
         let basis = self.particles.lattice.basis(self.dimension) as f64;
         let lengths = &self.domain.lengths;
+        let to_count = |x: f64| {
+            if x >= u64::MAX as f64 {
+                u64::MAX
+            } else {
+                x.max(0.0) as u64
+            }
+        };
         if self.particles.lattice == Lattice::Random {
             let volume: f64 = lengths.iter().product();
-            let n = (self.particles.density * volume).round().max(0.0) as u64;
-            return (vec![], n);
+            return (vec![], to_count((self.particles.density * volume).round()));
         }
         let spacing = (basis / self.particles.density).powf(1.0 / self.dimension as f64);
-        let cells: Vec<usize> = lengths
+        let per_axis: Vec<f64> = lengths
             .iter()
-            .map(|l| (l / spacing).round().max(1.0) as usize)
+            .map(|l| (l / spacing).round().max(1.0))
             .collect();
-        let n = cells.iter().map(|&c| c as u64).product::<u64>() * basis as u64;
-        (cells, n)
+        let total = per_axis.iter().product::<f64>() * basis;
+        let cells = per_axis
+            .iter()
+            .map(|&c| c.min(usize::MAX as f64) as usize)
+            .collect();
+        (cells, to_count(total))
     }
 
     /// Whether an observable was asked for.

@@ -79,12 +79,17 @@ impl<'a> SpanIndex<'a> {
                     .span()
                     .map(|s| line_col(source, s.start))
                     .unwrap_or((1, 1));
+                let text = source
+                    .lines()
+                    .nth(line.saturating_sub(1))
+                    .unwrap_or("")
+                    .trim();
                 Err(CaseError {
                     file,
                     line,
                     column,
                     key: String::new(),
-                    message: format!("invalid TOML: {}", e.message().trim()),
+                    message: format!("invalid TOML: {} (in `{text}`)", e.message().trim()),
                 })
             }
         }
@@ -175,51 +180,36 @@ impl<'a> SpanIndex<'a> {
 
     /// A structural error (unknown key, missing key, wrong type) from serde.
     pub fn serde_error(&self, e: &serde_path_to_error::Error<toml::de::Error>) -> CaseError {
-        let mut path: Vec<Segment> = Vec::new();
-        for seg in e.path().iter() {
-            match seg {
-                serde_path_to_error::Segment::Map { key } => path.push(Segment::Key(key.clone())),
-                serde_path_to_error::Segment::Seq { index } => path.push(Segment::Index(*index)),
-                _ => {}
-            }
-        }
-        let raw = e.inner().message().trim().to_owned();
-        let message = explain(&raw);
+        let span = e.inner().span();
+        self.structural_error(&segments(e.path()), e.inner().message(), span)
+    }
+
+    /// A structural error at `path` (relative to the document root) with serde's message.
+    pub fn structural_error(
+        &self,
+        path: &[Segment],
+        raw: &str,
+        span: Option<std::ops::Range<usize>>,
+    ) -> CaseError {
+        let raw = raw.trim();
+        let message = explain(raw);
+        let mut path = path.to_vec();
         // Point at the offending key itself when serde names it.
-        if let Some(name) = backticked_after(&raw, "unknown field") {
-            let mut p = path.clone();
-            p.push(Segment::Key(name));
-            let (line, column) = self.locate(&p);
-            return CaseError {
-                file: self.file.clone(),
-                line,
-                column,
-                key: render(&p),
-                message,
-            };
+        if let Some(name) = backticked_after(raw, "unknown field") {
+            if path.last() != Some(&Segment::Key(name.clone())) {
+                path.push(Segment::Key(name));
+            }
+            return self.error(&path, message);
         }
-        if let Some(name) = backticked_after(&raw, "missing field") {
+        if let Some(name) = backticked_after(raw, "missing field") {
             let mut err = self.error(&path, message);
-            let mut p = path.clone();
-            p.push(Segment::Key(name));
-            err.key = render(&p);
+            path.push(Segment::Key(name));
+            err.key = render(&path);
             return err;
         }
-        if raw.starts_with("unknown variant") && !path.is_empty() {
-            // Internally tagged tables report the variant at the table; point at `kind`.
-            let mut p = path.clone();
-            if self.locate_exact(&[&p[..], &[Segment::Key("kind".into())]].concat()) {
-                p.push(Segment::Key("kind".into()));
-            }
-            return self.error(&p, message);
-        }
-        let (line, column) = if path.is_empty() {
-            e.inner()
-                .span()
-                .map(|s| line_col(self.source, s.start))
-                .unwrap_or((1, 1))
-        } else {
-            self.locate(&path)
+        let (line, column) = match (path.is_empty(), span) {
+            (true, Some(s)) => line_col(self.source, s.start),
+            _ => self.locate(&path),
         };
         CaseError {
             file: self.file.clone(),
@@ -228,10 +218,6 @@ impl<'a> SpanIndex<'a> {
             key: render(&path),
             message,
         }
-    }
-
-    fn locate_exact(&self, path: &[Segment]) -> bool {
-        self.walk(path).0 == path.len()
     }
 }
 
@@ -252,6 +238,19 @@ impl Node<'_> {
     }
 }
 
+/// serde_path_to_error's path as our segments.
+pub fn segments(path: &serde_path_to_error::Path) -> Vec<Segment> {
+    let mut out = Vec::new();
+    for seg in path.iter() {
+        match seg {
+            serde_path_to_error::Segment::Map { key } => out.push(Segment::Key(key.clone())),
+            serde_path_to_error::Segment::Seq { index } => out.push(Segment::Index(*index)),
+            _ => {}
+        }
+    }
+    out
+}
+
 fn backticked_after(msg: &str, prefix: &str) -> Option<String> {
     let rest = msg.strip_prefix(prefix)?.trim_start();
     let rest = rest.strip_prefix('`')?;
@@ -261,16 +260,24 @@ fn backticked_after(msg: &str, prefix: &str) -> Option<String> {
 
 /// serde's messages with the vocabulary of a case file.
 fn explain(raw: &str) -> String {
-    let s = raw
-        .replace("unknown field", "unknown key")
-        .replace("missing field", "missing required key")
-        .replace("expected one of", "valid keys here are")
-        .replace("unknown variant", "unknown choice");
-    if s.starts_with("unknown key") && !s.contains("valid keys") {
-        format!("{s}; this table takes no further keys")
-    } else {
-        s
+    if raw.starts_with("unknown variant") {
+        return raw
+            .replace("unknown variant", "unknown choice")
+            .replace("expected one of", "valid choices are")
+            .replace(", expected", ", valid choices are");
     }
+    if raw.starts_with("unknown field") {
+        return raw
+            .replace("unknown field", "unknown key")
+            .replace("expected one of", "valid keys here are")
+            .replace(", expected", ", the valid key here is")
+            .replace("there are no fields", "this table takes no keys");
+    }
+    raw.replace("missing field", "missing required key")
+        .replace(
+            "wanted string or table",
+            "expected one of the listed names (a string)",
+        )
 }
 
 /// 1-based line and column of a byte offset.

@@ -15,6 +15,9 @@ fn path(keys: &[&str]) -> Vec<Segment> {
 /// Largest particle count the 32-bit id fields of the random-number keys support.
 pub const MAX_PARTICLES: u64 = u32::MAX as u64;
 
+/// Upper bound for bin and block counts (beyond it memory, not statistics, is the limit).
+const MAX_BINS: usize = 100_000;
+
 /// All value checks; the first failure is reported.
 pub fn validate(case: &Case, ix: &SpanIndex) -> Result<(), CaseError> {
     let dim = case.dimension;
@@ -77,7 +80,7 @@ pub fn validate(case: &Case, ix: &SpanIndex) -> Result<(), CaseError> {
     if axis >= dim {
         return err(
             &["decomposition", "axis"],
-            format!("found \"z\" in a 2-dimensional case; valid axes are \"x\" and \"y\""),
+            "found \"z\" in a 2-dimensional case; valid axes are \"x\" and \"y\"".to_string(),
         );
     }
     if shear != 0.0 && axis == 0 {
@@ -127,7 +130,11 @@ pub fn validate(case: &Case, ix: &SpanIndex) -> Result<(), CaseError> {
     if n > MAX_PARTICLES {
         return err(
             &["particles", "density"],
-            format!("{n} particles exceed the supported maximum {MAX_PARTICLES}"),
+            format!(
+                "the box would hold {:.3e} particles, more than the supported maximum \
+                 {MAX_PARTICLES} (32-bit ids key the random numbers); shrink the box or the density",
+                n as f64
+            ),
         );
     }
     // [fluid]
@@ -184,6 +191,18 @@ pub fn validate(case: &Case, ix: &SpanIndex) -> Result<(), CaseError> {
         return err(&["neighbour", "skin"], format!("found {skin}; must be > 0"));
     }
     let range = dpd.cutoff + skin;
+    for (i, l) in lengths.iter().enumerate() {
+        if *l < range {
+            return Err(ix.error(
+                &[k("box"), k("lengths"), Segment::Index(i)],
+                format!(
+                    "L = {l} along {} is shorter than cutoff + skin = {range}; the box must be at \
+                     least one interaction range wide (twice that on periodic axes)",
+                    ["x", "y", "z"][i]
+                ),
+            ));
+        }
+    }
     for (i, (l, b)) in lengths.iter().zip(&boundaries).enumerate() {
         if *b == Boundary::Periodic && range > 0.5 * l {
             return Err(ix.error(
@@ -251,10 +270,16 @@ pub fn validate(case: &Case, ix: &SpanIndex) -> Result<(), CaseError> {
     }
     // [diagnostics]
     let d = &case.diagnostics;
-    if d.profile_bins == 0 {
+    if d.profile_bins == 0 || d.profile_bins > MAX_BINS {
         return err(
             &["diagnostics", "profile_bins"],
-            "found 0; must be ≥ 1".into(),
+            format!("found {}; must be between 1 and {MAX_BINS}", d.profile_bins),
+        );
+    }
+    if d.blocks > MAX_BINS {
+        return err(
+            &["diagnostics", "blocks"],
+            format!("found {}; must be between 2 and {MAX_BINS}", d.blocks),
         );
     }
     if d.blocks < 2 {
@@ -267,6 +292,15 @@ pub fn validate(case: &Case, ix: &SpanIndex) -> Result<(), CaseError> {
         );
     }
     for (i, o) in d.observables.iter().enumerate() {
+        if d.observables[..i].contains(o) {
+            return Err(ix.error(
+                &[k("diagnostics"), k("observables"), Segment::Index(i)],
+                format!(
+                    "\"{}\" is listed twice; list each observable once",
+                    o.name()
+                ),
+            ));
+        }
         let needs_shear = matches!(
             o,
             Observable::Viscosity
@@ -305,12 +339,16 @@ pub fn validate(case: &Case, ix: &SpanIndex) -> Result<(), CaseError> {
         match rf {
             ReferenceCfg::Value(v) => {
                 if !scalars.iter().any(|s| s == &v.observable) {
+                    let valid = if scalars.is_empty() {
+                        "none — add the observable to diagnostics.observables".to_owned()
+                    } else {
+                        scalars.join(", ")
+                    };
                     return Err(ix.error(
                         &at("observable"),
                         format!(
-                            "found \"{}\", which this case does not measure; valid: {}",
-                            v.observable,
-                            scalars.join(", ")
+                            "found \"{}\", which this case does not measure; measured here: {valid}",
+                            v.observable
                         ),
                     ));
                 }

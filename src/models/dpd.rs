@@ -14,6 +14,7 @@
 //! `noise = "uniform"` gives √3(2u − 1), Groot–Warren's choice.
 //! With s = 2 this is standard DPD; s = 1/2 is the thesis's "modified" weight.
 
+use crate::config::DpdCfg;
 use crate::models::pair_loop::{PairKernel, PairTerms};
 use crate::rng::{HashStream, Purpose};
 use serde::{Deserialize, Serialize};
@@ -53,24 +54,15 @@ pub struct Dpd {
 
 impl Dpd {
     /// A DPD fluid for time step `dt` and the case seed.
-    pub fn new(
-        a: f64,
-        gamma: f64,
-        kt: f64,
-        cutoff: f64,
-        weight_exponent: f64,
-        noise: Noise,
-        dt: f64,
-        seed: u64,
-    ) -> Self {
-        let sigma = (2.0 * gamma * kt).sqrt();
+    pub fn new(cfg: &DpdCfg, dt: f64, seed: u64) -> Self {
+        let sigma = (2.0 * cfg.gamma * cfg.kt).sqrt();
         Self {
-            a,
-            gamma,
-            kt,
-            cutoff,
-            weight_exponent,
-            noise,
+            a: cfg.a,
+            gamma: cfg.gamma,
+            kt: cfg.kt,
+            cutoff: cfg.cutoff,
+            weight_exponent: cfg.weight_exponent,
+            noise: cfg.noise,
             sigma_over_sqrt_dt: sigma / dt.sqrt(),
             seed,
         }
@@ -145,7 +137,15 @@ mod tests {
 
     #[test]
     fn pair_force_is_antisymmetric_and_matches_hand_values() {
-        let dpd = Dpd::new(25.0, 4.5, 1.0, 1.0, 2.0, Noise::Gaussian, 0.04, 7);
+        let cfg = DpdCfg {
+            a: 25.0,
+            gamma: 4.5,
+            kt: 1.0,
+            cutoff: 1.0,
+            weight_exponent: 2.0,
+            noise: Noise::Gaussian,
+        };
+        let dpd = Dpd::new(&cfg, 0.04, 7);
         let r = [0.3, -0.4, 0.0];
         let v = [1.0, 0.5, -0.2];
         let t: PairTerms<3> = dpd.eval(&r, &v, (3, 9), 11).expect("inside the cutoff");

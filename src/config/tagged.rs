@@ -1,0 +1,90 @@
+//! Tables selected by `kind` (`[fluid]`, `[integrator]`, `[[reference]]`).
+//!
+//! serde buffers an internally tagged table before it knows the variant, which loses the key
+//! path of errors inside it. So each such table is first checked on its own: `kind` must name a
+//! known variant, then the rest of the table is deserialised into that variant's struct with
+//! path tracking, so a wrong type or an unknown choice names its own key and line.
+
+use super::spans::{Segment, SpanIndex, segments};
+use super::{CaseError, DpdCfg, GrootWarrenCfg, ProfileReference, ValueReference};
+use serde::de::DeserializeOwned;
+
+type Check = fn(toml::Value) -> Result<(), serde_path_to_error::Error<toml::de::Error>>;
+
+fn check<T: DeserializeOwned>(
+    v: toml::Value,
+) -> Result<(), serde_path_to_error::Error<toml::de::Error>> {
+    serde_path_to_error::deserialize::<_, T>(v).map(|_| ())
+}
+
+const FLUIDS: &[(&str, Check)] = &[("dpd", check::<DpdCfg>)];
+const INTEGRATORS: &[(&str, Check)] = &[("groot_warren", check::<GrootWarrenCfg>)];
+const REFERENCES: &[(&str, Check)] = &[
+    ("value", check::<ValueReference>),
+    ("linear_shear_profile", check::<ProfileReference>),
+];
+
+/// Checks every tagged table present in the document.
+pub fn precheck(doc: &toml::Table, ix: &SpanIndex) -> Result<(), CaseError> {
+    for (name, variants) in [("fluid", FLUIDS), ("integrator", INTEGRATORS)] {
+        if let Some(toml::Value::Table(t)) = doc.get(name) {
+            one(t, vec![Segment::Key(name.into())], variants, ix)?;
+        }
+    }
+    if let Some(toml::Value::Array(refs)) = doc.get("reference") {
+        for (i, r) in refs.iter().enumerate() {
+            if let toml::Value::Table(t) = r {
+                let path = vec![Segment::Key("reference".into()), Segment::Index(i)];
+                one(t, path, REFERENCES, ix)?;
+            }
+        }
+    }
+    Ok(())
+}
+
+fn one(
+    table: &toml::Table,
+    path: Vec<Segment>,
+    variants: &[(&str, Check)],
+    ix: &SpanIndex,
+) -> Result<(), CaseError> {
+    let names: Vec<String> = variants.iter().map(|(n, _)| format!("`{n}`")).collect();
+    let mut kind_path = path.clone();
+    kind_path.push(Segment::Key("kind".into()));
+    let kind = match table.get("kind") {
+        None => {
+            let mut e = ix.error(
+                &path,
+                format!(
+                    "missing required key `kind`; valid choices are {}",
+                    names.join(", ")
+                ),
+            );
+            e.key = super::spans::render(&kind_path);
+            return Err(e);
+        }
+        Some(toml::Value::String(k)) => k.clone(),
+        Some(other) => {
+            return Err(ix.error(
+                &kind_path,
+                format!("found {other}; `kind` must be one of {}", names.join(", ")),
+            ));
+        }
+    };
+    let Some((_, check)) = variants.iter().find(|(n, _)| *n == kind) else {
+        return Err(ix.error(
+            &kind_path,
+            format!(
+                "unknown choice `{kind}`; valid choices are {}",
+                names.join(", ")
+            ),
+        ));
+    };
+    let mut rest = table.clone();
+    rest.remove("kind");
+    check(toml::Value::Table(rest)).map_err(|e| {
+        let mut full = path.clone();
+        full.extend(segments(e.path()));
+        ix.structural_error(&full, e.inner().message(), None)
+    })
+}
