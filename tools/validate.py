@@ -1,0 +1,92 @@
+#!/usr/bin/env python3
+"""Long validations of mesorheo (`./run validate [NAME]`); prints Markdown for docs/validation.md
+and writes plots to docs/ when matplotlib is available.
+
+  kt_vs_dt       k_BT and p of the Groot–Warren fluid vs Δt for λ = 0.5 and 0.65 (3D, ρ = 3)
+  viscosity      η, N₁, N₂ of Lees–Edwards shear vs run length (stability of the estimate)
+  stock          every stock case with a [[reference]] on 2 ranks: all checks must pass
+"""
+import json, os, subprocess, sys, tempfile
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+BIN = os.environ.get("MESORHEO_BIN", os.path.join(ROOT, "target/mpi/release/mesorheo"))
+ENV = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
+
+
+def run(case, sets=(), ranks=1, threads=2):
+    with tempfile.TemporaryDirectory() as out:
+        cmd = ["mpirun", "-n", str(ranks), "--oversubscribe", "--bind-to", "none", BIN, "run",
+               os.path.join(ROOT, "cases", case), "--out", out, "-t", str(threads), "-q"]
+        for s in sets:
+            cmd += ["--set", s]
+        p = subprocess.run(cmd, env=ENV, capture_output=True, text=True)
+        if p.returncode not in (0, 3):
+            sys.exit(f"failed: {' '.join(cmd)}\n{p.stderr}")
+        with open(os.path.join(out, "summary.json")) as f:
+            return json.load(f)
+
+
+def fmt(e):
+    return f"{e['mean']:.4f} ± {e['stderr']:.4f}"
+
+
+def kt_vs_dt():
+    print("### k_BT and pressure vs Δt (Groot–Warren fluid, 3D, ρ = 3, a = 25, γ = 4.5, 1536 particles, t = 80)\n")
+    print("| λ | Δt | steps | k_BT | rel. error | p | wall s |")
+    print("|---|---|---|---|---|---|---|")
+    points = []
+    for lam in (0.5, 0.65):
+        for dt in (0.01, 0.02, 0.03, 0.04, 0.05, 0.06):
+            steps = int(round(80 / dt))
+            s = run("dpd_equilibrium_3d.toml", [f"integrator.dt={dt}", f"integrator.lambda={lam}",
+                                                f"run.steps={steps}", f"run.equilibration={int(10/dt)}",
+                                                f"run.sample_every={max(1, int(0.4/dt))}"])
+            t, p = s["observables"]["temperature"], s["observables"]["pressure"]
+            points.append((lam, dt, t["mean"], t["stderr"]))
+            print(f"| {lam} | {dt} | {steps} | {fmt(t)} | {100*(t['mean']-1):+.2f} % | {fmt(p)} | {s['wall_seconds']:.1f} |")
+    try:
+        import matplotlib
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+        fig, ax = plt.subplots(figsize=(5, 3.5))
+        for lam in (0.5, 0.65):
+            xs = [p[1] for p in points if p[0] == lam]
+            ax.errorbar(xs, [p[2] for p in points if p[0] == lam], yerr=[p[3] for p in points if p[0] == lam],
+                        fmt="o-", capsize=3, label=f"λ = {lam}")
+        ax.axhline(1.0, color="grey", ls=":"); ax.axhspan(0.98, 1.02, color="grey", alpha=0.15)
+        ax.set_xlabel("Δt"); ax.set_ylabel("k_BT (target 1)"); ax.legend()
+        fig.tight_layout(); fig.savefig(os.path.join(ROOT, "docs/kt_vs_dt.png"), dpi=120)
+        print("\n![k_BT vs Δt](kt_vs_dt.png)\n")
+    except ImportError:
+        print("\n(matplotlib not installed: no plot)\n")
+
+
+def viscosity():
+    print("### Viscosity of the sheared Groot–Warren fluid vs run length (3D, γ̇ = 0.2, 3000 particles)\n")
+    print("| steps | samples | η | N₁ | N₂ | k_BT | wall s |")
+    print("|---|---|---|---|---|---|---|")
+    for steps in (3000, 6000, 12000, 24000):
+        s = run("dpd_shear_3d.toml", [f"run.steps={steps}", "run.equilibration=1000"])
+        o = s["observables"]
+        print(f"| {steps} | {o['viscosity']['samples']} | {fmt(o['viscosity'])} | {fmt(o['first_normal_stress_difference'])} | "
+              f"{fmt(o['second_normal_stress_difference'])} | {fmt(o['temperature'])} | {s['wall_seconds']:.1f} |")
+    print()
+
+
+def stock():
+    print("### Stock cases with references (2 ranks × 1 thread)\n")
+    print("| case | check | metric | value | tolerance | pass |")
+    print("|---|---|---|---|---|---|")
+    for case in sorted(os.listdir(os.path.join(ROOT, "cases"))):
+        if not case.endswith(".toml"):
+            continue
+        s = run(case, ranks=2, threads=1)
+        for v in s["validation"]:
+            print(f"| {case} | {v['name']} | {v['metric']} | {v['value']:.4g} | {v['tolerance']:.4g} | {'PASS' if v['pass'] else 'FAIL'} |")
+    print()
+
+
+if __name__ == "__main__":
+    todo = sys.argv[1:] or ["stock", "kt_vs_dt", "viscosity"]
+    for name in todo:
+        {"kt_vs_dt": kt_vs_dt, "viscosity": viscosity, "stock": stock}[name]()
