@@ -84,3 +84,46 @@ fn too_many_ranks_for_the_slab_width_is_refused_with_the_usable_maximum() {
     let err = run_in_process(&loaded, 5, 1, None).expect_err("slabs 1.2 < 1.3");
     assert!(err.contains("at most 4 ranks"), "{err}");
 }
+
+#[test]
+fn walls_keep_particles_inside_and_are_decomposition_invariant() {
+    let text = small_dpd(
+        3,
+        6.0,
+        0.0,
+        200,
+        "[diagnostics]\nobservables = [\"temperature\", \"momentum\"]\n",
+    )
+    .replace(
+        "lengths = [6, 6, 6]",
+        "lengths = [6, 6, 6]\nboundaries = [\"periodic\", \"wall\", \"periodic\"]",
+    );
+    assert!(text.contains("wall"), "case text changed shape: {text}");
+    let loaded = case_from_str(&text, "walls");
+    let mut seen = Vec::new();
+    for ranks in [1, 2, 3] {
+        let comms = mesorheo::comm::local_universe(ranks);
+        let handles: Vec<_> = comms
+            .into_iter()
+            .map(|comm| {
+                let case = loaded.case.clone();
+                std::thread::spawn(move || {
+                    let mut sim =
+                        mesorheo::sim::Simulation::<3>::new(&case, &comm, 1).expect("setup");
+                    sim.run_steps(200, |_| {}).expect("run");
+                    let p = &sim.particles;
+                    let inside = p.pos[..p.n_owned].iter().all(|x| x[1] > -0.2 && x[1] < 6.2);
+                    (inside, sim.state_digest())
+                })
+            })
+            .collect();
+        for h in handles {
+            let (inside, digest) = h.join().expect("rank");
+            assert!(inside, "a particle left through a wall ({ranks} ranks)");
+            seen.push((ranks, digest));
+        }
+    }
+    for (r, d) in &seen {
+        assert_eq!(d, &seen[0].1, "walls: {r} ranks differ from 1");
+    }
+}
