@@ -6,6 +6,13 @@ use crate::stability::{ball_volume, dpd_limits};
 /// Bytes per owned particle (core fields) and per neighbour entry / pair.
 const BYTES_CORE: f64 = 8.0 + 4.0 * 8.0 * 3.0 + 4.0 * 3.0;
 
+/// Largest rank count whose slabs are at least cutoff + skin wide.
+pub fn max_ranks(case: &Case) -> usize {
+    let axis = case.decomposition.axis.index();
+    let range = case.cutoff() + case.neighbour.skin;
+    (case.domain.lengths[axis] / range).floor().max(1.0) as usize
+}
+
 /// The report `check` prints.
 pub fn report(case: &Case, ranks: usize) -> String {
     let FluidCfg::Dpd(d) = &case.fluid;

@@ -91,8 +91,20 @@ fn main() -> ExitCode {
             overrides,
         } => match config::load_with_overrides(&case, &overrides) {
             Ok(loaded) => {
+                let ranks = ranks.max(1);
                 if root {
-                    print!("{}", mesorheo::check::report(&loaded.case, ranks.max(1)));
+                    print!("{}", mesorheo::check::report(&loaded.case, ranks));
+                }
+                let max = mesorheo::check::max_ranks(&loaded.case);
+                if ranks > max {
+                    if root {
+                        eprintln!(
+                            "error: {} cannot run on {ranks} ranks: slabs would be thinner than \
+                             cutoff + skin; use at most {max}",
+                            case.display()
+                        );
+                    }
+                    return ExitCode::from(2);
                 }
                 ExitCode::SUCCESS
             }

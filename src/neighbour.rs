@@ -159,6 +159,12 @@ impl<const D: usize> NeighbourList<D> {
         let sorted_pos: Vec<[f64; D]> = grid.sorted.iter().map(|&j| pos[j as usize]).collect();
         let r2 = radius * radius;
         let total_cells = grid.start.len() - 1;
+        let owned_end: Vec<usize> = (0..total_cells)
+            .map(|c| {
+                let (a, b) = (grid.start[c], grid.start[c + 1]);
+                a + grid.sorted[a..b].partition_point(|&j| j < n_owned)
+            })
+            .collect();
         const CHUNK: usize = 64;
         let chunks: Vec<Vec<[u32; 2]>> = (0..total_cells.div_ceil(CHUNK))
             .into_par_iter()
@@ -172,8 +178,12 @@ impl<const D: usize> NeighbourList<D> {
                         continue;
                     }
                     let coords = grid.unflat(c);
+                    // Within a cell the owned particles come first (the counting sort is
+                    // stable and owned indices are the smallest), so ghost–ghost candidates —
+                    // never listed — are skipped wholesale.
+                    let a_ghost = owned_end[c];
                     // Own cell: each unordered pair once.
-                    for ia in a..b {
+                    for ia in a..a_ghost {
                         let pi = &sorted_pos[ia];
                         let i = grid.sorted[ia];
                         candidates(
@@ -198,16 +208,19 @@ impl<const D: usize> NeighbourList<D> {
                         }
                         let f = grid.flat(&nc);
                         let (fa, fb) = (grid.start[f], grid.start[f + 1]);
-                        if fa == fb {
+                        let f_ghost = owned_end[f];
+                        if fa == fb || (a == a_ghost && fa == f_ghost) {
                             continue;
                         }
                         for ia in a..b {
                             let i = grid.sorted[ia];
+                            // Owned i meets everything, a ghost i only the owned of cell f.
+                            let end = if ia < a_ghost { fb } else { f_ghost };
                             candidates(
                                 &sorted_pos[ia],
                                 i,
-                                &grid.sorted[fa..fb],
-                                &sorted_pos[fa..fb],
+                                &grid.sorted[fa..end],
+                                &sorted_pos[fa..end],
                                 r2,
                                 n_owned,
                                 &mut scratch,
