@@ -5,23 +5,36 @@
 //! addition is. Each term x is split exactly into
 //!
 //! ```text
-//! y = x · 2^24,   h = trunc(y) (i64),   l = trunc((y − h) · 2^52) (i64, |l| < 2^52)
+//! y = x · 2^24,   h = round(y),   l = round((y − h) · 2^52)        (both i64)
 //! ```
 //!
-//! (y − h is exact: for |y| ≥ 1 by Sterbenz's lemma, for |y| < 1 because h = 0; truncation is a
-//! single SSE2 instruction, unlike floor.)
-//!
-//! and the two words are summed as integers. The sum is exact down to 2^-76 ≈ 1.3·10⁻²³ per term
-//! and the range is |Σ| < 2^39 ≈ 5·10¹¹ — far beyond the forces and virials of any stable run.
-//! The final conversion rounds once. So the accumulated value is the exact sum correctly
-//! rounded (up to the 2^-76 truncation per term), *more* accurate than sequential f64 addition,
-//! and independent of the order of the terms, of the number of threads and of the
-//! decomposition. Pair forces can therefore be scattered from half neighbour lists in any order.
+//! and the two words are summed as integers. y − h is exact (Sterbenz), and the roundings are
+//! done with the 1.5·2^52 "magic number" (adding it leaves the rounded integer in the low
+//! mantissa bits: a float add and an integer subtract, no conversion instruction). Rounding to
+//! nearest is symmetric, so −x accumulates exactly the negative of x. The sum is exact down to
+//! 2^-77 ≈ 7·10⁻²⁴ per term; a term must satisfy |x| < 2^26 ≈ 6.7·10⁷ (callers check
+//! [`FixedSum::representable`]) and the sum |Σ| < 2^39 ≈ 5·10¹¹ — far beyond the forces and
+//! virials of any stable run. The final conversion rounds once. So the accumulated value is
+//! the exact sum correctly rounded (up to the 2^-77 rounding per term), *more* accurate than
+//! sequential f64 addition, and independent of the order of the terms, of the number of threads
+//! and of the decomposition. Pair forces can therefore be scattered from half neighbour lists in
+//! any order.
 
 /// Scale of the high word.
 const HIGH_SHIFT: f64 = (1u64 << 24) as f64;
 /// Scale of the low word relative to the high word.
 const LOW_SHIFT: f64 = (1u64 << 52) as f64;
+
+/// 1.5 · 2^52: adding it to |v| < 2^51 rounds v to an integer held in the low mantissa bits.
+const MAGIC: f64 = 6_755_399_441_055_744.0;
+
+/// round(v) as i64 and as f64, for |v| < 2^51.
+#[inline(always)]
+fn round_to_i64(v: f64) -> (i64, f64) {
+    let shifted = v + MAGIC;
+    let as_int = (shifted.to_bits() as i64).wrapping_sub(MAGIC.to_bits() as i64);
+    (as_int, shifted - MAGIC)
+}
 
 /// A fixed-point accumulator.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -34,12 +47,21 @@ impl FixedSum {
     /// Zero.
     pub const ZERO: Self = Self { high: 0, low: 0 };
 
-    /// Adds `x` (|x| < 2^39).
+    /// Largest magnitude a single term may have.
+    pub const MAX_TERM: f64 = (1u64 << 26) as f64;
+
+    /// Whether `x` can be added exactly (finite and |x| < 2^26).
+    #[inline(always)]
+    pub fn representable(x: f64) -> bool {
+        x.abs() < Self::MAX_TERM
+    }
+
+    /// Adds `x` (|x| < 2^26; see [`Self::representable`]).
     #[inline(always)]
     pub fn add(&mut self, x: f64) {
         let y = x * HIGH_SHIFT;
-        let h = y as i64;
-        let l = ((y - h as f64) * LOW_SHIFT) as i64;
+        let (h, hf) = round_to_i64(y);
+        let (l, _) = round_to_i64((y - hf) * LOW_SHIFT);
         self.high = self.high.wrapping_add(h);
         self.low = self.low.wrapping_add(l);
     }

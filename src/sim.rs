@@ -143,7 +143,7 @@ impl<'c, const D: usize> Simulation<'c, D> {
             pool,
         };
         sim.rebuild()?;
-        sim.compute_forces(true);
+        sim.compute_forces(true)?;
         Ok(sim)
     }
 
@@ -156,7 +156,7 @@ impl<'c, const D: usize> Simulation<'c, D> {
     pub fn jump_to_step(&mut self, step: u64) -> Result<(), String> {
         self.step = step;
         self.rebuild()?;
-        self.compute_forces(false);
+        self.compute_forces(false)?;
         Ok(())
     }
 
@@ -204,7 +204,9 @@ impl<'c, const D: usize> Simulation<'c, D> {
         Ok(())
     }
 
-    fn compute_forces(&mut self, want_virial: bool) {
+    /// Forces (and the virial when asked) at the current step; collective, so a blown-up pair
+    /// on any rank stops every rank with the same error.
+    fn compute_forces(&mut self, want_virial: bool) -> Result<(), String> {
         let t0 = Instant::now();
         let mut force = std::mem::take(&mut self.particles.force);
         let (dpd, particles, list, step, workspace) = (
@@ -226,10 +228,22 @@ impl<'c, const D: usize> Simulation<'c, D> {
             )
         });
         self.particles.force = force;
-        if let Some(v) = virial {
-            self.virial = Some((self.step, v));
-        }
         self.times.forces += t0.elapsed().as_secs_f64();
+        let mut failed = [if virial.is_err() { 1.0 } else { 0.0 }];
+        self.comm.allreduce_max(&mut failed);
+        match virial {
+            Ok(Some(v)) => self.virial = Some((self.step, v)),
+            Ok(None) => {}
+            Err(e) => return Err(e),
+        }
+        if failed[0] > 0.0 {
+            return Err(format!(
+                "a pair force on another rank is not finite at step {}: the run is unstable \
+                 (time step too large?)",
+                self.step
+            ));
+        }
+        Ok(())
     }
 
     /// Virial of the current forces (recomputed if the last evaluation did not keep it).
@@ -240,7 +254,8 @@ impl<'c, const D: usize> Simulation<'c, D> {
             return v.clone();
         }
         let saved = self.particles.force.clone();
-        self.compute_forces(true);
+        // The same forces were computed successfully by the step itself.
+        let _ = self.compute_forces(true);
         self.particles.force = saved;
         self.virial
             .as_ref()
@@ -298,7 +313,7 @@ impl<'c, const D: usize> Simulation<'c, D> {
             self.times.halo += t1.elapsed().as_secs_f64();
         }
         let want_virial = self.is_sample_step();
-        self.compute_forces(want_virial);
+        self.compute_forces(want_virial)?;
 
         let t2 = Instant::now();
         let n = self.particles.n_owned; // migration may have changed it

@@ -97,3 +97,18 @@ fn forces_sum_to_zero() {
         );
     }
 }
+
+/// A blown-up run (here: a repulsion far beyond anything the validated time step allows,
+/// injected past the case validation) stops with a clear error instead of producing garbage.
+#[test]
+fn an_exploding_force_is_reported_not_accumulated() {
+    let mut loaded = case_from_str(&small_dpd(3, 6.0, 0.0, 10, ""), "explode");
+    let mesorheo::config::FluidCfg::Dpd(d) = &mut loaded.case.fluid;
+    d.a = 1e12;
+    let comm = SerialComm::new();
+    let err = match Simulation::<3>::new(&loaded.case, &comm, 1) {
+        Ok(_) => panic!("a 1e12 repulsion must be refused"),
+        Err(e) => e,
+    };
+    assert!(err.contains("unstable"), "{err}");
+}

@@ -66,6 +66,11 @@ pub fn separation<const D: usize>(a: &[f64; D], b: &[f64; D]) -> [f64; D] {
 /// Virial Σ r_ij ⊗ F_ij per part [conservative, dissipative, random], flattened D×D.
 pub type Virial = [Vec<f64>; 3];
 
+/// One chunk's virial accumulators: 3 parts × a 3×3 tensor (the 2D case uses the top-left 2×2).
+type ChunkVirial = [FixedSum; 27];
+/// A pair whose force could not be accumulated: (id, id, force).
+type BadPair = (u64, u64, f64);
+
 /// Reusable accumulators of the pair loop.
 #[derive(Default)]
 pub struct PairWorkspace<const D: usize> {
@@ -73,7 +78,7 @@ pub struct PairWorkspace<const D: usize> {
 }
 
 /// Evaluates all listed pairs and writes the force on every owned particle into `force`;
-/// returns the virial when asked.
+/// returns the virial when asked, or an error if a pair force is not finite (a blown-up run).
 pub fn compute_forces<const D: usize, K: PairKernel<D>>(
     kernel: &K,
     particles: &Particles<D>,
@@ -82,13 +87,13 @@ pub fn compute_forces<const D: usize, K: PairKernel<D>>(
     workspace: &mut PairWorkspace<D>,
     force: &mut [[f64; D]],
     want_virial: bool,
-) -> Option<Virial> {
+) -> Result<Option<Virial>, String> {
     let n_owned = particles.n_owned;
     let chunks = rayon::current_num_threads().max(1);
     let per_chunk = list.pairs.len().div_ceil(chunks).max(1);
     workspace.buffers.resize_with(chunks, Vec::new);
     let (pos, vel, gid) = (&particles.pos, &particles.vel, &particles.gid);
-    let virials: Vec<[FixedSum; 27]> = workspace
+    let results: Vec<(ChunkVirial, Option<BadPair>)> = workspace
         .buffers
         .par_iter_mut()
         .zip(
@@ -100,6 +105,7 @@ pub fn compute_forces<const D: usize, K: PairKernel<D>>(
             acc.clear();
             acc.resize(n_owned, [FixedSum::ZERO; D]);
             let mut virial = [FixedSum::ZERO; 27];
+            let mut bad: Option<BadPair> = None;
             for &[i, j] in pairs {
                 let (i, j) = (i as usize, j as usize);
                 let Some(t) = kernel.eval(
@@ -111,6 +117,11 @@ pub fn compute_forces<const D: usize, K: PairKernel<D>>(
                     continue;
                 };
                 let f = t.parts[0] + t.parts[1] + t.parts[2];
+                if !FixedSum::representable(f) {
+                    // NaN, infinite or absurd: the run has blown up; report, do not accumulate.
+                    bad.get_or_insert((gid[i], gid[j], f));
+                    continue;
+                }
                 let owned_j = j < n_owned;
                 for d in 0..D {
                     let fd = f * t.e[d];
@@ -131,9 +142,17 @@ pub fn compute_forces<const D: usize, K: PairKernel<D>>(
                     }
                 }
             }
-            virial
+            (virial, bad)
         })
         .collect();
+    if let Some(&(a, b, f)) = results.iter().find_map(|(_, bad)| bad.as_ref()) {
+        return Err(format!(
+            "pair force {f:e} between particles {a} and {b} at step {step} is not finite or \
+             exceeds {:e}: the run is unstable (time step too large, or particles overlapping)",
+            FixedSum::MAX_TERM
+        ));
+    }
+    let virials: Vec<&ChunkVirial> = results.iter().map(|(v, _)| v).collect();
     let buffers = &workspace.buffers;
     force[..n_owned]
         .par_iter_mut()
@@ -148,9 +167,9 @@ pub fn compute_forces<const D: usize, K: PairKernel<D>>(
                 f[d] = s.value();
             }
         });
-    want_virial.then(|| {
+    Ok(want_virial.then(|| {
         let mut total = [FixedSum::ZERO; 27];
-        for v in &virials {
+        for v in virials {
             for (t, x) in total.iter_mut().zip(v) {
                 t.merge(x);
             }
@@ -165,5 +184,5 @@ pub fn compute_forces<const D: usize, K: PairKernel<D>>(
             w
         };
         [part(0), part(1), part(2)]
-    })
+    }))
 }
