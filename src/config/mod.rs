@@ -408,31 +408,13 @@ pub struct LoadedCase {
 
 /// Reads, parses and validates a case file.
 pub fn load(path: &Path) -> Result<LoadedCase, CaseError> {
-    let source = std::fs::read_to_string(path).map_err(|e| CaseError {
-        file: path.display().to_string(),
-        line: 0,
-        column: 0,
-        key: String::new(),
-        message: format!("cannot read the case file: {e}"),
-    })?;
-    let case = parse(&source, path)?;
-    Ok(LoadedCase {
-        case,
-        path: path.to_path_buf(),
-        source,
-    })
+    load_with_overrides(path, &[])
 }
 
 /// Reads a case file, applies `key.path=value` overrides (as `--set` on the command line gives
 /// them; values are TOML literals, bare words are taken as strings), then parses and validates
 /// the result, so an override is checked like any other key.
 pub fn load_with_overrides(path: &Path, overrides: &[String]) -> Result<LoadedCase, CaseError> {
-    let mut loaded = load_text(path)?;
-    if overrides.is_empty() {
-        let case = parse(&loaded.source, path)?;
-        loaded.case = case;
-        return Ok(loaded);
-    }
     let bad = |message: String| CaseError {
         file: path.display().to_string(),
         line: 0,
@@ -440,93 +422,47 @@ pub fn load_with_overrides(path: &Path, overrides: &[String]) -> Result<LoadedCa
         key: String::new(),
         message,
     };
-    let mut doc: toml_edit::DocumentMut = loaded
-        .source
-        .parse()
-        .map_err(|e: toml_edit::TomlError| bad(format!("invalid TOML: {}", e.message())))?;
-    for o in overrides {
-        let Some((key, value)) = o.split_once('=') else {
-            return Err(bad(format!(
-                "--set {o}: expected KEY=VALUE, e.g. integrator.dt=0.02"
-            )));
-        };
-        let value: toml_edit::Value = value
-            .trim()
+    let mut source = std::fs::read_to_string(path)
+        .map_err(|e| bad(format!("cannot read the case file: {e}")))?;
+    let mut shown = path.to_path_buf();
+    if !overrides.is_empty() {
+        let mut doc: toml_edit::DocumentMut = source
             .parse()
-            .unwrap_or_else(|_| toml_edit::Value::from(value.trim()));
-        let parts: Vec<&str> = key.trim().split('.').collect();
-        let mut table = doc.as_table_mut();
-        for part in &parts[..parts.len() - 1] {
-            let entry = table
-                .entry(part)
-                .or_insert_with(|| toml_edit::Item::Table(toml_edit::Table::new()));
-            table = entry
-                .as_table_mut()
-                .ok_or_else(|| bad(format!("--set {o}: `{part}` is not a table")))?;
+            .map_err(|e: toml_edit::TomlError| bad(format!("invalid TOML: {}", e.message())))?;
+        for o in overrides {
+            apply_override(&mut doc, o).map_err(|m| bad(format!("--set {o}: {m}")))?;
         }
-        table.insert(parts[parts.len() - 1], toml_edit::value(value));
+        source = doc.to_string();
+        shown = PathBuf::from(format!("{} (with --set overrides)", path.display()));
     }
-    loaded.source = doc.to_string();
-    let display = PathBuf::from(format!("{} (with --set overrides)", path.display()));
-    loaded.case = parse(&loaded.source, &display)?;
-    Ok(loaded)
-}
-
-fn load_text(path: &Path) -> Result<LoadedCase, CaseError> {
-    let source = std::fs::read_to_string(path).map_err(|e| CaseError {
-        file: path.display().to_string(),
-        line: 0,
-        column: 0,
-        key: String::new(),
-        message: format!("cannot read the case file: {e}"),
-    })?;
+    let case = parse(&source, &shown)?;
     Ok(LoadedCase {
-        case: placeholder_case(),
+        case,
         path: path.to_path_buf(),
         source,
     })
 }
 
-fn placeholder_case() -> Case {
-    Case {
-        title: String::new(),
-        dimension: 0,
-        seed: 0,
-        domain: BoxCfg {
-            lengths: vec![],
-            boundaries: None,
-            shear_rate: 0.0,
-        },
-        decomposition: DecompositionCfg::default(),
-        particles: ParticlesCfg {
-            lattice: Lattice::Cubic,
-            density: 0.0,
-            mass: 1.0,
-            temperature: 0.0,
-            velocity_profile: VelocityProfile::Auto,
-        },
-        fluid: FluidCfg::Dpd(DpdCfg {
-            a: 0.0,
-            gamma: 0.0,
-            kt: 0.0,
-            cutoff: 1.0,
-            weight_exponent: 2.0,
-            noise: Noise::Gaussian,
-        }),
-        integrator: IntegratorCfg::GrootWarren(GrootWarrenCfg {
-            dt: 0.0,
-            lambda: 0.5,
-        }),
-        neighbour: NeighbourCfg::default(),
-        run: RunCfg {
-            steps: 0,
-            equilibration: 0,
-            sample_every: 1,
-            progress_seconds: 0.0,
-        },
-        diagnostics: DiagnosticsCfg::default(),
-        reference: vec![],
+fn apply_override(doc: &mut toml_edit::DocumentMut, o: &str) -> Result<(), String> {
+    let (key, value) = o
+        .split_once('=')
+        .ok_or("expected KEY=VALUE, e.g. integrator.dt=0.02")?;
+    let value: toml_edit::Value = value
+        .trim()
+        .parse()
+        .unwrap_or_else(|_| toml_edit::Value::from(value.trim()));
+    let parts: Vec<&str> = key.trim().split('.').collect();
+    let (last, parents) = parts.split_last().ok_or("empty key")?;
+    let mut table = doc.as_table_mut();
+    for part in parents {
+        table = table
+            .entry(part)
+            .or_insert_with(|| toml_edit::Item::Table(toml_edit::Table::new()))
+            .as_table_mut()
+            .ok_or_else(|| format!("`{part}` is not a table"))?;
     }
+    table.insert(last, toml_edit::value(value));
+    Ok(())
 }
 
 /// Parses and validates case text (`path` is used in messages).
