@@ -7,9 +7,11 @@
 //! p = tr P / D,   η = −⟨P_xy⟩ / γ̇,   N₁ = σ_xx − σ_yy = P_yy − P_xx,   N₂ = P_zz − P_yy
 //! ```
 //!
-//! Under shear u(y) is the *measured* mean velocity of the particle's bin along y (profile-
-//! unbiased); without shear it is the mean velocity of the whole system. The temperature is
-//! k_BT = Σ m |V|² / (D (N − n_bins)), removing the D degrees of freedom of every bin mean.
+//! Under shear u(y) is the *measured* streaming velocity (profile-unbiased): the bin means along
+//! y interpolated linearly between bin centres, periodic with the Lees–Edwards jump ±γ̇L_y, so
+//! the profile inside a bin does not leak into P_xx or k_BT; without shear it is the mean
+//! velocity of the whole system. The temperature is k_BT = Σ m |V|² / (D (N − n_bins)),
+//! removing the D degrees of freedom of every bin mean.
 //! The total momentum reported is the peculiar one, Σ m (v − γ̇ (y − L_y/2) x̂), which a
 //! Lees–Edwards crossing leaves unchanged, so it is conserved to round-off with or without shear.
 //!

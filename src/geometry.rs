@@ -131,8 +131,9 @@ impl<const D: usize> SimBox<D> {
                             .for_each(|v| self.shift_velocity(v, axis, 1));
                         image[axis] -= 1;
                         if pos[axis] >= length {
-                            // −tiny + L rounded up to L: the particle sits on the lower face.
-                            pos[axis] = 0.0;
+                            // −tiny + L rounded up to L: keep the image (and its LE shift) and
+                            // put the particle just below the upper face.
+                            pos[axis] = length.next_down();
                         }
                     }
                 }
@@ -144,7 +145,7 @@ impl<const D: usize> SimBox<D> {
                         pos[axis] = 2.0 * length - pos[axis];
                         vels.iter_mut().for_each(|v| v[axis] = -v[axis]);
                     }
-                    pos[axis] = pos[axis].clamp(0.0, length * (1.0 - f64::EPSILON));
+                    pos[axis] = pos[axis].clamp(0.0, length.next_down());
                 }
             }
         }

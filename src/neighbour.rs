@@ -60,14 +60,24 @@ impl<const D: usize> CellGrid<D> {
         }
         let mut ncell = [1usize; D];
         let mut inv_cell = [0.0; D];
-        for d in 0..D {
-            if !pos.is_empty() {
-                let extent = (hi[d] - lo[d]).max(f64::MIN_POSITIVE);
-                ncell[d] = ((extent / width).floor() as usize).clamp(1, 1 << 16);
-                inv_cell[d] = ncell[d] as f64 / extent;
-            } else {
-                lo[d] = 0.0;
+        // Dilute systems: widen the cells until there are at most ~2 per particle, so memory
+        // follows the particle count, not the volume.
+        let cap = (2 * pos.len()).max(64) as f64;
+        let mut width = width;
+        loop {
+            for d in 0..D {
+                if !pos.is_empty() {
+                    let extent = (hi[d] - lo[d]).max(f64::MIN_POSITIVE);
+                    ncell[d] = ((extent / width).floor() as usize).clamp(1, 1 << 16);
+                    inv_cell[d] = ncell[d] as f64 / extent;
+                } else {
+                    lo[d] = 0.0;
+                }
             }
+            if ncell.iter().map(|&c| c as f64).product::<f64>() <= cap {
+                break;
+            }
+            width *= 1.25;
         }
         let total: usize = ncell.iter().product();
         let mut grid = CellGrid {

@@ -117,10 +117,17 @@ impl<'c, const D: usize> Simulation<'c, D> {
         let FluidCfg::Dpd(d) = &case.fluid;
         let dpd = Dpd::new(d, gw.dt, case.seed);
         let (particles, total) = initial_particles(case, &sim_box, &slab);
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .map_err(|e| format!("cannot start {threads} worker threads: {e}"))?;
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build();
+        // Collective: a rank that cannot start its threads stops every rank.
+        let mut failed = [if pool.is_err() { 1.0 } else { 0.0 }];
+        comm.allreduce_max(&mut failed);
+        let pool = match pool {
+            Err(e) => return Err(format!("cannot start {threads} worker threads: {e}")),
+            Ok(_) if failed[0] > 0.0 => {
+                return Err("another rank could not start its worker threads".into());
+            }
+            Ok(p) => p,
+        };
         let mut sim = Simulation {
             case: case.clone(),
             comm,
@@ -286,6 +293,7 @@ impl<'c, const D: usize> Simulation<'c, D> {
                     })
             });
         }
+        self.reflect_at_walls();
         self.step += 1;
         self.times.integrate += t0.elapsed().as_secs_f64();
 
@@ -298,6 +306,16 @@ impl<'c, const D: usize> Simulation<'c, D> {
         } else {
             0.0
         };
+        if moved[0] > self.range() {
+            // Decided on the globally reduced value, so every rank count stops alike.
+            return Err(format!(
+                "a particle moved {:.3} (more than cutoff + skin = {:.3}) since the neighbour \
+                 list was built at step {}: the run is unstable; reduce the time step",
+                moved[0],
+                self.range(),
+                self.halo.step_at_build()
+            ));
+        }
         if 2.0 * moved[0] + drift.abs() > self.skin {
             self.times.halo += t1.elapsed().as_secs_f64();
             self.rebuild()?;
@@ -331,6 +349,31 @@ impl<'c, const D: usize> Simulation<'c, D> {
         });
         self.times.integrate += t2.elapsed().as_secs_f64();
         Ok(())
+    }
+
+    /// Specular reflection of owned particles at wall faces, every step (a reflected particle is
+    /// never farther from its list-build position than it was, so the lists stay valid).
+    fn reflect_at_walls(&mut self) {
+        let walls: Vec<usize> = (0..D)
+            .filter(|&a| self.sim_box.boundaries[a] == crate::geometry::Boundary::Wall)
+            .collect();
+        if walls.is_empty() {
+            return;
+        }
+        let n = self.particles.n_owned;
+        let p = &mut self.particles;
+        for i in 0..n {
+            for &a in &walls {
+                let l = self.sim_box.lengths[a];
+                let x = &mut p.pos[i][a];
+                if *x < 0.0 || *x >= l {
+                    *x = if *x < 0.0 { -*x } else { 2.0 * l - *x };
+                    *x = x.clamp(0.0, l.next_down());
+                    p.vel[i][a] = -p.vel[i][a];
+                    p.vel_half[i][a] = -p.vel_half[i][a];
+                }
+            }
+        }
     }
 
     /// Whether the current step is a sampling step.
@@ -389,11 +432,38 @@ impl<'c, const D: usize> Simulation<'c, D> {
                 u
             })
             .collect();
+        // The local streaming velocity: the bin means interpolated linearly between bin centres
+        // (periodically, with the Lees–Edwards jump ±γ̇L_y across the plane), so the profile
+        // inside a bin is not counted as thermal motion (a constant bin mean would add
+        // ρ m γ̇²Δ²/12 to P_xx and to k_BT).
+        let jump = self.sim_box.le_velocity_jump();
+        let width = ly / bins as f64;
+        let local_mean = |y: f64| -> [f64; D] {
+            if bins == 1 {
+                return mean[0];
+            }
+            let s = y / width - 0.5; // position in units of bin centres
+            let k = s.floor();
+            let t = s - k;
+            let at = |b: i64| -> [f64; D] {
+                let nb = bins as i64;
+                let wrapped = b.rem_euclid(nb);
+                let mut u = mean[wrapped as usize];
+                u[0] += jump * ((b - wrapped) / nb) as f64;
+                u
+            };
+            let (u0, u1) = (at(k as i64), at(k as i64 + 1));
+            let mut u = [0.0; D];
+            for d in 0..D {
+                u[d] = (1.0 - t) * u0[d] + t * u1[d];
+            }
+            u
+        };
         // Pass 2: kinetic tensor, peculiar momentum, virial.
         let dd = D * D;
         let mut second = vec![0.0; dd + D + 3 * dd];
         for (x, v) in pos.iter().zip(vel) {
-            let u = &mean[bin_of(x[GRADIENT])];
+            let u = &local_mean(x[GRADIENT]);
             for a in 0..D {
                 let va = v[a] - u[a];
                 for b in 0..D {

@@ -112,3 +112,31 @@ fn an_exploding_force_is_reported_not_accumulated() {
     };
     assert!(err.contains("unstable"), "{err}");
 }
+
+/// The profile-unbiased temperature removes the whole linear shear profile, including its
+/// variation inside a bin: a lattice moving exactly with u_x = γ̇ (y − L_y/2) at k_BT = 0 reads
+/// k_BT = 0 and no kinetic normal stress (a constant bin mean would read m γ̇² Δ² / (12 D) ≈
+/// 0.042 here).
+#[test]
+fn a_pure_shear_flow_has_zero_temperature_and_no_kinetic_normal_stress() {
+    let text = small_dpd(
+        2,
+        8.0,
+        0.5,
+        10,
+        "[diagnostics]\nobservables = [\"temperature\", \"stress\"]\nprofile_bins = 4\n",
+    )
+    .replace("lattice = \"random\"", "lattice = \"cubic\"")
+    .replace("temperature = 1.0", "temperature = 0.0");
+    let loaded = case_from_str(&text, "pure_shear");
+    let comm = SerialComm::new();
+    let mut sim = Simulation::<2>::new(&loaded.case, &comm, 1).expect("setup");
+    let m = sim.measure();
+    let get = |k: &str| m.scalars.iter().find(|(n, _)| n == k).expect(k).1;
+    assert!(get("temperature").abs() < 1e-12, "{}", get("temperature"));
+    assert!(
+        get("stress_kinetic_xx").abs() < 1e-12,
+        "{}",
+        get("stress_kinetic_xx")
+    );
+}

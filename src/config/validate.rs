@@ -127,6 +127,23 @@ pub fn validate(case: &Case, ix: &SpanIndex) -> Result<(), CaseError> {
             ),
         );
     }
+    if n < 2 {
+        return err(
+            &["particles", "density"],
+            format!("this density creates {n} particle(s); a fluid needs at least 2"),
+        );
+    }
+    if shear != 0.0 && n < 2 * case.diagnostics.profile_bins as u64 {
+        return err(
+            &["diagnostics", "profile_bins"],
+            format!(
+                "{} bins for {n} particles: the profile-unbiased temperature needs at least 2 \
+                 particles per bin; use at most {} bins",
+                case.diagnostics.profile_bins,
+                n / 2
+            ),
+        );
+    }
     if n > MAX_PARTICLES {
         return err(
             &["particles", "density"],

@@ -25,7 +25,7 @@ const SQRT_3: f64 = 1.732_050_807_568_877_2;
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
 #[serde(rename_all = "snake_case")]
 pub enum Noise {
-    /// Standard normal (Box–Muller).
+    /// Standard normal (ziggurat on the keyed hash stream).
     #[default]
     Gaussian,
     /// Uniform with unit variance, √3 (2u − 1).

@@ -132,6 +132,10 @@ pub fn compute_forces<const D: usize, K: PairKernel<D>>(
                 }
                 if want_virial {
                     let w = if owned_j { t.r } else { 0.5 * t.r };
+                    if !t.parts.iter().all(|&p| FixedSum::representable(w * p)) {
+                        bad.get_or_insert((gid[i], gid[j], w * f));
+                        continue;
+                    }
                     for (part, &p) in t.parts.iter().enumerate() {
                         let s = w * p;
                         for a in 0..D {
