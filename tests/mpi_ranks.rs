@@ -2,6 +2,8 @@
 //! must be identical, and a decomposition that is too fine must be refused with the usable
 //! rank count. Needs the `mpi` feature (`./run test` builds it).
 
+mod common;
+
 use std::path::Path;
 use std::process::Command;
 
@@ -31,38 +33,22 @@ fn digest(out: &Path) -> String {
     v["state_digest"].as_str().expect("digest").to_owned()
 }
 
-const CASE: &str = r#"
-dimension = 3
-seed = 77
-[box]
-lengths = [6.0, 6.0, 6.0]
-shear_rate = 0.3
-[particles]
-lattice = "random"
-density = 3.0
-temperature = 1.0
-[fluid]
-kind = "dpd"
-a = 25.0
-gamma = 4.5
-kt = 1.0
-[integrator]
-kind = "groot_warren"
-dt = 0.04
-lambda = 0.65
-[run]
-steps = 200
-sample_every = 5
-progress_seconds = 0
-[diagnostics]
-observables = ["temperature", "viscosity"]
-"#;
+/// The shared small Lees–Edwards DPD case of the integration tests.
+fn case_text() -> String {
+    common::small_dpd(
+        3,
+        6.0,
+        0.3,
+        200,
+        "[diagnostics]\nobservables = [\"temperature\", \"viscosity\"]\n",
+    )
+}
 
 #[test]
 fn mpirun_one_and_two_ranks_give_the_same_state() {
     let dir = tempfile::tempdir().expect("tempdir");
     let case = dir.path().join("le.toml");
-    std::fs::write(&case, CASE).expect("write case");
+    std::fs::write(&case, case_text()).expect("write case");
     let mut seen = Vec::new();
     for (ranks, threads) in [(1, 1), (2, 1), (2, 2)] {
         let out = dir.path().join(format!("out{ranks}_{threads}"));
@@ -96,16 +82,10 @@ fn mpirun_one_and_two_ranks_give_the_same_state() {
 fn too_many_ranks_are_refused_with_the_usable_maximum() {
     let dir = tempfile::tempdir().expect("tempdir");
     let case = dir.path().join("thin.toml");
-    std::fs::write(
-        &case,
-        CASE.replace("6.0, 6.0, 6.0", "6.0, 2.9, 6.0")
-            .replace("shear_rate = 0.3", "shear_rate = 0.0")
-            .replace(
-                "observables = [\"temperature\", \"viscosity\"]",
-                "observables = [\"temperature\"]",
-            ),
-    )
-    .expect("write");
+    // L_y = 2.9 holds two slabs of cutoff + skin = 1.3, not three.
+    let text = common::small_dpd(3, 6.0, 0.0, 20, "").replace("[6, 6, 6]", "[6, 2.9, 6]");
+    assert!(text.contains("2.9"), "{text}");
+    std::fs::write(&case, text).expect("write");
     let o = mpirun(3, 1, &case, &dir.path().join("o"));
     assert!(!o.status.success());
     let err = String::from_utf8_lossy(&o.stderr);
