@@ -22,6 +22,8 @@ pub mod fixed_sum;
 pub mod geometry;
 pub mod models;
 pub mod neighbour;
+#[cfg(feature = "hdf5")]
+pub mod output;
 pub mod particles;
 pub mod rng;
 pub mod sim;

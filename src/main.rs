@@ -4,7 +4,7 @@
 use clap::{Parser, Subcommand};
 use mesorheo::comm::Comm;
 use mesorheo::config;
-use mesorheo::driver::{RunOptions, run_case, write_summary};
+use mesorheo::driver::{RunOptions, restart_case, run_case, write_summary};
 use std::path::PathBuf;
 use std::process::ExitCode;
 use tracing_subscriber::layer::SubscriberExt;
@@ -46,6 +46,33 @@ enum Command {
         /// Override any key: `--set integrator.dt=0.02` (repeatable; TOML values).
         #[arg(long = "set", value_name = "KEY=VALUE")]
         overrides: Vec<String>,
+        /// Stop cleanly at this step with a checkpoint (what a batch job does before its
+        /// wall-clock limit); continue with `mesorheo restart`.
+        #[arg(long, value_name = "K")]
+        until_step: Option<u64>,
+    },
+    /// Continue a run from a checkpoint, on any number of ranks. Given a directory, the newest
+    /// checkpoint in it; a corrupt checkpoint is reported and the previous one is used.
+    Restart {
+        /// Checkpoint file (OUT/checkpoints/checkpoint_<step>.h5) or a directory of them.
+        checkpoint: PathBuf,
+        /// Output directory (default: the run directory the checkpoint belongs to).
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// rayon threads per rank (0: all cores available to the rank).
+        #[arg(long, short = 't', default_value_t = 0)]
+        threads: usize,
+        /// New total step count (to extend a finished run).
+        #[arg(long)]
+        steps: Option<u64>,
+        /// Stop cleanly at this step with a checkpoint.
+        #[arg(long, value_name = "K")]
+        until_step: Option<u64>,
+    },
+    /// Print what an HDF5 file written by mesorheo holds (series, steps, fields, case).
+    Info {
+        /// Snapshot series or checkpoint.
+        file: PathBuf,
     },
     /// Validate a case and print particle count, neighbours, dimensionless groups, time-step
     /// limits, memory and cost.
@@ -115,48 +142,137 @@ fn main() -> ExitCode {
                 ExitCode::from(2)
             }
         },
+        Command::Info { file } => info(root, &file),
         Command::Run {
             case,
             out,
             threads,
             steps,
             mut overrides,
+            until_step,
         } => {
             if let Some(n) = steps {
                 overrides.push(format!("run.steps={n}"));
             }
-            run(
-                &*comm,
-                &case,
-                &out,
+            let loaded = match config::load_with_overrides(&case, &overrides) {
+                Ok(l) => l,
+                Err(e) => {
+                    if root {
+                        eprintln!("error: {e}");
+                    }
+                    return ExitCode::from(2);
+                }
+            };
+            let options = RunOptions {
                 threads,
-                &overrides,
-                cli.quiet,
-                cli.verbose,
-            )
+                steps: None,
+                until_step,
+                out: Some(out.clone()),
+            };
+            session(&*comm, &out, cli.quiet, cli.verbose, |comm| {
+                run_case(&loaded, comm, &options)
+            })
+        }
+        Command::Restart {
+            checkpoint,
+            out,
+            threads,
+            steps,
+            until_step,
+        } => {
+            // OUT/checkpoints/checkpoint_N.h5 → OUT; OUT/checkpoints → OUT.
+            let out = out.unwrap_or_else(|| {
+                let dir = if checkpoint.is_dir() {
+                    checkpoint.clone()
+                } else {
+                    checkpoint
+                        .parent()
+                        .map(std::path::Path::to_path_buf)
+                        .unwrap_or_default()
+                };
+                match dir.file_name().and_then(|n| n.to_str()) {
+                    Some("checkpoints") => dir.parent().map(|p| p.to_path_buf()).unwrap_or(dir),
+                    _ => dir,
+                }
+            });
+            let out = if out.as_os_str().is_empty() {
+                PathBuf::from(".")
+            } else {
+                out
+            };
+            let options = RunOptions {
+                threads,
+                steps,
+                until_step,
+                out: Some(out.clone()),
+            };
+            session(&*comm, &out, cli.quiet, cli.verbose, |comm| {
+                restart_case(&checkpoint, comm, &options)
+            })
         }
     }
 }
 
-fn run(
-    comm: &dyn Comm,
-    case: &std::path::Path,
-    out: &std::path::Path,
-    threads: usize,
-    overrides: &[String],
-    quiet: bool,
-    verbose: bool,
-) -> ExitCode {
-    let root = comm.rank() == 0;
-    let loaded = match config::load_with_overrides(case, overrides) {
-        Ok(l) => l,
+#[cfg(feature = "hdf5")]
+fn info(root: bool, file: &std::path::Path) -> ExitCode {
+    match mesorheo::output::info::describe(file) {
+        Ok(text) => {
+            if root {
+                print!("{text}");
+            }
+            ExitCode::SUCCESS
+        }
         Err(e) => {
             if root {
                 eprintln!("error: {e}");
             }
-            return ExitCode::from(2);
+            ExitCode::from(2)
         }
-    };
+    }
+}
+
+#[cfg(not(feature = "hdf5"))]
+fn info(root: bool, file: &std::path::Path) -> ExitCode {
+    if root {
+        eprintln!(
+            "error: cannot read {}: this mesorheo was built without HDF5 (feature `hdf5`)",
+            file.display()
+        );
+    }
+    ExitCode::from(2)
+}
+
+/// SIGTERM and SIGUSR1 (what batch schedulers send before the wall-clock limit) ask the run to
+/// finish its step, write a checkpoint and stop.
+fn install_signal_handlers() {
+    use std::sync::Arc;
+    use std::sync::atomic::AtomicBool;
+    let flag = Arc::new(AtomicBool::new(false));
+    for signal in [signal_hook::consts::SIGTERM, signal_hook::consts::SIGUSR1] {
+        if let Err(e) = signal_hook::flag::register(signal, flag.clone()) {
+            eprintln!("warning: cannot install the handler of signal {signal}: {e}");
+        }
+    }
+    std::thread::spawn(move || {
+        loop {
+            if flag.load(std::sync::atomic::Ordering::SeqCst) {
+                mesorheo::driver::request_stop();
+                return;
+            }
+            std::thread::sleep(std::time::Duration::from_millis(50));
+        }
+    });
+}
+
+/// Logging, signal handlers, the run itself, summary.json and the exit code.
+fn session(
+    comm: &dyn Comm,
+    out: &std::path::Path,
+    quiet: bool,
+    verbose: bool,
+    job: impl FnOnce(&dyn Comm) -> Result<mesorheo::summary::Summary, String>,
+) -> ExitCode {
+    let root = comm.rank() == 0;
     let _guard = match init_logging(comm.rank(), out, quiet, verbose) {
         Ok(g) => g,
         Err(e) => {
@@ -164,11 +280,8 @@ fn run(
             return ExitCode::FAILURE;
         }
     };
-    let options = RunOptions {
-        threads,
-        steps: None,
-    };
-    match run_case(&loaded, comm, &options) {
+    install_signal_handlers();
+    match job(comm) {
         Ok(summary) => {
             if root {
                 if let Err(e) = write_summary(&summary, out) {

@@ -59,6 +59,35 @@ impl<const D: usize> Particles<D> {
         self.pos.is_empty()
     }
 
+    /// The same registered fields, no particles.
+    pub fn empty_like(&self) -> Self {
+        Self {
+            extra: self
+                .extra
+                .iter()
+                .map(|f| ExtraField {
+                    name: f.name.clone(),
+                    width: f.width,
+                    data: Vec::new(),
+                })
+                .collect(),
+            var: self
+                .var
+                .iter()
+                .map(|f| VarField {
+                    name: f.name.clone(),
+                    data: Vec::new(),
+                })
+                .collect(),
+            ..Self::default()
+        }
+    }
+
+    /// Index of the fixed-width field called `name`.
+    pub fn extra_index(&self, name: &str) -> Option<usize> {
+        self.extra.iter().position(|f| f.name == name)
+    }
+
     /// Registers a fixed-width field initialised to zero; returns its index.
     pub fn register_extra(&mut self, name: &str, width: usize) -> usize {
         self.extra.push(ExtraField {

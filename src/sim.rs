@@ -77,13 +77,106 @@ pub struct Simulation<'c, const D: usize> {
     pub times: PhaseTimes,
     /// This rank's worker threads.
     pool: rayon::ThreadPool,
+    /// Models with per-particle state of their own.
+    models: Vec<Box<dyn StateModel<D>>>,
+}
+
+/// Name of the extra field that carries the neighbour-list build positions in checkpoints.
+pub const LIST_REFERENCE_FIELD: &str = "list_reference_position";
+
+/// A model with per-particle state of its own (a stress tensor, an ensemble of dumbbells…),
+/// stored in registered fields so that it migrates, is checkpointed and enters the digest.
+pub trait StateModel<const D: usize>: Send {
+    /// Registers and initialises the fields on a fresh run, or checks them after a restart
+    /// (the fields then already exist).
+    fn attach(&self, particles: &mut Particles<D>) -> Result<(), String>;
+    /// Advances the owned particles' state to `step` (called once per step, after the positions).
+    fn advance(&self, particles: &mut Particles<D>, step: u64);
 }
 
 impl<'c, const D: usize> Simulation<'c, D> {
     /// Sets up the initial state on this rank and computes the initial forces.
     /// `threads` rayon workers serve this rank (0: all available cores).
     pub fn new(case: &Case, comm: &'c dyn Comm, threads: usize) -> Result<Self, String> {
-        assert_eq!(case.dimension, D, "dimension dispatch");
+        let (sim_box, slab) = Self::geometry(case, comm)?;
+        let (particles, total) = initial_particles(case, &sim_box, &slab);
+        let mut sim = Self::assemble(case, comm, threads, sim_box, slab, particles, total)?;
+        sim.rebuild()?;
+        sim.compute_forces(true)?;
+        Ok(sim)
+    }
+
+    /// Continues from a checkpointed state: `particles` are any share of the saved particles
+    /// (their forces and half-step velocities included) carrying the list-build positions in
+    /// the extra field [`LIST_REFERENCE_FIELD`]; `rebuild_step` is the step of the last
+    /// neighbour-list build.
+    ///
+    /// Bitwise continuation: between list builds, positions are not wrapped into the box, so
+    /// the state depends on when lists were built. The restart therefore rebuilds *as of*
+    /// `rebuild_step` — migration, halo and pair list from the saved build positions and the
+    /// Lees–Edwards offset of that step — and then puts the current positions back and refreshes
+    /// the ghosts. The next rebuild then happens at the same step, with the same wrap, as in the
+    /// uninterrupted run; forces are not recomputed (the saved ones are those of the step).
+    #[allow(clippy::too_many_arguments)]
+    pub fn from_checkpoint(
+        case: &Case,
+        comm: &'c dyn Comm,
+        threads: usize,
+        mut particles: Particles<D>,
+        total: u64,
+        step: u64,
+        rebuild_step: u64,
+        series: Series,
+    ) -> Result<Self, String> {
+        let (sim_box, slab) = Self::geometry(case, comm)?;
+        let field = particles
+            .extra_index(LIST_REFERENCE_FIELD)
+            .ok_or_else(|| format!("the checkpoint lacks the field {LIST_REFERENCE_FIELD}"))?;
+        if field + 1 != particles.extra.len() || particles.extra[field].width != D {
+            return Err(format!(
+                "the checkpoint's {LIST_REFERENCE_FIELD} field is malformed"
+            ));
+        }
+        // Positions ↔ build positions: the rebuild below sees the build-time configuration.
+        let n = particles.n_owned;
+        for i in 0..n {
+            let r = &mut particles.extra[field].data[i * D..(i + 1) * D];
+            for d in 0..D {
+                std::mem::swap(&mut particles.pos[i][d], &mut r[d]);
+            }
+        }
+        let particles = crate::domain::redistribute(&particles, comm, |i| {
+            slab.owner_of(particles.pos[i][slab.axis])
+        });
+        let mut sim = Self::assemble(case, comm, threads, sim_box, slab, particles, total)?;
+        sim.step = rebuild_step;
+        sim.rebuild()?;
+        let p = &mut sim.particles;
+        let mut current = p.extra.pop().expect("field checked above");
+        for i in 0..p.n_owned {
+            p.pos[i].copy_from_slice(&current.data[i * D..(i + 1) * D]);
+        }
+        current.data.clear();
+        sim.step = step;
+        sim.halo.forward(
+            &mut sim.particles,
+            &sim.sim_box,
+            &sim.slab,
+            comm,
+            step,
+            sim.dt,
+        );
+        sim.series = series;
+        Ok(sim)
+    }
+
+    fn geometry(case: &Case, comm: &dyn Comm) -> Result<(SimBox<D>, Slab), String> {
+        if case.dimension != D {
+            return Err(format!(
+                "the case is {}-dimensional, this run is {D}-dimensional",
+                case.dimension
+            ));
+        }
         let mut lengths = [0.0; D];
         lengths.copy_from_slice(&case.domain.lengths);
         let mut boundaries = [crate::geometry::Boundary::Periodic; D];
@@ -101,8 +194,7 @@ impl<'c, const D: usize> Simulation<'c, D> {
             size: comm.size(),
             periodic: boundaries[axis] == crate::geometry::Boundary::Periodic,
         };
-        let skin = case.neighbour.skin;
-        let range = case.cutoff() + skin;
+        let range = case.cutoff() + case.neighbour.skin;
         if comm.size() > 1 && slab.width() < range {
             let max_ranks = (lengths[axis] / range).floor().max(1.0) as usize;
             return Err(format!(
@@ -113,10 +205,21 @@ impl<'c, const D: usize> Simulation<'c, D> {
                 ["x", "y", "z"][axis]
             ));
         }
+        Ok((sim_box, slab))
+    }
+
+    fn assemble(
+        case: &Case,
+        comm: &'c dyn Comm,
+        threads: usize,
+        sim_box: SimBox<D>,
+        slab: Slab,
+        particles: Particles<D>,
+        total: u64,
+    ) -> Result<Self, String> {
         let IntegratorCfg::GrootWarren(gw) = &case.integrator;
         let FluidCfg::Dpd(d) = &case.fluid;
         let dpd = Dpd::new(d, gw.dt, case.seed);
-        let (particles, total) = initial_particles(case, &sim_box, &slab);
         let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build();
         // Collective: a rank that cannot start its threads stops every rank.
         let mut failed = [if pool.is_err() { 1.0 } else { 0.0 }];
@@ -128,7 +231,7 @@ impl<'c, const D: usize> Simulation<'c, D> {
             }
             Ok(p) => p,
         };
-        let mut sim = Simulation {
+        Ok(Simulation {
             case: case.clone(),
             comm,
             sim_box,
@@ -143,15 +246,43 @@ impl<'c, const D: usize> Simulation<'c, D> {
             dt: gw.dt,
             lambda: gw.lambda,
             mass: case.particles.mass,
-            skin,
+            skin: case.neighbour.skin,
             total_particles: total,
             series: Series::default(),
             times: PhaseTimes::default(),
             pool,
-        };
-        sim.rebuild()?;
-        sim.compute_forces(true)?;
-        Ok(sim)
+            models: Vec::new(),
+        })
+    }
+
+    /// Attaches a model that carries per-particle state of its own: on a fresh run it registers
+    /// and initialises its fields, on a restarted one it checks that the checkpoint brought them.
+    pub fn attach(&mut self, model: Box<dyn StateModel<D>>) -> Result<(), String> {
+        model.attach(&mut self.particles)?;
+        self.models.push(model);
+        Ok(())
+    }
+
+    /// Owned particles (no ghosts) with the list-build positions as the extra field
+    /// [`LIST_REFERENCE_FIELD`]: everything a checkpoint must hold.
+    pub fn checkpoint_particles(&self) -> Particles<D> {
+        let mut p = self.particles.clone();
+        p.clear_ghosts();
+        let k = p.register_extra(LIST_REFERENCE_FIELD, D);
+        for (i, x) in self.list.build_pos.iter().enumerate() {
+            p.extra[k].data[i * D..(i + 1) * D].copy_from_slice(x);
+        }
+        p
+    }
+
+    /// Step of the last neighbour-list build.
+    pub fn rebuild_step(&self) -> u64 {
+        self.halo.step_at_build()
+    }
+
+    /// Time step.
+    pub fn dt(&self) -> f64 {
+        self.dt
     }
 
     fn range(&self) -> f64 {
@@ -295,6 +426,9 @@ impl<'c, const D: usize> Simulation<'c, D> {
         }
         self.reflect_at_walls();
         self.step += 1;
+        for model in &self.models {
+            model.advance(&mut self.particles, self.step);
+        }
         self.times.integrate += t0.elapsed().as_secs_f64();
 
         let t1 = Instant::now();

@@ -50,15 +50,23 @@ pub struct Summary {
     pub dimension: usize,
     /// Particles in the system.
     pub particles: u64,
-    /// Steps run.
+    /// Step reached (counted from the start of the run, across restarts).
     pub steps: u64,
+    /// Whether the run reached its last step (false: stopped by --until-step or a signal).
+    pub completed: bool,
+    /// Checkpoint this run continued from.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub restarted_from: Option<String>,
+    /// Newest checkpoint written.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub last_checkpoint: Option<String>,
     /// Simulated time at the end.
     pub time: f64,
     /// Wall time of the whole run (set-up, stepping, output).
     pub wall_seconds: f64,
     /// Wall time of the time-stepping loop only.
     pub loop_seconds: f64,
-    /// particles × steps / loop_seconds.
+    /// particles × (steps run in this session) / loop_seconds.
     pub particle_steps_per_second: f64,
     /// Time averages over the steady window.
     pub observables: BTreeMap<String, Estimate>,
@@ -147,6 +155,16 @@ pub fn render(summary: &Summary) -> String {
             v.metric,
             v.value,
             v.tolerance
+        ));
+    }
+    if !summary.completed {
+        s.push_str(&format!(
+            "  stopped at step {} before the end of the run; continue with `mesorheo restart {}`\n",
+            summary.steps,
+            summary
+                .last_checkpoint
+                .as_deref()
+                .unwrap_or("OUT/checkpoints")
         ));
     }
     s.push_str(&format!("  state digest {}\n", summary.state_digest));

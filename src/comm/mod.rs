@@ -50,6 +50,26 @@ pub trait Comm {
     fn allgather(&self, mine: &[f64]) -> Vec<Vec<f64>>;
     /// Waits for every rank.
     fn barrier(&self);
+    /// Personalised all-to-all: `send[d]` goes to rank `d`; returns what every rank sent to this
+    /// one, in rank order. Built from [`Self::sendrecv`] in `size − 1` rounds (round k: to
+    /// rank + k, from rank − k), so each pair of ranks exchanges exactly one message per call.
+    fn alltoallv(&self, mut send: Vec<Vec<f64>>, tag: u32) -> Vec<Vec<f64>> {
+        let (rank, size) = (self.rank(), self.size());
+        assert_eq!(send.len(), size, "alltoallv needs one buffer per rank");
+        let mut received = vec![Vec::new(); size];
+        received[rank] = std::mem::take(&mut send[rank]);
+        for k in 1..size {
+            let dest = (rank + k) % size;
+            let src = (rank + size - k) % size;
+            received[src] = self.sendrecv(std::mem::take(&mut send[dest]), dest, src, tag);
+        }
+        received
+    }
+    /// The raw MPI communicator of a real MPI run (for parallel HDF5), else `None`.
+    #[cfg(feature = "mpi")]
+    fn raw_mpi(&self) -> Option<mpi::ffi::MPI_Comm> {
+        None
+    }
     /// Whether this is a real multi-process MPI run.
     fn is_mpi(&self) -> bool {
         false

@@ -91,4 +91,8 @@ impl Comm for MpiComm {
     fn is_mpi(&self) -> bool {
         true
     }
+    fn raw_mpi(&self) -> Option<mpi::ffi::MPI_Comm> {
+        use mpi::raw::AsRaw as _;
+        Some(self.world.as_raw())
+    }
 }

@@ -49,9 +49,85 @@ pub struct Case {
     /// Observables.
     #[serde(default)]
     pub diagnostics: DiagnosticsCfg,
+    /// Snapshots and checkpoints.
+    #[serde(default)]
+    pub output: OutputCfg,
     /// Known answers the run checks itself against.
     #[serde(default)]
     pub reference: Vec<ReferenceCfg>,
+}
+
+/// `[output]`
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct OutputCfg {
+    /// Steps between checkpoints (0: none on schedule).
+    #[serde(default)]
+    pub checkpoint_every: u64,
+    /// Checkpoints kept (older ones are deleted).
+    #[serde(default = "three")]
+    pub checkpoint_keep: usize,
+    /// Whether the run writes a checkpoint when it ends (so it can be extended).
+    #[serde(default = "yes")]
+    pub checkpoint_at_end: bool,
+    /// Steps between snapshots (0: none).
+    #[serde(default)]
+    pub snapshot_every: u64,
+    /// Per-particle fields in the snapshots.
+    #[serde(default = "default_snapshot_fields")]
+    pub snapshot_fields: Vec<SnapshotField>,
+}
+
+fn three() -> usize {
+    3
+}
+fn yes() -> bool {
+    true
+}
+fn default_snapshot_fields() -> Vec<SnapshotField> {
+    vec![
+        SnapshotField::Position,
+        SnapshotField::Velocity,
+        SnapshotField::Image,
+    ]
+}
+
+impl Default for OutputCfg {
+    fn default() -> Self {
+        Self {
+            checkpoint_every: 0,
+            checkpoint_keep: three(),
+            checkpoint_at_end: true,
+            snapshot_every: 0,
+            snapshot_fields: default_snapshot_fields(),
+        }
+    }
+}
+
+/// Per-particle fields a snapshot can hold.
+#[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq, Eq, Hash, PartialOrd, Ord)]
+#[serde(rename_all = "snake_case")]
+pub enum SnapshotField {
+    /// Positions.
+    Position,
+    /// Velocities.
+    Velocity,
+    /// Forces.
+    Force,
+    /// Periodic image counts.
+    Image,
+}
+
+impl SnapshotField {
+    /// Name of the H5MD element.
+    pub fn name(self) -> &'static str {
+        match self {
+            SnapshotField::Position => "position",
+            SnapshotField::Velocity => "velocity",
+            SnapshotField::Force => "force",
+            SnapshotField::Image => "image",
+        }
+    }
 }
 
 fn default_seed() -> u64 {

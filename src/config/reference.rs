@@ -188,6 +188,36 @@ pub const KEYS: &[KeyDoc] = &[
         "Seconds between progress lines on rank 0 (0: off).",
     ),
     key(
+        "output.checkpoint_every",
+        "integer ≥ 0",
+        "0",
+        "Steps between checkpoints in OUT/checkpoints/ (0: none on schedule). A checkpoint is the complete state; `mesorheo restart` continues from it bitwise on any rank count.",
+    ),
+    key(
+        "output.checkpoint_keep",
+        "integer ≥ 1",
+        "3",
+        "Newest checkpoints kept; older ones are deleted.",
+    ),
+    key(
+        "output.checkpoint_at_end",
+        "boolean",
+        "true",
+        "Write a checkpoint when the run ends (also at --until-step and on SIGTERM/SIGUSR1), so it can be extended.",
+    ),
+    key(
+        "output.snapshot_every",
+        "integer ≥ 0",
+        "0",
+        "Steps between snapshot frames in OUT/snapshots.h5 (H5MD, with OUT/snapshots.xdmf for ParaView); 0: none.",
+    ),
+    key(
+        "output.snapshot_fields",
+        "array of \"position\" | \"velocity\" | \"force\" | \"image\"",
+        "[\"position\", \"velocity\", \"image\"]",
+        "Per-particle fields of each snapshot frame (written in global-id order).",
+    ),
+    key(
         "diagnostics.observables",
         "array of observable names",
         "[\"temperature\", \"pressure\"]",

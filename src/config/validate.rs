@@ -285,6 +285,47 @@ pub fn validate(case: &Case, ix: &SpanIndex) -> Result<(), CaseError> {
             ),
         );
     }
+    // [output]
+    let o = &case.output;
+    if o.checkpoint_keep == 0 {
+        return err(
+            &["output", "checkpoint_keep"],
+            "found 0; keep at least 1 checkpoint (a restart needs one)".to_owned(),
+        );
+    }
+    if o.snapshot_every > 0 && o.snapshot_fields.is_empty() {
+        return err(
+            &["output", "snapshot_fields"],
+            "found an empty list with snapshot_every > 0; name at least one of \
+             \"position\", \"velocity\", \"force\", \"image\""
+                .to_owned(),
+        );
+    }
+    if o.snapshot_every > 0
+        && !o
+            .snapshot_fields
+            .contains(&crate::config::SnapshotField::Position)
+    {
+        return err(
+            &["output", "snapshot_fields"],
+            format!(
+                "found {:?} without \"position\"; snapshots need positions (the XDMF \
+                 geometry), add \"position\"",
+                o.snapshot_fields
+                    .iter()
+                    .map(|f| f.name())
+                    .collect::<Vec<_>>()
+            ),
+        );
+    }
+    let mut seen = o.snapshot_fields.clone();
+    seen.sort();
+    if let Some(w) = seen.windows(2).find(|w| w[0] == w[1]) {
+        return err(
+            &["output", "snapshot_fields"],
+            format!("found {:?} twice; list each field once", w[0].name()),
+        );
+    }
     // [diagnostics]
     let d = &case.diagnostics;
     if d.profile_bins == 0 || d.profile_bins > MAX_BINS {

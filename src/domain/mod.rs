@@ -6,10 +6,12 @@
 //! itself), then local images along the remaining periodic axes, gradient axis before flow axis —
 //! so every rank count produces each ghost by the same arithmetic.
 
+mod by_id;
 mod halo;
 mod migrate;
 mod slab;
 
+pub use by_id::{id_block, redistribute, sort_by_id};
 pub use halo::HaloPlan;
 pub use migrate::migrate;
 pub use slab::Slab;
@@ -20,4 +22,5 @@ pub(crate) mod tags {
     pub const HALO_DOWN: u32 = 2;
     pub const MIGRATE_UP: u32 = 3;
     pub const MIGRATE_DOWN: u32 = 4;
+    pub const REDISTRIBUTE: u32 = 5;
 }

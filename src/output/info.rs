@@ -1,0 +1,92 @@
+//! `mesorheo info FILE.h5`: what a snapshot series or checkpoint holds.
+
+use hdf5::types::VarLenUnicode;
+
+/// A readable description of an HDF5 file written by mesorheo (or any HDF5 file).
+pub fn describe(path: &std::path::Path) -> Result<String, String> {
+    let f = hdf5::File::open(path)
+        .map_err(|e| format!("{}: not a readable HDF5 file ({e})", path.display()))?;
+    let mut s = format!("{}\n", path.display());
+    let root_attrs = f.attr_names().unwrap_or_default();
+    let kind = if root_attrs.iter().any(|a| a == "format") {
+        "checkpoint"
+    } else if f.link_exists("h5md") {
+        "snapshot series (H5MD)"
+    } else {
+        "HDF5 file"
+    };
+    s.push_str(&format!("  kind: {kind}\n"));
+    let mut case = None;
+    for name in &root_attrs {
+        let a = f.attr(name).map_err(|e| e.to_string())?;
+        if name == "case" {
+            case = a.read_scalar::<VarLenUnicode>().ok().map(|v| v.to_string());
+            continue;
+        }
+        s.push_str(&format!("  {name}: {}\n", attr_text(&a)));
+    }
+    if case.is_none()
+        && let Ok(p) = f.group("parameters")
+        && let Ok(a) = p.attr("case")
+    {
+        case = a.read_scalar::<VarLenUnicode>().ok().map(|v| v.to_string());
+    }
+    if f.link_exists("particles/fluid/position/step")
+        && let Ok(d) = f.dataset("particles/fluid/position/step")
+        && let Ok(steps) = d.read_raw::<u64>()
+    {
+        match (steps.first(), steps.last()) {
+            (Some(a), Some(b)) => {
+                s.push_str(&format!("  frames: {} (steps {a} … {b})\n", steps.len()))
+            }
+            _ => s.push_str("  frames: 0\n"),
+        }
+    }
+    s.push_str("  datasets:\n");
+    let mut lines = Vec::new();
+    walk(&f, "", &mut lines).map_err(|e| e.to_string())?;
+    for l in lines {
+        s.push_str(&format!("    {l}\n"));
+    }
+    if let Some(c) = case {
+        s.push_str("  case:\n");
+        for l in c.lines() {
+            s.push_str(&format!("    {l}\n"));
+        }
+    }
+    Ok(s)
+}
+
+fn attr_text(a: &hdf5::Attribute) -> String {
+    if let Ok(v) = a.read_scalar::<VarLenUnicode>() {
+        return v.to_string();
+    }
+    if let Ok(v) = a.read_scalar::<u64>() {
+        return v.to_string();
+    }
+    if let Ok(v) = a.read_scalar::<f64>() {
+        return format!("{v}");
+    }
+    if let Ok(v) = a.read_raw::<i32>() {
+        return format!("{v:?}");
+    }
+    "(unprintable)".into()
+}
+
+fn walk(g: &hdf5::Group, prefix: &str, out: &mut Vec<String>) -> hdf5::Result<()> {
+    let mut names = g.member_names()?;
+    names.sort();
+    for name in names {
+        let path = format!("{prefix}/{name}");
+        if let Ok(sub) = g.group(&name) {
+            walk(&sub, &path, out)?;
+        } else if let Ok(d) = g.dataset(&name) {
+            let ty = d
+                .dtype()
+                .and_then(|t| t.to_descriptor())
+                .map_or("?".into(), |t| format!("{t}"));
+            out.push(format!("{path}  {:?}  {ty}", d.shape()));
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,43 @@
+//! Files a run writes: checkpoints (complete state, restart on any rank count) and, built on
+//! the same parallel writer, snapshots (H5MD + XDMF). Needs the `hdf5` feature.
+
+pub mod checkpoint;
+pub mod info;
+pub mod shared_file;
+pub mod snapshot;
+
+use crate::comm::Comm;
+use crate::domain::{id_block, redistribute, sort_by_id};
+use crate::particles::Particles;
+
+/// The particles of this rank's global-id block `[N r/P, N (r+1)/P)`, sorted by id, gathered
+/// from wherever they live (collective). Every file is written from these blocks, so its
+/// content does not depend on the decomposition.
+pub(crate) fn id_ordered<const D: usize>(
+    owned: &Particles<D>,
+    total: u64,
+    comm: &dyn Comm,
+) -> Result<Particles<D>, String> {
+    let (rank, size) = (comm.rank(), comm.size());
+    let mut mine = redistribute(owned, comm, |i| {
+        let g = owned.gid[i];
+        // Balanced blocks: the owner of g is the r with block(r).start ≤ g < block(r).end.
+        let mut r = ((u128::from(g) * size as u128) / u128::from(total.max(1))) as usize;
+        r = r.min(size - 1);
+        while r > 0 && id_block(total, size, r).start > g {
+            r -= 1;
+        }
+        while r + 1 < size && id_block(total, size, r).end <= g {
+            r += 1;
+        }
+        r
+    });
+    sort_by_id(&mut mine);
+    let dense = mine.gid.iter().copied().eq(id_block(total, size, rank));
+    let mut bad = [if dense { 0.0 } else { 1.0 }];
+    comm.allreduce_max(&mut bad);
+    if bad[0] > 0.0 {
+        return Err("particle ids are not 0..N−1; cannot write them in id order".into());
+    }
+    Ok(mine)
+}

@@ -1,0 +1,421 @@
+//! Checkpoints and restart: N steps ≡ N/2 steps + checkpoint + restart + N/2 steps, bitwise
+//! (`state_digest`), for Lees–Edwards DPD with a non-zero offset in 2D and 3D, also when the
+//! restart runs on a different rank count; the same for a test-only model that carries a
+//! fixed-width tensor and a variable-length array per particle; a corrupt or truncated
+//! checkpoint is refused and the previous one used; a process killed while writing a checkpoint
+//! leaves the previous one intact; SIGTERM stops a run cleanly with a checkpoint.
+#![cfg(feature = "hdf5")]
+
+mod common;
+use common::{case_from_str, small_dpd};
+use mesorheo::comm::Comm;
+use mesorheo::driver::{RunOptions, in_process, restart_case, run_case};
+use mesorheo::output::checkpoint;
+use mesorheo::particles::Particles;
+use mesorheo::sim::{Simulation, StateModel};
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn le_case(dim: usize, steps: u64, extra: &str) -> String {
+    let (side, shear) = if dim == 2 { (10.0, 0.5) } else { (6.0, 0.4) };
+    small_dpd(
+        dim,
+        side,
+        shear,
+        steps,
+        &format!("{extra}\n[diagnostics]\nobservables = [\"temperature\", \"viscosity\"]\n"),
+    )
+}
+
+fn options(out: Option<&Path>, until: Option<u64>) -> RunOptions {
+    RunOptions {
+        threads: 1,
+        steps: None,
+        until_step: until,
+        out: out.map(Path::to_path_buf),
+    }
+}
+
+/// Digest of an uninterrupted run on one rank.
+fn uninterrupted(text: &str) -> String {
+    let loaded = case_from_str(text, "whole");
+    in_process(1, move |c| run_case(&loaded, c, &options(None, None)))
+        .expect("uninterrupted run")
+        .state_digest
+}
+
+fn attr_u64(path: &Path, name: &str) -> u64 {
+    let f = hdf5::File::open(path).expect("open checkpoint");
+    f.attr(name)
+        .expect("attr")
+        .read_scalar::<u64>()
+        .expect("u64")
+}
+
+#[test]
+fn restart_is_bitwise_in_2d_and_3d_and_on_other_rank_counts() {
+    for dim in [2, 3] {
+        let text = le_case(dim, 120, "");
+        let whole = uninterrupted(&text);
+        for (first, second) in [(1, 1), (2, 1), (1, 2), (1, 3)] {
+            let dir = tempfile::tempdir().expect("tempdir");
+            let out = dir.path().to_path_buf();
+            let loaded = case_from_str(&text, "first half");
+            let o = out.clone();
+            let half = in_process(first, move |c| {
+                run_case(&loaded, c, &options(Some(&o), Some(60)))
+            })
+            .expect("first half");
+            assert!(!half.completed);
+            assert_eq!(half.steps, 60);
+            let ck = PathBuf::from(half.last_checkpoint.expect("checkpoint written"));
+            assert_eq!(ck, out.join("checkpoints").join(checkpoint::file_name(60)));
+            // The Lees–Edwards offset is non-zero at the checkpoint.
+            let f = hdf5::File::open(&ck).expect("open");
+            let offset: f64 = f.attr("le_offset").unwrap().read_scalar().unwrap();
+            assert!(offset.abs() > 0.1, "offset {offset}");
+            let o = out.clone();
+            let rest = in_process(second, move |c| {
+                restart_case(&o.join("checkpoints"), c, &options(Some(&o), None))
+            })
+            .expect("second half");
+            assert!(rest.completed);
+            assert_eq!(rest.steps, 120);
+            assert_eq!(
+                rest.state_digest, whole,
+                "{dim}D: {first} ranks → checkpoint at 60 → {second} ranks differs from one run"
+            );
+        }
+    }
+}
+
+#[test]
+fn restart_between_neighbour_list_builds_is_bitwise() {
+    // Checkpoints at every step from 41 to 50: most fall between list builds, where positions
+    // are not wrapped and the lists must be rebuilt as of the last build. (A wide skin and a
+    // slow shear, so lists live for several steps.)
+    let text = small_dpd(3, 6.0, 0.1, 80, "").replace("skin = 0.3", "skin = 0.8");
+    assert!(text.contains("skin = 0.8"));
+    let whole = uninterrupted(&text);
+    let mut between = 0;
+    for stop in 41..=50u64 {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let out = dir.path().to_path_buf();
+        let loaded = case_from_str(&text, "first");
+        let o = out.clone();
+        in_process(2, move |c| {
+            run_case(&loaded, c, &options(Some(&o), Some(stop)))
+        })
+        .expect("first");
+        let ck = out.join("checkpoints").join(checkpoint::file_name(stop));
+        if attr_u64(&ck, "rebuild_step") != stop {
+            between += 1;
+        }
+        let o = out.clone();
+        let rest = in_process(1, move |c| restart_case(&ck, c, &options(Some(&o), None)))
+            .expect("restart");
+        assert_eq!(rest.state_digest, whole, "checkpoint at step {stop}");
+    }
+    assert!(
+        between >= 3,
+        "only {between} checkpoints fell between list builds"
+    );
+}
+
+/// A test-only model with per-particle state: a D×D tensor relaxing towards a function of the
+/// position, and an array whose length changes with time (the shape of a dumbbell ensemble).
+struct TensorAndArray;
+
+impl<const D: usize> StateModel<D> for TensorAndArray {
+    fn attach(&self, p: &mut Particles<D>) -> Result<(), String> {
+        if let Some(k) = p.extra_index("tensor") {
+            return if p.extra[k].width == D * D && p.var.iter().any(|v| v.name == "history") {
+                Ok(())
+            } else {
+                Err("checkpoint lacks the model's fields".into())
+            };
+        }
+        let k = p.register_extra("tensor", D * D);
+        let v = p.register_var("history");
+        for i in 0..p.n_owned {
+            let g = p.gid[i];
+            for c in 0..D * D {
+                p.extra[k].data[i * D * D + c] = (g % 13) as f64 + c as f64 * 0.25;
+            }
+            p.var[v].data[i] = (0..g % 4).map(|j| j as f64 + 0.5).collect();
+        }
+        Ok(())
+    }
+
+    fn advance(&self, p: &mut Particles<D>, step: u64) {
+        let k = p.extra_index("tensor").expect("registered");
+        let v = p
+            .var
+            .iter()
+            .position(|f| f.name == "history")
+            .expect("registered");
+        for i in 0..p.n_owned {
+            let x = p.pos[i];
+            for c in 0..D * D {
+                let t = &mut p.extra[k].data[i * D * D + c];
+                *t = 0.9 * *t + 0.1 * x[c % D] * (c + 1) as f64;
+            }
+            let h = &mut p.var[v].data[i];
+            if (p.gid[i] + step).is_multiple_of(5) {
+                h.push(x[0] - x[1]);
+            }
+            if h.len() > 6 {
+                h.remove(0);
+            }
+        }
+    }
+}
+
+fn model_run(
+    comm: &dyn Comm,
+    text: &str,
+    from: Option<&Path>,
+    to_step: u64,
+    save_to: Option<&Path>,
+) -> Result<String, String> {
+    let case = case_from_str(text, "model").case;
+    let mut sim = match from {
+        None => Simulation::<3>::new(&case, comm, 1)?,
+        Some(path) => {
+            let r = checkpoint::read::<3>(path, comm)?;
+            Simulation::<3>::from_checkpoint(
+                &r.case,
+                comm,
+                1,
+                r.particles,
+                r.total,
+                r.step,
+                r.rebuild_step,
+                r.series,
+            )?
+        }
+    };
+    sim.attach(Box::new(TensorAndArray))?;
+    let steps = to_step - sim.step;
+    sim.run_steps(steps, |_| {})?;
+    if let Some(dir) = save_to {
+        checkpoint::write(&sim, dir, 2)?;
+    }
+    Ok(sim.state_digest())
+}
+
+#[test]
+fn model_fields_migrate_checkpoint_and_restart_bitwise_on_any_rank_count() {
+    let text = le_case(3, 100, "");
+    let mut reference = None;
+    for ranks in 1..=3 {
+        let t = text.clone();
+        let d = in_process(ranks, move |c| model_run(c, &t, None, 100, None)).expect("run");
+        let r = reference.get_or_insert(d.clone());
+        assert_eq!(&d, r, "model state differs on {ranks} ranks");
+    }
+    let reference = reference.expect("reference");
+    // The model must actually change the digest (its fields are part of the state).
+    assert_ne!(reference, uninterrupted(&text));
+    for (first, second) in [(1, 3), (3, 1), (2, 2)] {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let ckdir = dir.path().join("checkpoints");
+        let (t, c1) = (text.clone(), ckdir.clone());
+        in_process(first, move |c| model_run(c, &t, None, 47, Some(&c1))).expect("first part");
+        let ck = ckdir.join(checkpoint::file_name(47));
+        let t = text.clone();
+        let d = in_process(second, move |c| model_run(c, &t, Some(&ck), 100, None))
+            .expect("second part");
+        assert_eq!(d, reference, "model: {first} ranks → 47 → {second} ranks");
+    }
+}
+
+fn write_case(dir: &Path, text: &str) -> PathBuf {
+    let p = dir.join("case.toml");
+    std::fs::write(&p, text).expect("write case");
+    p
+}
+
+#[test]
+fn a_corrupt_or_truncated_checkpoint_is_refused_and_the_previous_one_used() {
+    let text = le_case(
+        2,
+        200,
+        "[output]\ncheckpoint_every = 50\ncheckpoint_keep = 3\ncheckpoint_at_end = false",
+    );
+    let whole = uninterrupted(&text);
+    for damage in ["truncate", "flip"] {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let out = dir.path().to_path_buf();
+        let loaded = case_from_str(&text, "ck");
+        let o = out.clone();
+        in_process(1, move |c| {
+            run_case(&loaded, c, &options(Some(&o), Some(150)))
+        })
+        .expect("run");
+        let cks = out.join("checkpoints");
+        let newest = cks.join(checkpoint::file_name(150));
+        assert!(cks.join(checkpoint::file_name(100)).exists());
+        match damage {
+            "truncate" => {
+                let len = std::fs::metadata(&newest).unwrap().len();
+                let f = std::fs::OpenOptions::new()
+                    .write(true)
+                    .open(&newest)
+                    .unwrap();
+                f.set_len(len / 2).unwrap();
+            }
+            _ => {
+                // A valid HDF5 file with one wrong number: only the checksum can tell.
+                let f = hdf5::File::open_rw(&newest).unwrap();
+                let ds = f.dataset("particles/velocity").unwrap();
+                let mut v: Vec<f64> = ds.read_raw().unwrap();
+                v[7] += 1e-12;
+                let shape = ds.shape();
+                ds.write(
+                    ndarray::Array2::from_shape_vec((shape[0], shape[1]), v)
+                        .unwrap()
+                        .view(),
+                )
+                .unwrap();
+            }
+        }
+        // Refused when named explicitly…
+        let n = newest.clone();
+        let err = in_process(1, move |c| checkpoint::read::<2>(&n, c).map(|_| ()))
+            .expect_err("damaged checkpoint accepted");
+        let expect = if damage == "flip" { "checksum" } else { "HDF5" };
+        assert!(err.contains(expect), "{damage}: {err}");
+        // …and the restart falls back to step 100 and still ends in the uninterrupted state.
+        let o = out.clone();
+        let rest = in_process(2, move |c| {
+            restart_case(&newest, c, &options(Some(&o), None))
+        })
+        .expect("restart from the previous checkpoint");
+        assert_eq!(
+            rest.restarted_from.as_deref(),
+            Some(cks.join(checkpoint::file_name(100)).to_str().unwrap())
+        );
+        assert_eq!(rest.state_digest, whole, "{damage}");
+    }
+}
+
+fn binary(args: &[&str]) -> Command {
+    let mut c = Command::new(env!("CARGO_BIN_EXE_mesorheo"));
+    c.args(args).env("NO_COLOR", "1");
+    c
+}
+
+fn summary(out: &Path) -> serde_json::Value {
+    serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).expect("summary"))
+        .expect("json")
+}
+
+#[test]
+fn a_process_killed_while_writing_a_checkpoint_leaves_the_previous_one_usable() {
+    let text = le_case(2, 200, "[output]\ncheckpoint_every = 50");
+    let whole = uninterrupted(&text);
+    let dir = tempfile::tempdir().expect("tempdir");
+    let case = write_case(dir.path(), &text);
+    let out = dir.path().join("out");
+    let o = binary(&[
+        "run",
+        case.to_str().unwrap(),
+        "-q",
+        "-t",
+        "1",
+        "--out",
+        out.to_str().unwrap(),
+    ])
+    .env("MESORHEO_FAULT", "abort-in-checkpoint:2")
+    .output()
+    .expect("run");
+    assert!(!o.status.success(), "the fault hook did not fire");
+    let cks = out.join("checkpoints");
+    assert!(cks.join(checkpoint::file_name(50)).exists());
+    assert!(!cks.join(checkpoint::file_name(100)).exists());
+    assert!(
+        cks.join(format!("{}.tmp", checkpoint::file_name(100)))
+            .exists(),
+        "the abort happened before the temporary file existed"
+    );
+    let o = binary(&["restart", cks.to_str().unwrap(), "-q", "-t", "1"])
+        .output()
+        .expect("restart");
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let s = summary(&out);
+    assert_eq!(s["state_digest"], whole.as_str());
+    assert_eq!(s["steps"], 200);
+    assert!(
+        s["restarted_from"]
+            .as_str()
+            .unwrap()
+            .ends_with(&checkpoint::file_name(50))
+    );
+}
+
+#[test]
+fn until_step_and_sigterm_stop_cleanly_and_the_restart_matches_one_run() {
+    let text = le_case(3, 3000, "");
+    let whole = uninterrupted(&text);
+    let dir = tempfile::tempdir().expect("tempdir");
+    let case = write_case(dir.path(), &text);
+    let out = dir.path().join("out");
+    // --until-step
+    let o = binary(&[
+        "run",
+        case.to_str().unwrap(),
+        "-q",
+        "-t",
+        "1",
+        "--until-step",
+        "300",
+        "--out",
+    ])
+    .arg(&out)
+    .output()
+    .expect("run");
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let s = summary(&out);
+    assert_eq!(s["completed"], false);
+    assert_eq!(s["steps"], 300);
+    // SIGTERM while running from the checkpoint.
+    let ck = out.join("checkpoints").join(checkpoint::file_name(300));
+    let mut child = binary(&["restart", ck.to_str().unwrap(), "-q", "-t", "1"])
+        .spawn()
+        .expect("restart");
+    let log = out.join("logs").join("rank0000.log");
+    let started = std::time::Instant::now();
+    while !std::fs::read_to_string(&log)
+        .unwrap_or_default()
+        .contains("continuing")
+    {
+        assert!(started.elapsed().as_secs() < 60, "restart did not start");
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    std::thread::sleep(std::time::Duration::from_millis(300));
+    let kill = Command::new("kill")
+        .args(["-TERM", &child.id().to_string()])
+        .status()
+        .expect("kill");
+    assert!(kill.success());
+    let status = child.wait().expect("wait");
+    assert!(
+        status.success(),
+        "SIGTERM did not end the run cleanly: {status}"
+    );
+    let s = summary(&out);
+    let stopped = s["steps"].as_u64().unwrap();
+    assert_eq!(s["completed"], false, "the run finished before the signal");
+    assert!(stopped > 300 && stopped < 3000);
+    let last = s["last_checkpoint"].as_str().unwrap().to_owned();
+    assert!(last.ends_with(&checkpoint::file_name(stopped)));
+    // Continue to the end.
+    let o = binary(&["restart", &last, "-q", "-t", "1"])
+        .output()
+        .expect("restart");
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let s = summary(&out);
+    assert_eq!(s["completed"], true);
+    assert_eq!(s["state_digest"], whole.as_str());
+}
