@@ -73,6 +73,40 @@ impl FixedSum {
         self.low = self.low.wrapping_add(other.low);
     }
 
+    /// Moves the carry of the low word into the high word, leaving low in [0, 2^52): call it
+    /// every few thousand terms in long accumulations (each term adds |l| ≤ 2^51 to the low
+    /// word, which would wrap after ~2^12 worst-case or ~2^26 random terms).
+    #[inline]
+    pub fn normalize(&mut self) {
+        let carry = self.low >> 52;
+        self.high = self.high.wrapping_add(carry);
+        self.low -= carry << 52;
+    }
+
+    /// Exact element-wise sum over every rank (collective): the same bits on every rank and for
+    /// every rank count. Each accumulator travels as three integer words (the high word and the
+    /// normalised low word split in two 26-bit halves), so the integer sums cannot wrap below
+    /// 2^37 ranks.
+    pub fn allreduce(comm: &dyn crate::comm::Comm, sums: &mut [FixedSum]) {
+        let mut words = Vec::with_capacity(3 * sums.len());
+        for s in sums.iter_mut() {
+            s.normalize();
+            words.push(s.high as u64);
+            words.push((s.low >> 26) as u64);
+            words.push((s.low & ((1 << 26) - 1)) as u64);
+        }
+        comm.allreduce_u64(&mut words, crate::comm::U64Op::Sum);
+        for (s, w) in sums.iter_mut().zip(words.chunks_exact(3)) {
+            // Σlow = A·2^26 + B with A = a1·2^26 + a0: a1 carries into the high word.
+            s.high = w[0] as i64;
+            let hi = w[1] as i64;
+            s.low = (hi & ((1 << 26) - 1)) << 26;
+            s.high = s.high.wrapping_add(hi >> 26);
+            s.low += w[2] as i64;
+            s.normalize();
+        }
+    }
+
     /// The sum, rounded once to f64.
     #[inline]
     pub fn value(&self) -> f64 {
@@ -125,6 +159,38 @@ mod tests {
             "{} vs {exact}",
             forward.value()
         );
+    }
+
+    #[test]
+    fn exact_allreduce_equals_the_sum_of_all_terms_on_any_rank_count() {
+        let key = crate::rng::StreamKey::new(5, crate::rng::Purpose::Test, 1);
+        let xs: Vec<f64> = (0..5000u32)
+            .map(|i| key.gaussian2(0, i, 0).0 * 1e3)
+            .collect();
+        let mut all = FixedSum::ZERO;
+        xs.iter().for_each(|&x| all.add(x));
+        let want = all.value();
+        for ranks in 1..=4 {
+            let xs = xs.clone();
+            let got = crate::driver::in_process(ranks, move |c| {
+                let mut s = [FixedSum::ZERO];
+                for x in xs.iter().skip(c.rank()).step_by(c.size()) {
+                    s[0].add(*x);
+                }
+                FixedSum::allreduce(c, &mut s);
+                Ok(s[0].value())
+            })
+            .expect("ranks");
+            assert_eq!(got.to_bits(), want.to_bits(), "{ranks} ranks");
+        }
+        // Normalising keeps the value.
+        let mut big = FixedSum::ZERO;
+        for _ in 0..100_000 {
+            big.add(0.499_999_999_999);
+        }
+        let before = big.value();
+        big.normalize();
+        assert_eq!(big.value(), before);
     }
 
     #[test]

@@ -18,6 +18,7 @@ use crate::comm::{Comm, U64Op};
 use crate::config::{Case, FluidCfg, IntegratorCfg, Lattice, Observable, VelocityProfile};
 use crate::diagnostics::{STRESS_PARTS, Series, tensor_components};
 use crate::domain::{HaloPlan, Slab, migrate};
+use crate::fixed_sum::FixedSum;
 use crate::geometry::{GRADIENT, SimBox};
 use crate::models::dpd::Dpd;
 use crate::models::pair_loop::{PairWorkspace, Virial, compute_forces};
@@ -546,16 +547,19 @@ impl<'c, const D: usize> Simulation<'c, D> {
         let n = self.particles.n_owned;
         let m = self.mass;
         let (pos, vel) = (&self.particles.pos[..n], &self.particles.vel[..n]);
+        // Every sum below is accumulated exactly ([`FixedSum`]) and reduced exactly over the
+        // ranks, so the observables are bitwise the same for any decomposition, like the state.
         // Pass 1: bin counts and momenta → mean velocity per bin.
-        let mut first = vec![0.0; bins * (1 + D)];
+        let mut first = vec![FixedSum::ZERO; bins * (1 + D)];
         for (x, v) in pos.iter().zip(vel) {
             let b = bin_of(x[GRADIENT]);
-            first[b] += 1.0;
+            first[b].add(1.0);
             for d in 0..D {
-                first[bins + b * D + d] += v[d];
+                first[bins + b * D + d].add(v[d]);
             }
         }
-        self.comm.allreduce_sum(&mut first);
+        FixedSum::allreduce(self.comm, &mut first);
+        let first: Vec<f64> = first.iter().map(FixedSum::value).collect();
         let mean: Vec<[f64; D]> = (0..bins)
             .map(|b| {
                 let c = first[b].max(1.0);
@@ -595,25 +599,29 @@ impl<'c, const D: usize> Simulation<'c, D> {
         };
         // Pass 2: kinetic tensor, peculiar momentum, virial.
         let dd = D * D;
-        let mut second = vec![0.0; dd + D + 3 * dd];
-        for (x, v) in pos.iter().zip(vel) {
+        let mut second = vec![FixedSum::ZERO; dd + D + 3 * dd];
+        for (k, (x, v)) in pos.iter().zip(vel).enumerate() {
+            if k % 2048 == 2047 {
+                second.iter_mut().for_each(FixedSum::normalize);
+            }
             let u = &local_mean(x[GRADIENT]);
             for a in 0..D {
                 let va = v[a] - u[a];
                 for b in 0..D {
-                    second[a * D + b] += m * va * (v[b] - u[b]);
+                    second[a * D + b].add(m * va * (v[b] - u[b]));
                 }
             }
             let mut p = *v;
             p[0] -= self.sim_box.streaming_velocity(x[GRADIENT]);
             for d in 0..D {
-                second[dd + d] += m * p[d];
+                second[dd + d].add(m * p[d]);
             }
         }
         for (k, w) in virial.iter().enumerate() {
             second[dd + D + k * dd..dd + D + (k + 1) * dd].copy_from_slice(w);
         }
-        self.comm.allreduce_sum(&mut second);
+        FixedSum::allreduce(self.comm, &mut second);
+        let second: Vec<f64> = second.iter().map(FixedSum::value).collect();
         let volume = self.sim_box.volume();
         let kinetic = &second[..dd];
         let mut parts: Vec<Vec<f64>> = vec![kinetic.iter().map(|k| k / volume).collect()];

@@ -1,6 +1,7 @@
 //! Determinism across decompositions: the same case gives a bitwise identical final state
 //! (`state_digest`: ids, positions, velocities, forces, image counts) for 1–4 in-process ranks
-//! and 1–2 rayon threads per rank, with and without Lees–Edwards shear (DESIGN.md rule 5).
+//! and 1–2 rayon threads per rank, with and without Lees–Edwards shear (DESIGN.md rule 5); and
+//! so are the time-averaged observables (every diagnostic sum is exact).
 
 mod common;
 use common::{case_from_str, small_dpd};
@@ -14,7 +15,10 @@ fn digests(text: &str, name: &str) -> Vec<(usize, usize, String)> {
             let s = run_in_process(&loaded, ranks, threads, None)
                 .unwrap_or_else(|e| panic!("{name} on {ranks} ranks × {threads} threads: {e}"));
             assert_eq!(s.steps, 200);
-            out.push((ranks, threads, s.state_digest));
+            // The averaged observables too (exact reductions), compared to the last bit.
+            let observables = serde_json::to_string(&s.observables).expect("json");
+            assert!(observables.contains("temperature"), "{observables}");
+            out.push((ranks, threads, format!("{} {observables}", s.state_digest)));
         }
     }
     out

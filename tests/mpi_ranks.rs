@@ -1,6 +1,8 @@
 //! Real multi-process runs (`mpirun -n 1` and `-n 2`) of the MPI build: the final state digest
-//! must be identical, and a decomposition that is too fine must be refused with the usable
-//! rank count. Needs the `mpi` feature (`./run test` builds it).
+//! must be identical, the parallel-HDF5 (MPI-IO) snapshots and checkpoints hold the same
+//! content, a 2-rank run stopped with --until-step continues on 1 rank to the same state, and a
+//! decomposition that is too fine is refused with the usable rank count. Needs the `mpi`
+//! feature (`./run test` builds it).
 
 mod common;
 
@@ -8,6 +10,21 @@ use std::path::Path;
 use std::process::Command;
 
 fn mpirun(ranks: usize, threads: usize, case: &Path, out: &Path) -> std::process::Output {
+    mpirun_args(
+        ranks,
+        &[
+            "run",
+            case.to_str().expect("utf-8 path"),
+            "--out",
+            out.to_str().expect("utf-8 path"),
+            "-t",
+            &threads.to_string(),
+            "-q",
+        ],
+    )
+}
+
+fn mpirun_args(ranks: usize, args: &[&str]) -> std::process::Output {
     Command::new("mpirun")
         .args([
             "-n",
@@ -17,9 +34,7 @@ fn mpirun(ranks: usize, threads: usize, case: &Path, out: &Path) -> std::process
             "none",
         ])
         .arg(env!("CARGO_BIN_EXE_mesorheo"))
-        .args(["run", case.to_str().expect("utf-8 path"), "--out"])
-        .arg(out)
-        .args(["-t", &threads.to_string(), "-q"])
+        .args(args)
         .env("OMPI_ALLOW_RUN_AS_ROOT", "1")
         .env("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1")
         .env("NO_COLOR", "1")
@@ -40,7 +55,8 @@ fn case_text() -> String {
         6.0,
         0.3,
         200,
-        "[diagnostics]\nobservables = [\"temperature\", \"viscosity\"]\n",
+        "[output]\nsnapshot_every = 50\ncheckpoint_every = 100\n\
+         [diagnostics]\nobservables = [\"temperature\", \"viscosity\"]\n",
     )
 }
 
@@ -76,6 +92,52 @@ fn mpirun_one_and_two_ranks_give_the_same_state() {
             "mpirun -n {r} × {t} threads differs from -n 1"
         );
     }
+    // Parallel HDF5 (MPI-IO): the snapshot series and the final checkpoint hold the same
+    // content whatever the rank count.
+    let reference = dir.path().join("out1_1");
+    for name in ["snapshots.h5", "checkpoints/checkpoint_000000000200.h5"] {
+        let a = common::h5_content(&reference.join(name));
+        assert!(a.len() > 5, "{name}: {} datasets", a.len());
+        for other in ["out2_1", "out2_2"] {
+            let b = common::h5_content(&dir.path().join(other).join(name));
+            assert!(a == b, "{name} differs between -n 1 and {other}");
+        }
+    }
+}
+
+#[test]
+fn mpirun_two_ranks_until_a_step_then_one_rank_restart_equals_one_run() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let case = dir.path().join("le.toml");
+    std::fs::write(&case, case_text()).expect("write case");
+    let whole = dir.path().join("whole");
+    let o = mpirun(1, 1, &case, &whole);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let parts = dir.path().join("parts");
+    let p = parts.to_str().expect("utf-8");
+    let o = mpirun_args(
+        2,
+        &[
+            "run",
+            case.to_str().expect("utf-8"),
+            "--out",
+            p,
+            "--until-step",
+            "130",
+            "-q",
+        ],
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let ck = parts.join("checkpoints").join("checkpoint_000000000130.h5");
+    assert!(ck.exists());
+    let o = mpirun_args(1, &["restart", ck.to_str().expect("utf-8"), "-q"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_eq!(digest(&parts), digest(&whole));
+    assert!(
+        common::h5_content(&parts.join("snapshots.h5"))
+            == common::h5_content(&whole.join("snapshots.h5")),
+        "snapshots of the restarted run differ"
+    );
 }
 
 #[test]

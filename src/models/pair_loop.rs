@@ -63,8 +63,9 @@ pub fn separation<const D: usize>(a: &[f64; D], b: &[f64; D]) -> [f64; D] {
     r
 }
 
-/// Virial Σ r_ij ⊗ F_ij per part [conservative, dissipative, random], flattened D×D.
-pub type Virial = [Vec<f64>; 3];
+/// Virial Σ r_ij ⊗ F_ij per part [conservative, dissipative, random], flattened D×D, as exact
+/// accumulators (so the sum over ranks is exact too).
+pub type Virial = [Vec<FixedSum>; 3];
 
 /// One chunk's virial accumulators: 3 parts × a 3×3 tensor (the 2D case uses the top-left 2×2).
 type ChunkVirial = [FixedSum; 27];
@@ -106,7 +107,10 @@ pub fn compute_forces<const D: usize, K: PairKernel<D>>(
             acc.resize(n_owned, [FixedSum::ZERO; D]);
             let mut virial = [FixedSum::ZERO; 27];
             let mut bad: Option<BadPair> = None;
-            for &[i, j] in pairs {
+            for (k, &[i, j]) in pairs.iter().enumerate() {
+                if want_virial && k % 2048 == 2047 {
+                    virial.iter_mut().for_each(FixedSum::normalize);
+                }
                 let (i, j) = (i as usize, j as usize);
                 let Some(t) = kernel.eval(
                     &separation(&pos[i], &pos[j]),
@@ -175,14 +179,16 @@ pub fn compute_forces<const D: usize, K: PairKernel<D>>(
         let mut total = [FixedSum::ZERO; 27];
         for v in virials {
             for (t, x) in total.iter_mut().zip(v) {
-                t.merge(x);
+                let mut x = *x;
+                x.normalize();
+                t.merge(&x);
             }
         }
-        let part = |p: usize| -> Vec<f64> {
-            let mut w = vec![0.0; D * D];
+        let part = |p: usize| -> Vec<FixedSum> {
+            let mut w = vec![FixedSum::ZERO; D * D];
             for a in 0..D {
                 for b in 0..D {
-                    w[a * D + b] = total[p * 9 + a * 3 + b].value();
+                    w[a * D + b] = total[p * 9 + a * 3 + b];
                 }
             }
             w

@@ -319,10 +319,10 @@ impl<'c> SharedFile<'c> {
     /// other. Collective; every rank returns the same verdict.
     pub fn close(mut self) -> Result<(), String> {
         let mut result = Ok(());
-        if let Some(f) = self.file.take() {
-            if let Err(e) = f.close() {
-                result = Err(h5err(&self.path, "cannot close", e));
-            }
+        if let Some(f) = self.file.take()
+            && let Err(e) = f.close()
+        {
+            result = Err(h5err(&self.path, "cannot close", e));
         }
         if !self.collective {
             for turn in 1..self.comm.size() {

@@ -56,3 +56,36 @@ progress_seconds = 0
 "#
     )
 }
+
+#[cfg(feature = "hdf5")]
+/// Every dataset of an HDF5 file with its values (as bit patterns), in path order.
+pub fn h5_content(path: &Path) -> Vec<(String, Vec<usize>, Vec<u64>)> {
+    fn walk(g: &hdf5::Group, prefix: &str, out: &mut Vec<(String, Vec<usize>, Vec<u64>)>) {
+        let mut names = g.member_names().expect("members");
+        names.sort();
+        for name in names {
+            let p = format!("{prefix}/{name}");
+            if let Ok(sub) = g.group(&name) {
+                walk(&sub, &p, out);
+            } else {
+                let d = g.dataset(&name).expect("dataset");
+                let bits: Vec<u64> = if let Ok(v) = d.read_raw::<f64>() {
+                    v.iter().map(|x| x.to_bits()).collect()
+                } else if let Ok(v) = d.read_raw::<u64>() {
+                    v
+                } else {
+                    d.read_raw::<i32>()
+                        .expect("f64, u64 or i32")
+                        .iter()
+                        .map(|&x| x as u32 as u64)
+                        .collect()
+                };
+                out.push((p, d.shape(), bits));
+            }
+        }
+    }
+    let f = hdf5::File::open(path).expect("open");
+    let mut out = Vec::new();
+    walk(&f, "", &mut out);
+    out
+}

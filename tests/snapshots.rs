@@ -1,0 +1,156 @@
+//! Snapshot series (H5MD + XDMF): the same content for any rank count, frames after a
+//! checkpoint dropped and rewritten identically on restart, `info` describes the file, and the
+//! h5py snippet of the docs reads it and checks the XDMF sidecar.
+#![cfg(feature = "hdf5")]
+
+mod common;
+use common::{case_from_str, h5_content as content, small_dpd};
+use mesorheo::driver::{RunOptions, in_process, restart_case, run_case};
+use std::path::Path;
+
+fn case(steps: u64, extra: &str) -> String {
+    small_dpd(
+        3,
+        6.0,
+        0.4,
+        steps,
+        &format!(
+            "[output]\nsnapshot_every = 20\nsnapshot_fields = [\"position\", \"velocity\", \"force\", \"image\"]\n{extra}\n\
+             [diagnostics]\nobservables = [\"temperature\", \"viscosity\", \"velocity_profile\"]\n"
+        ),
+    )
+}
+
+fn run(text: &str, ranks: usize, out: &Path, until: Option<u64>) {
+    let loaded = case_from_str(text, "snap");
+    let out = out.to_path_buf();
+    in_process(ranks, move |c| {
+        run_case(
+            &loaded,
+            c,
+            &RunOptions {
+                threads: 1,
+                steps: None,
+                until_step: until,
+                out: Some(out.clone()),
+            },
+        )
+    })
+    .expect("run");
+}
+
+#[test]
+fn snapshots_have_the_same_content_on_1_2_and_3_ranks() {
+    let text = case(100, "");
+    let dir = tempfile::tempdir().expect("tempdir");
+    let mut first: Option<(Vec<_>, String)> = None;
+    for ranks in 1..=3 {
+        let out = dir.path().join(format!("r{ranks}"));
+        run(&text, ranks, &out, None);
+        let c = content(&out.join("snapshots.h5"));
+        let x = std::fs::read_to_string(out.join("snapshots.xdmf")).expect("xdmf");
+        let (c0, x0) = first.get_or_insert((c.clone(), x.clone()));
+        let names: Vec<&String> = c.iter().map(|(n, _, _)| n).collect();
+        assert!(
+            names
+                .iter()
+                .any(|n| *n == "/particles/fluid/position/value")
+        );
+        assert!(names.iter().any(|n| *n == "/observables/viscosity/value"));
+        for ((n, s, v), (n0, s0, v0)) in c.iter().zip(c0.iter()) {
+            assert_eq!((n, s), (n0, s0), "{ranks} ranks");
+            assert!(v == v0, "{n} differs between 1 and {ranks} ranks");
+        }
+        assert_eq!(c.len(), c0.len());
+        assert_eq!(&x, x0, "XDMF differs on {ranks} ranks");
+        // 5 frames of 648 particles × 3.
+        let pos = c
+            .iter()
+            .find(|(n, _, _)| n == "/particles/fluid/position/value")
+            .unwrap();
+        assert_eq!(pos.1, vec![5, 648, 3]);
+    }
+}
+
+#[test]
+fn a_restart_drops_frames_written_after_its_checkpoint_and_rewrites_them() {
+    let text = case(160, "checkpoint_every = 100\ncheckpoint_keep = 5");
+    let dir = tempfile::tempdir().expect("tempdir");
+    let whole = dir.path().join("whole");
+    run(&text, 1, &whole, None);
+    let parts = dir.path().join("parts");
+    // Stops at 150 (frames 20…140, checkpoints 100 and 150); restart from 100 as if the
+    // checkpoint at 150 had been lost: frames 120 and 140 must be dropped and rewritten.
+    run(&text, 2, &parts, Some(150));
+    let ck = parts
+        .join("checkpoints")
+        .join(mesorheo::output::checkpoint::file_name(100));
+    let out = parts.clone();
+    in_process(3, move |c| {
+        restart_case(
+            &ck,
+            c,
+            &RunOptions {
+                threads: 1,
+                out: Some(out.clone()),
+                ..RunOptions::default()
+            },
+        )
+    })
+    .expect("restart");
+    let a = content(&whole.join("snapshots.h5"));
+    let b = content(&parts.join("snapshots.h5"));
+    assert_eq!(a.len(), b.len());
+    for ((n, s, v), (n0, s0, v0)) in b.iter().zip(a.iter()) {
+        assert_eq!((n, s), (n0, s0));
+        assert!(v == v0, "{n} differs from the uninterrupted run");
+    }
+    let info = mesorheo::output::info::describe(&parts.join("snapshots.h5")).expect("info");
+    assert!(info.contains("frames: 8 (steps 20 … 160)"), "{info}");
+    assert!(
+        info.contains("/particles/fluid/force/value  [8, 648, 3]  float64"),
+        "{info}"
+    );
+    let ck = mesorheo::output::info::describe(
+        &parts
+            .join("checkpoints")
+            .join(mesorheo::output::checkpoint::file_name(160)),
+    )
+    .expect("info checkpoint");
+    assert!(
+        ck.contains("kind: checkpoint") && ck.contains("step: 160"),
+        "{ck}"
+    );
+}
+
+/// The h5py snippet of the docs reads the series and checks the XDMF sidecar against the
+/// datasets. `./run test` provides a Python with h5py (MESORHEO_PYTHON); without it the test
+/// says so and passes only if MESORHEO_REQUIRE_PYTHON is unset.
+#[test]
+fn the_h5py_snippet_reads_the_series_and_the_xdmf_matches() {
+    let Ok(python) = std::env::var("MESORHEO_PYTHON") else {
+        assert!(
+            std::env::var("MESORHEO_REQUIRE_PYTHON").is_err(),
+            "MESORHEO_PYTHON is not set"
+        );
+        eprintln!("skipped: set MESORHEO_PYTHON to a Python with h5py (./run test does)");
+        return;
+    };
+    let text = case(60, "");
+    let dir = tempfile::tempdir().expect("tempdir");
+    run(&text, 2, dir.path(), None);
+    let snippet = Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/snippets/read_snapshots.py");
+    let o = std::process::Command::new(python)
+        .arg(snippet)
+        .arg(dir.path().join("snapshots.h5"))
+        .output()
+        .expect("python");
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        o.status.success(),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    assert!(stdout.contains("648 particles, 3 frames"), "{stdout}");
+    assert!(stdout.contains("XDMF sidecar OK (3 frames"), "{stdout}");
+}
