@@ -207,7 +207,7 @@ fn restore_and_drive<const D: usize>(
 
 /// Writes a checkpoint of the current step, if output is on (collective).
 fn checkpoint<const D: usize>(
-    sim: &Simulation<'_, D>,
+    sim: &mut Simulation<'_, D>,
     options: &RunOptions,
 ) -> Result<Option<PathBuf>, String> {
     let Some(out) = &options.out else {
@@ -221,6 +221,7 @@ fn checkpoint<const D: usize>(
             &out.join("checkpoints"),
             sim.case.output.checkpoint_keep,
         )?;
+        sim.times.output += t.elapsed().as_secs_f64();
         if sim.comm().rank() == 0 {
             tracing::info!(
                 "checkpoint {} ({:.2} s)",
@@ -301,11 +302,13 @@ fn drive<const D: usize>(
         if let Some(w) = &mut snapshots
             && step.is_multiple_of(case.output.snapshot_every)
         {
+            let t = Instant::now();
             w.write_frame(&sim)?;
+            sim.times.output += t.elapsed().as_secs_f64();
         }
         let ck = case.output.checkpoint_every;
         if ck > 0 && step.is_multiple_of(ck) && options.out.is_some() {
-            last_checkpoint = checkpoint(&sim, options)?;
+            last_checkpoint = checkpoint(&mut sim, options)?;
             checkpointed_at = Some(step);
         }
         // Collective, so every rank stops after the same step.
@@ -339,7 +342,7 @@ fn drive<const D: usize>(
     let completed = sim.step >= last_step;
     let wants_final = case.output.checkpoint_at_end || !completed;
     if wants_final && options.out.is_some() && checkpointed_at != Some(sim.step) {
-        last_checkpoint = checkpoint(&sim, options)?;
+        last_checkpoint = checkpoint(&mut sim, options)?;
     }
     if stopped_by_signal || !completed {
         tracing::info!(

@@ -43,6 +43,8 @@ pub struct PhaseTimes {
     pub forces: f64,
     /// Sampling of observables.
     pub diagnostics: f64,
+    /// Snapshots and checkpoints (collective writes, incl. the id-order redistribution).
+    pub output: f64,
     /// Number of neighbour-list builds.
     pub rebuilds: u64,
 }
