@@ -15,8 +15,8 @@
 //! The total momentum reported is the peculiar one, Σ m (v − γ̇ (y − L_y/2) x̂), which a
 //! Lees–Edwards crossing leaves unchanged, so it is conserved to round-off with or without shear.
 //!
-//! Global sums use the fast all-reduce: diagnostics may differ in the last bits between rank
-//! counts; they never feed back into the dynamics.
+//! Every sum (per-rank and over ranks) is exact fixed point ([`crate::fixed_sum::FixedSum`]), so
+//! the observables are bitwise the same for any rank and thread count, like the state.
 
 use crate::config::{Case, Observable};
 use std::collections::BTreeMap;

@@ -81,7 +81,11 @@ pub fn restart_candidates(path: &Path) -> Vec<PathBuf> {
             .strip_prefix("checkpoint_")
             .and_then(|n| n.strip_suffix(".h5"))
             .and_then(|n| n.parse().ok());
-        if let (Some(step), Some(dir)) = (step, path.parent()) {
+        let dir = match path.parent() {
+            Some(d) if !d.as_os_str().is_empty() => d,
+            _ => Path::new("."),
+        };
+        if let Some(step) = step {
             out.extend(
                 checkpoint::list(dir)
                     .into_iter()
@@ -150,7 +154,8 @@ pub fn restart_case(
                             path.display()
                         );
                     }
-                    refused.push(format!("{}: {e}", path.display()));
+                    refused.push(e.clone());
+                    set_aside_if_corrupt(&path, &e, comm);
                 }
             }
         }
@@ -205,6 +210,57 @@ fn restore_and_drive<const D: usize>(
     drive(sim, loaded, Some(path), comm, options, threads).map_err(Restart::Failed)
 }
 
+/// A fresh run into an output directory that holds checkpoints of an earlier run moves them to
+/// `checkpoints.previous/` (replacing an older one), so a later `restart OUT/checkpoints` can
+/// never continue the wrong run and nothing is deleted unasked (collective).
+fn set_aside_old_checkpoints(dir: &Path, comm: &dyn Comm) -> Result<(), String> {
+    let mut result = Ok(());
+    if comm.rank() == 0
+        && dir.is_dir()
+        && std::fs::read_dir(dir).is_ok_and(|mut d| d.next().is_some())
+    {
+        let previous = dir.with_file_name("checkpoints.previous");
+        result = (|| -> std::io::Result<()> {
+            if previous.exists() {
+                std::fs::remove_dir_all(&previous)?;
+            }
+            std::fs::rename(dir, &previous)
+        })()
+        .map_err(|e| format!("cannot move the earlier run's {} aside: {e}", dir.display()));
+        if result.is_ok() {
+            tracing::warn!(
+                "{} held checkpoints of an earlier run: moved to {}",
+                dir.display(),
+                previous.display()
+            );
+        }
+    }
+    let mut failed = [if result.is_err() { 1.0 } else { 0.0 }];
+    comm.allreduce_max(&mut failed);
+    match result {
+        Err(e) => Err(e),
+        Ok(()) if failed[0] > 0.0 => Err("cannot move old checkpoints aside (rank 0)".into()),
+        Ok(()) => Ok(()),
+    }
+}
+
+/// A checkpoint refused for damage (not e.g. for a dimension mismatch) is renamed
+/// `NAME.corrupt` (rank 0, after every rank has decided), so it is kept for inspection but no
+/// restart picks it again.
+#[cfg(feature = "hdf5")]
+fn set_aside_if_corrupt(path: &Path, reason: &str, comm: &dyn Comm) {
+    comm.barrier();
+    let damaged = reason.contains("corrupt") || reason.contains("not a readable HDF5 file");
+    if comm.rank() == 0 && damaged && path.is_file() {
+        let aside = path.with_extension("h5.corrupt");
+        match std::fs::rename(path, &aside) {
+            Ok(()) => tracing::warn!("renamed {} to {}", path.display(), aside.display()),
+            Err(e) => tracing::warn!("cannot rename {}: {e}", path.display()),
+        }
+    }
+    comm.barrier();
+}
+
 /// Writes a checkpoint of the current step, if output is on (collective).
 fn checkpoint<const D: usize>(
     sim: &mut Simulation<'_, D>,
@@ -221,7 +277,7 @@ fn checkpoint<const D: usize>(
             &out.join("checkpoints"),
             sim.case.output.checkpoint_keep,
         )?;
-        sim.times.output += t.elapsed().as_secs_f64();
+        sim.times.checkpoints += t.elapsed().as_secs_f64();
         if sim.comm().rank() == 0 {
             tracing::info!(
                 "checkpoint {} ({:.2} s)",
@@ -248,9 +304,18 @@ fn drive<const D: usize>(
     threads: usize,
 ) -> Result<Summary, String> {
     let wall = Instant::now();
-    let case = loaded.case.clone();
-    let last_step = options.steps.unwrap_or(case.run.steps);
     let first_step = sim.step;
+    if let Some(n) = options.steps {
+        if n < first_step {
+            return Err(format!(
+                "--steps {n} is below the step {first_step} the run has already reached"
+            ));
+        }
+        // Stored in the case, so later checkpoints (and restarts from them) keep it.
+        sim.case.run.steps = n;
+    }
+    let case = sim.case.clone();
+    let last_step = case.run.steps;
     let stop_at = options.until_step.map_or(last_step, |k| k.min(last_step));
     if stop_at <= first_step && first_step < last_step {
         return Err(format!(
@@ -270,6 +335,11 @@ fn drive<const D: usize>(
         },
         loaded.path.display()
     );
+    if restarted_from.is_none()
+        && let Some(out) = &options.out
+    {
+        set_aside_old_checkpoints(&out.join("checkpoints"), comm)?;
+    }
     #[cfg(feature = "hdf5")]
     let mut snapshots = match (&options.out, case.output.snapshot_every) {
         (Some(out), every) if every > 0 => Some(crate::output::snapshot::SnapshotWriter::open(
@@ -304,7 +374,7 @@ fn drive<const D: usize>(
         {
             let t = Instant::now();
             w.write_frame(&sim)?;
-            sim.times.output += t.elapsed().as_secs_f64();
+            sim.times.snapshots += t.elapsed().as_secs_f64();
         }
         let ck = case.output.checkpoint_every;
         if ck > 0 && step.is_multiple_of(ck) && options.out.is_some() {

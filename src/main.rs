@@ -190,6 +190,12 @@ fn main() -> ExitCode {
                         .map(std::path::Path::to_path_buf)
                         .unwrap_or_default()
                 };
+                let dir = if dir.as_os_str().is_empty() {
+                    PathBuf::from(".")
+                } else {
+                    dir
+                };
+                let dir = std::fs::canonicalize(&dir).unwrap_or(dir);
                 match dir.file_name().and_then(|n| n.to_str()) {
                     Some("checkpoints") => dir.parent().map(|p| p.to_path_buf()).unwrap_or(dir),
                     _ => dir,

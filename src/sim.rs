@@ -43,8 +43,10 @@ pub struct PhaseTimes {
     pub forces: f64,
     /// Sampling of observables.
     pub diagnostics: f64,
-    /// Snapshots and checkpoints (collective writes, incl. the id-order redistribution).
-    pub output: f64,
+    /// Snapshot frames (collective writes, incl. the id-order redistribution).
+    pub snapshots: f64,
+    /// Checkpoints (collective writes, incl. the id-order redistribution).
+    pub checkpoints: f64,
     /// Number of neighbour-list builds.
     pub rebuilds: u64,
 }
@@ -553,7 +555,10 @@ impl<'c, const D: usize> Simulation<'c, D> {
         // ranks, so the observables are bitwise the same for any decomposition, like the state.
         // Pass 1: bin counts and momenta → mean velocity per bin.
         let mut first = vec![FixedSum::ZERO; bins * (1 + D)];
-        for (x, v) in pos.iter().zip(vel) {
+        for (k, (x, v)) in pos.iter().zip(vel).enumerate() {
+            if k % 2048 == 2047 {
+                first.iter_mut().for_each(FixedSum::normalize);
+            }
             let b = bin_of(x[GRADIENT]);
             first[b].add(1.0);
             for d in 0..D {

@@ -128,21 +128,32 @@ struct TensorAndArray;
 
 impl<const D: usize> StateModel<D> for TensorAndArray {
     fn attach(&self, p: &mut Particles<D>) -> Result<(), String> {
+        // Two fields of each kind, registered out of alphabetical order (a file lists its
+        // members alphabetically; the restart must keep the registration order).
         if let Some(k) = p.extra_index("tensor") {
-            return if p.extra[k].width == D * D && p.var.iter().any(|v| v.name == "history") {
+            let names: Vec<&str> = p.extra.iter().map(|f| f.name.as_str()).collect();
+            let vars: Vec<&str> = p.var.iter().map(|f| f.name.as_str()).collect();
+            return if p.extra[k].width == D * D
+                && names.starts_with(&["tensor", "a_scalar"])
+                && vars == ["history", "aa_log"]
+            {
                 Ok(())
             } else {
-                Err("checkpoint lacks the model's fields".into())
+                Err(format!("checkpoint fields {names:?} {vars:?}"))
             };
         }
         let k = p.register_extra("tensor", D * D);
+        let s = p.register_extra("a_scalar", 1);
         let v = p.register_var("history");
+        let l = p.register_var("aa_log");
         for i in 0..p.n_owned {
             let g = p.gid[i];
             for c in 0..D * D {
                 p.extra[k].data[i * D * D + c] = (g % 13) as f64 + c as f64 * 0.25;
             }
+            p.extra[s].data[i] = g as f64;
             p.var[v].data[i] = (0..g % 4).map(|j| j as f64 + 0.5).collect();
+            p.var[l].data[i] = vec![-(g as f64); (g % 3) as usize];
         }
         Ok(())
     }
@@ -166,6 +177,17 @@ impl<const D: usize> StateModel<D> for TensorAndArray {
             }
             if h.len() > 6 {
                 h.remove(0);
+            }
+            let s = p.extra_index("a_scalar").expect("registered");
+            p.extra[s].data[i] += x[1];
+            let l = p
+                .var
+                .iter()
+                .position(|f| f.name == "aa_log")
+                .expect("registered");
+            if step.is_multiple_of(7) {
+                let t = p.extra[k].data[i * D * D];
+                p.var[l].data[i].push(t);
             }
         }
     }
@@ -288,10 +310,11 @@ fn a_corrupt_or_truncated_checkpoint_is_refused_and_the_previous_one_used() {
         assert!(err.contains(expect), "{damage}: {err}");
         // …and the restart falls back to step 100 and still ends in the uninterrupted state.
         let o = out.clone();
-        let rest = in_process(2, move |c| {
-            restart_case(&newest, c, &options(Some(&o), None))
-        })
-        .expect("restart from the previous checkpoint");
+        let n = newest.clone();
+        let rest = in_process(2, move |c| restart_case(&n, c, &options(Some(&o), None)))
+            .expect("restart from the previous checkpoint");
+        // The damaged file is kept for inspection under another name, out of the way.
+        assert!(newest.with_extension("h5.corrupt").exists());
         assert_eq!(
             rest.restarted_from.as_deref(),
             Some(cks.join(checkpoint::file_name(100)).to_str().unwrap())
@@ -418,4 +441,80 @@ fn until_step_and_sigterm_stop_cleanly_and_the_restart_matches_one_run() {
     let s = summary(&out);
     assert_eq!(s["completed"], true);
     assert_eq!(s["state_digest"], whole.as_str());
+}
+
+#[test]
+fn restart_with_more_steps_extends_the_run_and_remembers_it() {
+    let text = le_case(2, 100, "");
+    let longer = uninterrupted(&text.replace("steps = 100", "steps = 150"));
+    let dir = tempfile::tempdir().expect("tempdir");
+    let out = dir.path().to_path_buf();
+    let loaded = case_from_str(&text, "short");
+    let o = out.clone();
+    let done = in_process(1, move |c| run_case(&loaded, c, &options(Some(&o), None))).expect("run");
+    assert!(done.completed);
+    // Extend to 150, but stop at 120 as a batch job would …
+    let o = out.clone();
+    let part = in_process(2, move |c| {
+        let mut opts = options(Some(&o), Some(120));
+        opts.steps = Some(150);
+        restart_case(&o.join("checkpoints"), c, &opts)
+    })
+    .expect("extend");
+    assert!(!part.completed);
+    assert_eq!(part.steps, 120);
+    // … and the next plain restart still knows the run now ends at 150.
+    let o = out.clone();
+    let rest = in_process(1, move |c| {
+        restart_case(&o.join("checkpoints"), c, &options(Some(&o), None))
+    })
+    .expect("finish");
+    assert!(rest.completed);
+    assert_eq!(rest.steps, 150);
+    assert_eq!(rest.state_digest, longer);
+    // Shortening below the reached step is refused.
+    let o = out.clone();
+    let err = in_process(1, move |c| {
+        let mut opts = options(Some(&o), None);
+        opts.steps = Some(50);
+        restart_case(&o.join("checkpoints"), c, &opts)
+    })
+    .expect_err("steps below the checkpoint accepted");
+    assert!(err.contains("--steps 50"), "{err}");
+}
+
+#[test]
+fn a_fresh_run_moves_an_earlier_runs_checkpoints_aside() {
+    let text = le_case(2, 40, "[output]\ncheckpoint_every = 20");
+    let dir = tempfile::tempdir().expect("tempdir");
+    let out = dir.path().to_path_buf();
+    for _ in 0..2 {
+        let loaded = case_from_str(&text, "again");
+        let o = out.clone();
+        in_process(1, move |c| run_case(&loaded, c, &options(Some(&o), None))).expect("run");
+    }
+    let steps: Vec<u64> = checkpoint::list(&out.join("checkpoints"))
+        .iter()
+        .map(|c| c.0)
+        .collect();
+    assert_eq!(steps, vec![40, 20]);
+    let previous: Vec<u64> = checkpoint::list(&out.join("checkpoints.previous"))
+        .iter()
+        .map(|c| c.0)
+        .collect();
+    assert_eq!(previous, vec![40, 20]);
+}
+
+#[test]
+fn an_unwritable_checkpoint_directory_stops_every_rank_with_an_error_not_a_hang() {
+    let text = le_case(2, 40, "[output]\ncheckpoint_every = 20");
+    let dir = tempfile::tempdir().expect("tempdir");
+    let out = dir.path().join("out");
+    std::fs::create_dir_all(&out).expect("mkdir");
+    // `checkpoints` is a file, so the directory cannot be created (on rank 0 only).
+    std::fs::write(out.join("checkpoints"), "not a directory").expect("write");
+    let loaded = case_from_str(&text, "unwritable");
+    let err = in_process(3, move |c| run_case(&loaded, c, &options(Some(&out), None)))
+        .expect_err("a checkpoint was written into a file");
+    assert!(err.contains("checkpoints"), "{err}");
 }

@@ -121,6 +121,10 @@ fn a_restart_drops_frames_written_after_its_checkpoint_and_rewrites_them() {
         ck.contains("kind: checkpoint") && ck.contains("step: 160"),
         "{ck}"
     );
+    assert!(
+        ck.contains("dt: 0.04\n") && ck.contains("time: 6.4"),
+        "{ck}"
+    );
 }
 
 /// The h5py snippet of the docs reads the series and checks the XDMF sidecar against the

@@ -29,6 +29,7 @@
 //! The file is written as `NAME.h5.tmp`, flushed to disk and renamed, so a crash during the
 //! write leaves the previous checkpoint untouched.
 
+use super::collective_ok;
 use super::shared_file::{SharedFile, read_attr, read_attr_str, read_block};
 use crate::comm::{Comm, U64Op};
 use crate::config::Case;
@@ -99,14 +100,31 @@ fn checksum<const D: usize>(p: &Particles<D>, comm: &dyn Comm, scalars: &[u64]) 
     hash_words(&words)
 }
 
-fn collective_ok(comm: &dyn Comm, local: Result<(), String>, what: &str) -> Result<(), String> {
-    let mut failed = [if local.is_err() { 1.0 } else { 0.0 }];
-    comm.allreduce_max(&mut failed);
-    match local {
-        Err(e) => Err(e),
-        Ok(()) if failed[0] > 0.0 => Err(format!("{what}: failed on another rank")),
-        Ok(()) => Ok(()),
+/// Hash of a text (the case echo).
+fn text_hash(text: &str) -> u64 {
+    let words: Vec<u64> = text
+        .as_bytes()
+        .chunks(8)
+        .map(|c| {
+            let mut b = [0u8; 8];
+            b[..c.len()].copy_from_slice(c);
+            u64::from_le_bytes(b)
+        })
+        .collect();
+    hash_words(&words) ^ text.len() as u64
+}
+
+/// Hash of the sampled series (steps, every scalar series in name order, the profiles).
+fn series_hash(series: &Series) -> u64 {
+    let mut words: Vec<u64> = series.steps.clone();
+    for (name, values) in &series.scalars {
+        words.push(text_hash(name));
+        words.extend(values.iter().map(|x| x.to_bits()));
     }
+    for p in &series.profile {
+        words.extend(p.iter().map(|x| x.to_bits()));
+    }
+    hash_words(&words)
 }
 
 /// Writes the checkpoint of the current step into `dir` and keeps the newest `keep`
@@ -121,27 +139,29 @@ pub fn write<const D: usize>(
     let total = sim.total_particles;
     let mine = super::id_ordered(&sim.checkpoint_particles(), total, comm)?;
     let block = id_block(total, size, rank);
+    let case_toml = toml::to_string(&sim.case).map_err(|e| format!("cannot echo the case: {e}"))?;
     let scalars = [
         sim.step,
         sim.rebuild_step(),
         total,
         D as u64,
         FORMAT_VERSION,
+        text_hash(&case_toml),
+        series_hash(&sim.series),
     ];
     let sum = checksum(&mine, comm, &scalars);
-
-    if rank == 0 {
-        std::fs::create_dir_all(dir)
-            .map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
-    }
-    comm.barrier();
+    let made = if rank == 0 {
+        std::fs::create_dir_all(dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))
+    } else {
+        Ok(())
+    };
+    collective_ok(comm, made, "checkpoint directory")?;
     let path = dir.join(file_name(sim.step));
     let tmp = dir.join(format!("{}.tmp", file_name(sim.step)));
     let nth = WRITES.fetch_add(1, Ordering::SeqCst) + 1;
     let mut f = SharedFile::create(&tmp, comm)?;
     let n = total as usize;
     let (start, rows) = (block.start as usize, (block.end - block.start) as usize);
-    let case_toml = toml::to_string(&sim.case).map_err(|e| format!("cannot echo the case: {e}"))?;
     f.attr_str("/", "format", FORMAT)?;
     f.attr("/", "format_version", &FORMAT_VERSION)?;
     f.attr_str("/", "code_version", env!("CARGO_PKG_VERSION"))?;
@@ -185,6 +205,19 @@ pub fn write<const D: usize>(
         );
         std::process::abort();
     }
+    // HDF5 lists group members by name; the registration order (which the digest and the
+    // restart's field layout follow) is kept in attributes.
+    let order = |names: Vec<&str>| names.join("\n");
+    f.attr_str(
+        "particles/fields",
+        "order",
+        &order(mine.extra.iter().map(|x| x.name.as_str()).collect()),
+    )?;
+    f.attr_str(
+        "particles/var",
+        "order",
+        &order(mine.var.iter().map(|x| x.name.as_str()).collect()),
+    )?;
     for field in &mine.extra {
         let ds = format!("particles/fields/{}", field.name);
         f.dataset::<f64>(&ds, &[n, field.width], false)?;
@@ -228,9 +261,26 @@ fn publish(tmp: &Path, path: &Path, dir: &Path, keep: usize) -> Result<(), Strin
         .map_err(|e| format!("cannot rename {} to {}: {e}", tmp.display(), path.display()))?;
     // Durability of the rename; some file systems refuse to sync a directory (not fatal).
     let _ = sync(dir);
-    for (_, old) in list(dir).into_iter().skip(keep.max(1)) {
+    // Keep the newest `keep` up to this step; never the one just written, never a later one.
+    let step_of = |p: &Path| list(dir).into_iter().find(|(_, q)| q == p).map(|(s, _)| s);
+    let this = step_of(path).unwrap_or(u64::MAX);
+    let older: Vec<(u64, PathBuf)> = list(dir).into_iter().filter(|(s, _)| *s < this).collect();
+    for (_, old) in older.into_iter().skip(keep.max(1) - 1) {
         if let Err(e) = std::fs::remove_file(&old) {
             tracing::warn!("cannot remove old checkpoint {}: {e}", old.display());
+        }
+    }
+    // Temporary files left by an interrupted write of an earlier checkpoint.
+    for entry in std::fs::read_dir(dir).into_iter().flatten().flatten() {
+        let name = entry.file_name().to_string_lossy().into_owned();
+        if let Some(stem) = name.strip_suffix(".tmp")
+            && let Some(step) = stem
+                .strip_prefix("checkpoint_")
+                .and_then(|n| n.strip_suffix(".h5"))
+                .and_then(|n| n.parse::<u64>().ok())
+            && step < this
+        {
+            let _ = std::fs::remove_file(entry.path());
         }
     }
     Ok(())
@@ -277,7 +327,9 @@ fn read_series(f: &hdf5::File) -> Result<Series, String> {
             .map(|d| d.shape())
             .map_err(|e| format!("{}: {name}: {e}", f.filename()))
     };
-    let s = len("observables/step")?[0];
+    let s = *len("observables/step")?
+        .first()
+        .ok_or_else(|| format!("{}: /observables/step is not 1-D", f.filename()))?;
     series.steps = read_block(f, "observables/step", &[0], &[s])?;
     for name in names {
         if name == "step" {
@@ -286,6 +338,9 @@ fn read_series(f: &hdf5::File) -> Result<Series, String> {
         let ds = format!("observables/{name}");
         if name == "velocity_profile" {
             let shape = len(&ds)?;
+            if shape.len() != 2 {
+                return Err(format!("{}: {ds} is not [samples, bins]", f.filename()));
+            }
             let flat: Vec<f64> = read_block(f, &ds, &[0, 0], &shape)?;
             series.profile = flat.chunks(shape[1].max(1)).map(<[f64]>::to_vec).collect();
         } else {
@@ -362,15 +417,12 @@ pub fn read<const D: usize>(path: &Path, comm: &dyn Comm) -> Result<Restored<D>,
         }
         Ok(r) => r,
     };
-    // Checksum (collective).
-    let stored = {
-        let f = open(path)?;
-        read_attr_str(&f, "/", "checksum")?
-    };
-    let sum = checksum(&restored.particles, comm, &scalars);
-    if format!("{sum:016x}") != stored {
+    // Checksum (collective); the stored value travels as the last scalar.
+    let (stored, scalars) = scalars.split_last().expect("read_local returns 8 scalars");
+    let sum = checksum(&restored.particles, comm, scalars);
+    if sum != *stored {
         return Err(format!(
-            "{}: checksum mismatch (stored {stored}, computed {sum:016x}): the file is corrupt",
+            "{}: checksum mismatch (stored {stored:016x}, computed {sum:016x}): the file is corrupt",
             path.display()
         ));
     }
@@ -392,6 +444,8 @@ fn read_local<const D: usize>(
     let total: u64 = read_attr(&f, "/", "particles")?;
     let step: u64 = read_attr(&f, "/", "step")?;
     let rebuild_step: u64 = read_attr(&f, "/", "rebuild_step")?;
+    let case_text = read_attr_str(&f, "/", "case")?;
+    let stored_checksum = read_attr_str(&f, "/", "checksum")?;
     let case = read_case(path)?;
     let block = id_block(total, comm.size(), comm.rank());
     let (start, rows) = (block.start as usize, (block.end - block.start) as usize);
@@ -429,20 +483,45 @@ fn read_local<const D: usize>(
         })
         .collect();
     p.n_owned = rows;
+    // Fields in their registration order (stored as an attribute).
     let names = |group: &str| -> Result<Vec<String>, String> {
-        f.group(group)
+        let members = f
+            .group(group)
             .and_then(|g| g.member_names())
-            .map_err(|e| format!("{}: {group}: {e}", path.display()))
+            .map_err(|e| format!("{}: {group}: {e}", path.display()))?;
+        let order = read_attr_str(&f, group, "order")?;
+        let listed: Vec<String> = order
+            .split('\n')
+            .filter(|n| !n.is_empty())
+            .map(str::to_owned)
+            .collect();
+        let (mut a, mut b) = (members.clone(), listed.clone());
+        a.sort();
+        b.sort();
+        if a != b {
+            return Err(format!(
+                "{}: {group} holds {members:?} but its order attribute lists {listed:?}: the file is corrupt",
+                path.display()
+            ));
+        }
+        Ok(listed)
     };
-    let mut fixed = names("particles/fields")?;
-    // The list-build positions go last (the restart removes them after use).
-    fixed.sort_by_key(|n| n == LIST_REFERENCE_FIELD);
+    let fixed = names("particles/fields")?;
+    if fixed.last().map(String::as_str) != Some(LIST_REFERENCE_FIELD) {
+        return Err(format!(
+            "{}: the last field must be {LIST_REFERENCE_FIELD}: the file is corrupt",
+            path.display()
+        ));
+    }
     for name in fixed {
         let ds = format!("particles/fields/{name}");
         let width = f
             .dataset(&ds)
-            .map(|d| d.shape().get(1).copied().unwrap_or(1))
+            .map(|d| d.shape().get(1).copied().unwrap_or(0))
             .map_err(|e| format!("{}: {ds}: {e}", path.display()))?;
+        if width == 0 {
+            return Err(format!("{}: {ds} is not [N, width]", path.display()));
+        }
         let k = p.register_extra(&name, width);
         p.extra[k].data = read_block(&f, &ds, &[start, 0], &[rows, width])?;
     }
@@ -471,7 +550,21 @@ fn read_local<const D: usize>(
             .collect();
     }
     let series = read_series(&f)?;
-    let scalars = vec![step, rebuild_step, total, D as u64, FORMAT_VERSION];
+    let scalars = vec![
+        step,
+        rebuild_step,
+        total,
+        D as u64,
+        FORMAT_VERSION,
+        text_hash(&case_text),
+        series_hash(&series),
+        u64::from_str_radix(&stored_checksum, 16).map_err(|_| {
+            format!(
+                "{}: checksum attribute {stored_checksum:?} is not hexadecimal",
+                path.display()
+            )
+        })?,
+    ];
     Ok((
         Restored {
             case,

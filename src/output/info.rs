@@ -8,7 +8,12 @@ pub fn describe(path: &std::path::Path) -> Result<String, String> {
         .map_err(|e| format!("{}: not a readable HDF5 file ({e})", path.display()))?;
     let mut s = format!("{}\n", path.display());
     let root_attrs = f.attr_names().unwrap_or_default();
-    let kind = if root_attrs.iter().any(|a| a == "format") {
+    let format = f
+        .attr("format")
+        .and_then(|a| a.read_scalar::<VarLenUnicode>())
+        .map(|v| v.to_string())
+        .unwrap_or_default();
+    let kind = if format == super::checkpoint::FORMAT {
         "checkpoint"
     } else if f.link_exists("h5md") {
         "snapshot series (H5MD)"
@@ -58,19 +63,26 @@ pub fn describe(path: &std::path::Path) -> Result<String, String> {
 }
 
 fn attr_text(a: &hdf5::Attribute) -> String {
-    if let Ok(v) = a.read_scalar::<VarLenUnicode>() {
-        return v.to_string();
-    }
-    if let Ok(v) = a.read_scalar::<u64>() {
-        return v.to_string();
-    }
-    if let Ok(v) = a.read_scalar::<f64>() {
-        return format!("{v}");
-    }
-    if let Ok(v) = a.read_raw::<i32>() {
-        return format!("{v:?}");
-    }
-    "(unprintable)".into()
+    use hdf5::types::{FloatSize, TypeDescriptor as T};
+    let Ok(ty) = a.dtype().and_then(|t| t.to_descriptor()) else {
+        return "(unknown type)".into();
+    };
+    let scalar = a.ndim() == 0;
+    let shown = match ty {
+        T::VarLenUnicode if scalar => a.read_scalar::<VarLenUnicode>().map(|v| v.to_string()),
+        T::VarLenUnicode => a
+            .read_raw::<VarLenUnicode>()
+            .map(|v| format!("{:?}", v.iter().map(|x| x.as_str()).collect::<Vec<_>>())),
+        T::Unsigned(_) if scalar => a.read_scalar::<u64>().map(|v| v.to_string()),
+        T::Integer(_) if scalar => a.read_scalar::<i64>().map(|v| v.to_string()),
+        T::Unsigned(_) | T::Integer(_) => a.read_raw::<i64>().map(|v| format!("{v:?}")),
+        T::Float(FloatSize::U8 | FloatSize::U4) if scalar => {
+            a.read_scalar::<f64>().map(|v| format!("{v}"))
+        }
+        T::Float(_) => a.read_raw::<f64>().map(|v| format!("{v:?}")),
+        other => return format!("({other})"),
+    };
+    shown.unwrap_or_else(|e| format!("(unreadable: {e})"))
 }
 
 fn walk(g: &hdf5::Group, prefix: &str, out: &mut Vec<String>) -> hdf5::Result<()> {

@@ -41,3 +41,19 @@ pub(crate) fn id_ordered<const D: usize>(
     }
     Ok(mine)
 }
+
+/// The same verdict on every rank: `local` if it failed here, else an error if it failed on
+/// another rank (collective).
+pub(crate) fn collective_ok(
+    comm: &dyn Comm,
+    local: Result<(), String>,
+    what: &str,
+) -> Result<(), String> {
+    let mut failed = [if local.is_err() { 1.0 } else { 0.0 }];
+    comm.allreduce_max(&mut failed);
+    match local {
+        Err(e) => Err(e),
+        Ok(()) if failed[0] > 0.0 => Err(format!("{what}: failed on another rank")),
+        Ok(()) => Ok(()),
+    }
+}

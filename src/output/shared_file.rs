@@ -71,6 +71,10 @@ pub struct SharedFile<'c> {
     file: Option<hdf5::File>,
     collective: bool,
     pending: Vec<PendingWrite>,
+    /// The first error on this rank. Errors are sticky and reported by [`SharedFile::close`]
+    /// (collectively), never returned early: a rank that stopped half-way through a sequence of
+    /// collective calls would leave the others waiting forever.
+    error: std::cell::RefCell<Option<String>>,
 }
 
 fn h5err(path: &Path, what: &str, e: hdf5::Error) -> String {
@@ -117,22 +121,38 @@ impl<'c> SharedFile<'c> {
             } else {
                 builder.open_rw(path)
             }
-            .map_err(|e| h5err(path, "cannot open for parallel writing", e))?;
+            .map_err(|e| h5err(path, "cannot open for parallel writing", e));
+            let mut failed = [if file.is_err() { 1.0 } else { 0.0 }];
+            comm.allreduce_max(&mut failed);
+            let (file, error) = match file {
+                Err(e) => (None, Some(e)),
+                Ok(_) if failed[0] > 0.0 => (
+                    None,
+                    Some(format!(
+                        "{}: cannot be opened on another rank",
+                        path.display()
+                    )),
+                ),
+                Ok(f) => (Some(f), None),
+            };
             return Ok(Self {
                 comm,
                 path: path.to_path_buf(),
-                file: Some(file),
+                file,
                 collective: true,
                 pending: Vec::new(),
+                error: std::cell::RefCell::new(error),
             });
         }
+        let mut error = None;
         let file = if comm.rank() == 0 {
             let f = if create {
                 hdf5::File::create(path)
             } else {
                 hdf5::File::open_rw(path)
             };
-            Some(f.map_err(|e| h5err(path, "cannot open for writing", e))?)
+            f.map_err(|e| error = Some(h5err(path, "cannot open for writing", e)))
+                .ok()
         } else {
             None
         };
@@ -142,6 +162,7 @@ impl<'c> SharedFile<'c> {
             file,
             collective: false,
             pending: Vec::new(),
+            error: std::cell::RefCell::new(error),
         })
     }
 
@@ -160,7 +181,7 @@ impl<'c> SharedFile<'c> {
     }
 
     /// Creates a group and its parents (collective).
-    pub fn group(&self, name: &str) -> Result<(), String> {
+    fn try_group(&self, name: &str) -> Result<(), String> {
         if let Some(f) = self.metadata_file() {
             if f.link_exists(name) {
                 return Ok(());
@@ -173,7 +194,7 @@ impl<'c> SharedFile<'c> {
 
     /// Creates dataset `name` of `shape` (collective). `resizable_first` makes the first
     /// dimension unlimited (a time axis) with chunks of one frame.
-    pub fn dataset<T: Element>(
+    fn try_dataset<T: Element>(
         &self,
         name: &str,
         shape: &[usize],
@@ -212,7 +233,7 @@ impl<'c> SharedFile<'c> {
     }
 
     /// Grows the first dimension of `name` to `len` (collective).
-    pub fn resize_first(&self, name: &str, len: usize) -> Result<(), String> {
+    fn try_resize_first(&self, name: &str, len: usize) -> Result<(), String> {
         let Some(f) = self.metadata_file() else {
             return Ok(());
         };
@@ -226,7 +247,7 @@ impl<'c> SharedFile<'c> {
     }
 
     /// Writes a scalar or string attribute on the object at `on` (collective).
-    pub fn attr<T: H5Type>(&self, on: &str, name: &str, value: &T) -> Result<(), String> {
+    fn try_attr<T: H5Type>(&self, on: &str, name: &str, value: &T) -> Result<(), String> {
         let Some(f) = self.metadata_file() else {
             return Ok(());
         };
@@ -246,7 +267,7 @@ impl<'c> SharedFile<'c> {
     }
 
     /// Writes a one-dimensional array attribute (collective).
-    pub fn attr_array<T: H5Type>(&self, on: &str, name: &str, values: &[T]) -> Result<(), String> {
+    fn try_attr_array<T: H5Type>(&self, on: &str, name: &str, values: &[T]) -> Result<(), String> {
         let Some(f) = self.metadata_file() else {
             return Ok(());
         };
@@ -264,17 +285,17 @@ impl<'c> SharedFile<'c> {
     }
 
     /// Writes an array-of-strings attribute (collective).
-    pub fn attr_str_array(&self, on: &str, name: &str, values: &[&str]) -> Result<(), String> {
+    fn try_attr_str_array(&self, on: &str, name: &str, values: &[&str]) -> Result<(), String> {
         let v: Vec<hdf5::types::VarLenUnicode> = values
             .iter()
             .map(|s| s.parse())
             .collect::<Result<_, _>>()
             .map_err(|e| format!("{}: attribute {name}: {e}", self.path.display()))?;
-        self.attr_array(on, name, &v)
+        self.try_attr_array(on, name, &v)
     }
 
     /// Removes a link (group or dataset) if it exists (collective).
-    pub fn unlink(&self, name: &str) -> Result<(), String> {
+    fn try_unlink(&self, name: &str) -> Result<(), String> {
         if let Some(f) = self.metadata_file()
             && f.link_exists(name)
         {
@@ -285,11 +306,93 @@ impl<'c> SharedFile<'c> {
     }
 
     /// Writes a string attribute (collective).
-    pub fn attr_str(&self, on: &str, name: &str, value: &str) -> Result<(), String> {
+    fn try_attr_str(&self, on: &str, name: &str, value: &str) -> Result<(), String> {
         let v: hdf5::types::VarLenUnicode = value
             .parse()
             .map_err(|e| format!("{}: attribute {name}: {e}", self.path.display()))?;
-        self.attr(on, name, &v)
+        self.try_attr(on, name, &v)
+    }
+
+    fn note(&self, r: Result<(), String>) {
+        if let Err(e) = r {
+            self.error.borrow_mut().get_or_insert(e);
+        }
+    }
+
+    /// Whether this rank should still run metadata calls: always under MPI-IO (they are
+    /// collective), only while nothing failed otherwise.
+    fn proceed(&self) -> bool {
+        self.collective || self.error.borrow().is_none()
+    }
+
+    /// Creates a group (collective).
+    pub fn group(&self, name: &str) -> Result<(), String> {
+        if self.proceed() {
+            self.note(self.try_group(name));
+        }
+        Ok(())
+    }
+
+    /// Creates dataset `name` of `shape` (collective). `resizable_first` makes the first
+    /// dimension unlimited (a time axis) with chunks of one frame.
+    pub fn dataset<T: Element>(
+        &self,
+        name: &str,
+        shape: &[usize],
+        resizable_first: bool,
+    ) -> Result<(), String> {
+        if self.proceed() {
+            self.note(self.try_dataset::<T>(name, shape, resizable_first));
+        }
+        Ok(())
+    }
+
+    /// Grows the first dimension of `name` to `len` (collective).
+    pub fn resize_first(&self, name: &str, len: usize) -> Result<(), String> {
+        if self.proceed() {
+            self.note(self.try_resize_first(name, len));
+        }
+        Ok(())
+    }
+
+    /// Writes a scalar attribute on the object at `on` (collective).
+    pub fn attr<T: H5Type>(&self, on: &str, name: &str, value: &T) -> Result<(), String> {
+        if self.proceed() {
+            self.note(self.try_attr(on, name, value));
+        }
+        Ok(())
+    }
+
+    /// Writes a one-dimensional array attribute (collective).
+    pub fn attr_array<T: H5Type>(&self, on: &str, name: &str, values: &[T]) -> Result<(), String> {
+        if self.proceed() {
+            self.note(self.try_attr_array(on, name, values));
+        }
+        Ok(())
+    }
+
+    /// Writes an array-of-strings attribute (collective).
+    pub fn attr_str_array(&self, on: &str, name: &str, values: &[&str]) -> Result<(), String> {
+        if self.proceed() {
+            self.note(self.try_attr_str_array(on, name, values));
+        }
+        Ok(())
+    }
+
+    /// Removes a link if it exists (collective).
+    pub fn unlink(&self, name: &str) -> Result<(), String> {
+        if self.proceed() {
+            self.note(self.try_unlink(name));
+        }
+        Ok(())
+    }
+
+    /// Writes a string attribute (collective).
+    pub fn attr_str(&self, on: &str, name: &str, value: &str) -> Result<(), String> {
+        if self.proceed() {
+            self.note(self.try_attr_str(on, name, value));
+        }
+        Ok(())
     }
 
     /// Writes this rank's hyperslab `start .. start + shape` of dataset `name` (`data` in C
@@ -302,9 +405,16 @@ impl<'c> SharedFile<'c> {
         data: &[T],
     ) -> Result<(), String> {
         debug_assert_eq!(shape.iter().product::<usize>(), data.len());
+        if self.error.borrow().is_some() {
+            return Ok(());
+        }
         if self.collective || self.comm.rank() == 0 {
-            let f = self.file.as_ref().ok_or("file closed")?;
-            return write_block(f, &self.path, name, start, shape, data);
+            let r = match self.file.as_ref() {
+                Some(f) => write_block(f, &self.path, name, start, shape, data),
+                None => Err(format!("{}: not open", self.path.display())),
+            };
+            self.note(r);
+            return Ok(());
         }
         self.pending.push(PendingWrite {
             dataset: name.to_owned(),
@@ -318,7 +428,10 @@ impl<'c> SharedFile<'c> {
     /// Closes the file; in turns mode the other ranks then write their blocks one after the
     /// other. Collective; every rank returns the same verdict.
     pub fn close(mut self) -> Result<(), String> {
-        let mut result = Ok(());
+        let mut result = match self.error.borrow_mut().take() {
+            Some(e) => Err(e),
+            None => Ok(()),
+        };
         if let Some(f) = self.file.take()
             && let Err(e) = f.close()
         {

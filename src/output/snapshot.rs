@@ -55,11 +55,13 @@ impl SnapshotWriter {
         restarting: bool,
     ) -> Result<Self, String> {
         let comm = sim.comm();
-        if comm.rank() == 0 {
+        let made = if comm.rank() == 0 {
             std::fs::create_dir_all(out)
-                .map_err(|e| format!("cannot create {}: {e}", out.display()))?;
-        }
-        comm.barrier();
+                .map_err(|e| format!("cannot create {}: {e}", out.display()))
+        } else {
+            Ok(())
+        };
+        super::collective_ok(comm, made, "output directory")?;
         let mut writer = Self {
             path: out.join(FILE),
             xdmf: out.join(XDMF),
@@ -67,7 +69,26 @@ impl SnapshotWriter {
             frames: Vec::new(),
         };
         if restarting && writer.path.exists() {
-            writer.reopen(sim)?;
+            if let Err(e) = writer.reopen(sim) {
+                // A file damaged by a crash must not block a restart from a good checkpoint:
+                // keep it aside and start a new series.
+                let aside = writer.path.with_extension("h5.damaged");
+                let moved = if comm.rank() == 0 {
+                    std::fs::rename(&writer.path, &aside)
+                        .map_err(|r| format!("{e}; and cannot move it aside: {r}"))
+                } else {
+                    Ok(())
+                };
+                super::collective_ok(comm, moved, "snapshot series")?;
+                if comm.rank() == 0 {
+                    tracing::warn!(
+                        "{e}: moved to {} and starting a new snapshot series",
+                        aside.display()
+                    );
+                }
+                writer.frames.clear();
+                writer.create(sim)?;
+            }
         } else {
             writer.create(sim)?;
         }
@@ -153,11 +174,18 @@ impl SnapshotWriter {
         let frames = (|| -> Result<Vec<(u64, f64)>, String> {
             let f = hdf5::File::open(&self.path)
                 .map_err(|e| format!("{}: cannot reopen: {e}", self.path.display()))?;
+            // Frames every series holds completely (a crash between resizes leaves some longer).
+            let mut len = usize::MAX;
+            for g in self.time_series() {
+                for part in ["step", "time", "value"] {
+                    let shape = f
+                        .dataset(&format!("{g}/{part}"))
+                        .map_err(|e| format!("{}: {g}/{part}: {e}", self.path.display()))?
+                        .shape();
+                    len = len.min(shape.first().copied().unwrap_or(0));
+                }
+            }
             let g = format!("{GROUP}/box/lees_edwards_offset");
-            let len = f
-                .dataset(&format!("{g}/step"))
-                .map_err(|e| format!("{}: {e}", self.path.display()))?
-                .shape()[0];
             let steps: Vec<u64> = read_block(&f, &format!("{g}/step"), &[0], &[len])?;
             let times: Vec<f64> = read_block(&f, &format!("{g}/time"), &[0], &[len])?;
             Ok(steps.into_iter().zip(times).collect())
@@ -174,9 +202,14 @@ impl SnapshotWriter {
             }
             Ok(fr) => fr,
         };
-        let keep = frames.iter().take_while(|(s, _)| *s <= sim.step).count();
+        // Frames up to the checkpoint, in increasing step order (anything else is a leftover).
+        let keep = frames
+            .iter()
+            .enumerate()
+            .take_while(|(k, (s, _))| *s <= sim.step && (*k == 0 || frames[k - 1].0 < *s))
+            .count();
         self.frames = frames[..keep].to_vec();
-        if keep < frames.len() {
+        if keep < frames.len() || self.has_longer_series(keep)? {
             let f = SharedFile::append(&self.path, comm)?;
             for g in self.time_series() {
                 for part in ["step", "time", "value"] {
@@ -194,6 +227,23 @@ impl SnapshotWriter {
             }
         }
         Ok(())
+    }
+
+    /// Whether some time series holds more than `len` frames (collective-safe: every rank reads
+    /// the same file).
+    fn has_longer_series(&self, len: usize) -> Result<bool, String> {
+        let f = hdf5::File::open(&self.path)
+            .map_err(|e| format!("{}: cannot reopen: {e}", self.path.display()))?;
+        for g in self.time_series() {
+            for part in ["step", "time", "value"] {
+                if let Ok(d) = f.dataset(&format!("{g}/{part}"))
+                    && d.shape().first().copied().unwrap_or(0) > len
+                {
+                    return Ok(true);
+                }
+            }
+        }
+        Ok(false)
     }
 
     /// Appends the current state as a frame (collective).
@@ -233,11 +283,12 @@ impl SnapshotWriter {
         }
         f.close()?;
         self.frames.push((sim.step, sim.time()));
-        if root {
-            let text = xdmf::<D>(FILE, n, &self.fields, &self.frames);
-            write_atomically(&self.xdmf, &text)?;
-        }
-        Ok(())
+        let written = if root {
+            write_atomically(&self.xdmf, &xdmf::<D>(FILE, n, &self.fields, &self.frames))
+        } else {
+            Ok(())
+        };
+        super::collective_ok(comm, written, "XDMF sidecar")
     }
 
     /// Writes the sampled observables (H5MD `/observables`) and the sidecar (collective).

@@ -1,0 +1,60 @@
+//! Checkpoint write/read time with per-particle ensembles (the variable-length state of the
+//! CONNFFESSIT models): N particles × N_d dumbbells × 3 numbers, one rank (`cargo bench --bench
+//! checkpoint_ensembles`). Prints a Markdown table; the ensembles are synthetic (a test-only
+//! model fills them), the I/O path is the production one.
+
+use mesorheo::comm::SerialComm;
+use mesorheo::config;
+use mesorheo::output::checkpoint;
+use mesorheo::particles::Particles;
+use mesorheo::sim::{Simulation, StateModel};
+use std::path::PathBuf;
+use std::time::Instant;
+
+struct Ensembles(usize);
+
+impl<const D: usize> StateModel<D> for Ensembles {
+    fn attach(&self, p: &mut Particles<D>) -> Result<(), String> {
+        let k = p.register_var("dumbbells");
+        for i in 0..p.n_owned {
+            let g = p.gid[i] as f64;
+            p.var[k].data[i] = (0..3 * self.0).map(|j| g + j as f64 * 1e-3).collect();
+        }
+        Ok(())
+    }
+    fn advance(&self, _: &mut Particles<D>, _: u64) {}
+}
+
+fn main() {
+    let case_path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("cases/bench_dpd_32k.toml");
+    let dir = tempfile::tempdir().expect("tempdir");
+    println!("| particles | N_d | checkpoint MB | write s | write MB/s | read s |");
+    println!("|---|---|---|---|---|---|");
+    for (side, nd) in [(10.0, 100), (10.0, 1000), (21.5, 100)] {
+        let set = vec![format!("box.lengths=[{side}, {side}, {side}]")];
+        let loaded = config::load_with_overrides(&case_path, &set).expect("case");
+        let comm = SerialComm::new();
+        let mut sim = Simulation::<3>::new(&loaded.case, &comm, 1).expect("sim");
+        sim.attach(Box::new(Ensembles(nd))).expect("attach");
+        let mut times = Vec::new();
+        let mut path = PathBuf::new();
+        for _ in 0..3 {
+            let t = Instant::now();
+            path = checkpoint::write(&sim, dir.path(), 1).expect("write");
+            times.push(t.elapsed().as_secs_f64());
+        }
+        times.sort_by(f64::total_cmp);
+        let bytes = std::fs::metadata(&path).expect("size").len() as f64;
+        let t = Instant::now();
+        let r = checkpoint::read::<3>(&path, &comm).expect("read");
+        let read = t.elapsed().as_secs_f64();
+        assert_eq!(r.total, sim.total_particles);
+        println!(
+            "| {} | {nd} | {:.1} | {:.3} | {:.0} | {read:.3} |",
+            sim.total_particles,
+            bytes / 1e6,
+            times[1],
+            bytes / 1e6 / times[1]
+        );
+    }
+}
