@@ -42,6 +42,12 @@ steps = 100
 equilibration = 10
 sample_every = 5
 progress_seconds = 1.0
+[output]
+checkpoint_every = 1000
+checkpoint_keep = 2
+checkpoint_at_end = false
+snapshot_every = 100
+snapshot_fields = ["position", "force"]
 [diagnostics]
 observables = ["temperature", "velocity_profile"]
 profile_bins = 4
