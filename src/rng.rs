@@ -22,6 +22,10 @@ pub enum Purpose {
     InitialVelocity = 2,
     /// Random initial positions.
     InitialPosition = 3,
+    /// Brownian noise of dumbbell ensembles (keyed by particle id and step).
+    DumbbellNoise = 4,
+    /// Equilibrium initial state of dumbbell ensembles.
+    DumbbellInit = 5,
     /// Test-only uses.
     Test = 255,
 }

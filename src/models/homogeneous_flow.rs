@@ -1,0 +1,245 @@
+//! Dumbbell ensembles in homogeneous flows: every particle sees the same imposed velocity
+//! gradient κ(t); the particles are carriers of their ensembles only (no positions needed).
+//! Each rank holds the particles of its global-id block and advances their ensembles with its
+//! rayon threads; the stress is averaged over particles with exact sums, so every result is
+//! bitwise the same on any number of ranks and threads.
+//!
+//! Flows (κ_αβ = ∂v_α/∂x_β, rate ε̇ or γ̇):
+//! - simple shear: κ_xy = γ̇;
+//! - shear reversal: κ_xy = γ̇ for t < t_r, −γ̇ after;
+//! - planar elongation: κ = diag(ε̇, −ε̇, 0);
+//! - uniaxial elongation (3D): κ = diag(ε̇, −ε̇/2, −ε̇/2).
+
+use super::dumbbells::{
+    DumbbellParams, init_stream, kramers_stress, noise_stream, sample_equilibrium, step_ensemble,
+};
+use crate::comm::Comm;
+use crate::domain::id_block;
+use crate::fixed_sum::FixedSum;
+use rayon::prelude::*;
+
+/// An imposed homogeneous flow.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Flow {
+    /// At rest.
+    Rest,
+    /// v_x = γ̇ y.
+    SimpleShear {
+        /// γ̇.
+        rate: f64,
+    },
+    /// Shear at γ̇, reversed to −γ̇ at `at`.
+    ShearReversal {
+        /// γ̇.
+        rate: f64,
+        /// Reversal time.
+        at: f64,
+    },
+    /// v = ε̇ (x, −y, 0).
+    PlanarElongation {
+        /// ε̇.
+        rate: f64,
+    },
+    /// v = ε̇ (x, −y/2, −z/2) (3D).
+    UniaxialElongation {
+        /// ε̇.
+        rate: f64,
+    },
+}
+
+impl Flow {
+    /// κ(t).
+    pub fn kappa<const D: usize>(&self, t: f64) -> [[f64; D]; D] {
+        let mut k = [[0.0; D]; D];
+        match *self {
+            Flow::Rest => {}
+            Flow::SimpleShear { rate } => k[0][1] = rate,
+            Flow::ShearReversal { rate, at } => k[0][1] = if t < at { rate } else { -rate },
+            Flow::PlanarElongation { rate } => {
+                k[0][0] = rate;
+                k[1][1] = -rate;
+            }
+            Flow::UniaxialElongation { rate } => {
+                k[0][0] = rate;
+                for d in 1..D {
+                    k[d][d] = -rate / 2.0;
+                }
+            }
+        }
+        k
+    }
+}
+
+/// Ensembles of one rank in a homogeneous flow.
+pub struct HomogeneousEnsembles<'c, const D: usize> {
+    comm: &'c dyn Comm,
+    /// Global ids of this rank's particles.
+    pub gids: Vec<u64>,
+    /// Connector vectors, N_d × D per particle.
+    pub q: Vec<Vec<f64>>,
+    /// Dumbbells per particle.
+    pub n_d: usize,
+    /// Model parameters.
+    pub params: DumbbellParams,
+    /// The flow.
+    pub flow: Flow,
+    /// Seed.
+    pub seed: u64,
+    /// Current step.
+    pub step: u64,
+    /// Total particle count.
+    pub total: u64,
+    pool: rayon::ThreadPool,
+}
+
+/// Ensemble-averaged stress with its error bar.
+#[derive(Clone, Debug, PartialEq)]
+pub struct StressEstimate<const D: usize> {
+    /// Mean over particles of τ/G (each particle's ensemble average), D × D.
+    pub mean: [[f64; D]; D],
+    /// Standard error of `mean` from the spread between particles (independent ensembles).
+    pub stderr: [[f64; D]; D],
+    /// N₁/G = (τ_xx − τ_yy)/G and its standard error.
+    pub n1: (f64, f64),
+    /// N₂/G = (τ_yy − τ_zz)/G and its standard error (0 in 2D).
+    pub n2: (f64, f64),
+}
+
+impl<'c, const D: usize> HomogeneousEnsembles<'c, D> {
+    /// `total` particles × `n_d` dumbbells at equilibrium; this rank keeps its id block.
+    pub fn new(
+        comm: &'c dyn Comm,
+        threads: usize,
+        total: u64,
+        n_d: usize,
+        params: DumbbellParams,
+        flow: Flow,
+        seed: u64,
+    ) -> Result<Self, String> {
+        params.check()?;
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .map_err(|e| format!("cannot start {threads} threads: {e}"))?;
+        let gids: Vec<u64> = id_block(total, comm.size(), comm.rank()).collect();
+        let spring = params.spring;
+        let q = pool.install(|| {
+            gids.par_iter()
+                .map(|&g| {
+                    let mut q = vec![0.0; n_d * D];
+                    sample_equilibrium::<D>(&mut q, spring, &mut init_stream(seed, g));
+                    q
+                })
+                .collect()
+        });
+        Ok(Self {
+            comm,
+            gids,
+            q,
+            n_d,
+            params,
+            flow,
+            seed,
+            step: 0,
+            total,
+            pool,
+        })
+    }
+
+    /// Simulated time.
+    pub fn time(&self) -> f64 {
+        self.step as f64 * self.params.dt
+    }
+
+    /// Advances every ensemble by one step (κ frozen at the start of the step).
+    pub fn advance(&mut self) {
+        let kappa = self.flow.kappa::<D>(self.time());
+        let (p, seed, step) = (self.params, self.seed, self.step);
+        let (q, gids) = (&mut self.q, &self.gids);
+        self.pool.install(|| {
+            q.par_iter_mut().zip(gids.par_iter()).for_each(|(q, &g)| {
+                step_ensemble::<D>(q, &kappa, &p, &mut noise_stream(seed, g, step));
+            })
+        });
+        self.step += 1;
+    }
+
+    /// τ/G averaged over all particles of all ranks, with the standard error from the
+    /// particle-to-particle spread (collective; exact sums, so rank-count independent).
+    pub fn stress(&self) -> StressEstimate<D> {
+        let spring = self.params.spring;
+        let q = &self.q;
+        let per: Vec<[f64; 9]> = self.pool.install(|| {
+            q.par_iter()
+                .map(|q| kramers_stress::<D>(q, spring))
+                .collect()
+        });
+        // Per particle: the D² components, then N₁ and N₂.
+        let w = D * D + 2;
+        let value = |s: &[f64; 9], i: usize| -> f64 {
+            match i {
+                i if i < D * D => s[i],
+                i if i == D * D => s[0] - s[D + 1],
+                _ if D == 3 => s[4] - s[8],
+                _ => 0.0,
+            }
+        };
+        let mut sums = vec![FixedSum::ZERO; 2 * w];
+        for (k, s) in per.iter().enumerate() {
+            if k % 2048 == 2047 {
+                sums.iter_mut().for_each(FixedSum::normalize);
+            }
+            for i in 0..w {
+                let v = value(s, i);
+                sums[i].add(v);
+                sums[w + i].add(v * v);
+            }
+        }
+        FixedSum::allreduce(self.comm, &mut sums);
+        let n = self.total as f64;
+        let moments = |i: usize| -> (f64, f64) {
+            let m = sums[i].value() / n;
+            let var = (sums[w + i].value() / n - m * m).max(0.0) * n / (n - 1.0).max(1.0);
+            (m, (var / n).sqrt())
+        };
+        let mut est = StressEstimate {
+            mean: [[0.0; D]; D],
+            stderr: [[0.0; D]; D],
+            n1: moments(D * D),
+            n2: moments(D * D + 1),
+        };
+        for a in 0..D {
+            for b in 0..D {
+                (est.mean[a][b], est.stderr[a][b]) = moments(a * D + b);
+            }
+        }
+        est
+    }
+
+    /// Largest |Q|² of any dumbbell (collective).
+    pub fn max_q2(&self) -> f64 {
+        let local = self
+            .q
+            .iter()
+            .flat_map(|q| {
+                q.chunks_exact(D)
+                    .map(|c| c.iter().map(|v| v * v).sum::<f64>())
+            })
+            .fold(0.0, f64::max);
+        let mut v = [local];
+        self.comm.allreduce_max(&mut v);
+        v[0]
+    }
+
+    /// A digest of every connector vector (collective, order-independent).
+    pub fn digest(&self) -> u64 {
+        let mut acc = [0u64];
+        for (q, &g) in self.q.iter().zip(&self.gids) {
+            let mut words = vec![g];
+            words.extend(q.iter().map(|x| x.to_bits()));
+            acc[0] = acc[0].wrapping_add(crate::sim::hash_words(&words));
+        }
+        self.comm.allreduce_u64(&mut acc, crate::comm::U64Op::Sum);
+        acc[0]
+    }
+}
