@@ -9,9 +9,17 @@
 //! - shear reversal: κ_xy = γ̇ for t < t_r, −γ̇ after;
 //! - planar elongation: κ = diag(ε̇, −ε̇, 0);
 //! - uniaxial elongation (3D): κ = diag(ε̇, −ε̇/2, −ε̇/2).
+//!
+//! Variance reduction (optional; Öttinger 1996 §4.4, control variates): every particle also
+//! carries a copy of its ensemble that started from the same connectors and is driven by the
+//! *same* noise but no flow. The estimator τ(Q) − τ(Q_eq) + E[τ(Q_eq)] has the same mean (E[τ_eq]
+//! is known: 0 in the continuum, for Hookean springs the exact discrete value is used) and, while
+//! the two ensembles stay correlated, a much smaller variance — most of all at small Wi, where the
+//! polymer stress is a small signal on large thermal noise. It doubles memory and work.
 
 use super::dumbbells::{
-    DumbbellParams, init_stream, kramers_stress, noise_stream, sample_equilibrium, step_ensemble,
+    DumbbellParams, Spring, hookean_discrete_moment, init_stream, kramers_stress, noise_stream,
+    sample_equilibrium, step_ensemble,
 };
 use crate::comm::Comm;
 use crate::domain::id_block;
@@ -89,6 +97,8 @@ pub struct HomogeneousEnsembles<'c, const D: usize> {
     pub step: u64,
     /// Total particle count.
     pub total: u64,
+    /// Equilibrium copies driven by the same noise (variance reduction), if enabled.
+    pub control: Option<Vec<Vec<f64>>>,
     pool: rayon::ThreadPool,
 }
 
@@ -142,8 +152,16 @@ impl<'c, const D: usize> HomogeneousEnsembles<'c, D> {
             seed,
             step: 0,
             total,
+            control: None,
             pool,
         })
+    }
+
+    /// Switches on the control-variate variance reduction (before the first step).
+    pub fn with_control_variates(mut self) -> Self {
+        assert_eq!(self.step, 0, "control variates start with the ensembles");
+        self.control = Some(self.q.clone());
+        self
     }
 
     /// Simulated time.
@@ -161,6 +179,15 @@ impl<'c, const D: usize> HomogeneousEnsembles<'c, D> {
                 step_ensemble::<D>(q, &kappa, &p, &mut noise_stream(seed, g, step));
             })
         });
+        if let Some(c) = &mut self.control {
+            let rest = [[0.0; D]; D];
+            self.pool.install(|| {
+                c.par_iter_mut().zip(gids.par_iter()).for_each(|(q, &g)| {
+                    // The same key, hence the same normals as the flowing copy.
+                    step_ensemble::<D>(q, &rest, &p, &mut noise_stream(seed, g, step));
+                })
+            });
+        }
         self.step += 1;
     }
 
@@ -169,11 +196,33 @@ impl<'c, const D: usize> HomogeneousEnsembles<'c, D> {
     pub fn stress(&self) -> StressEstimate<D> {
         let spring = self.params.spring;
         let q = &self.q;
-        let per: Vec<[f64; 9]> = self.pool.install(|| {
+        let mut per: Vec<[f64; 9]> = self.pool.install(|| {
             q.par_iter()
                 .map(|q| kramers_stress::<D>(q, spring))
                 .collect()
         });
+        if let Some(c) = &self.control {
+            // E[τ_eq/G]: the exact discrete value for Hookean springs, 0 otherwise.
+            let mut expected = [0.0; 9];
+            if spring == Spring::Hookean {
+                let m = hookean_discrete_moment::<D>(&[[0.0; D]; D], &self.params, self.step);
+                for a in 0..D {
+                    for b in 0..D {
+                        expected[a * D + b] = m[a][b] - if a == b { 1.0 } else { 0.0 };
+                    }
+                }
+            }
+            let eq: Vec<[f64; 9]> = self.pool.install(|| {
+                c.par_iter()
+                    .map(|q| kramers_stress::<D>(q, spring))
+                    .collect()
+            });
+            for (s, e) in per.iter_mut().zip(&eq) {
+                for i in 0..D * D {
+                    s[i] += expected[i] - e[i];
+                }
+            }
+        }
         // Per particle: the D² components, then N₁ and N₂.
         let w = D * D + 2;
         let value = |s: &[f64; 9], i: usize| -> f64 {
