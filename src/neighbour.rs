@@ -259,11 +259,20 @@ impl<const D: usize> NeighbourList<D> {
                 pairs
             })
             .collect();
+        // Concatenated in chunk order, the copies in parallel.
         let total: usize = chunks.iter().map(Vec::len).sum();
-        let mut pairs = Vec::with_capacity(total);
-        for c in chunks {
-            pairs.extend_from_slice(&c);
+        let mut pairs = vec![[0u32; 2]; total];
+        let mut rest = &mut pairs[..];
+        let mut parts = Vec::with_capacity(chunks.len());
+        for c in &chunks {
+            let (head, tail) = rest.split_at_mut(c.len());
+            parts.push(head);
+            rest = tail;
         }
+        parts
+            .into_par_iter()
+            .zip(chunks.par_iter())
+            .for_each(|(dst, src)| dst.copy_from_slice(src));
         NeighbourList {
             pairs,
             build_pos: pos[..n_owned].to_vec(),
