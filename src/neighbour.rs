@@ -49,8 +49,8 @@ struct Binned<const D: usize> {
     start: Vec<usize>,
     /// Particle indices sorted by cell (stable within a cell).
     sorted: Vec<u32>,
-    /// Positions in the order of `sorted`.
-    pos: Vec<[f64; D]>,
+    /// Positions in the order of `sorted`, one array per axis.
+    pos: [Vec<f64>; D],
 }
 
 impl<const D: usize> GridGeometry<D> {
@@ -150,11 +150,13 @@ impl<const D: usize> GridGeometry<D> {
         }
         let mut fill = start.clone();
         let mut sorted = vec![0u32; pos.len()];
-        let mut spos = vec![[0.0; D]; pos.len()];
+        let mut spos: [Vec<f64>; D] = std::array::from_fn(|_| vec![0.0; pos.len()]);
         for (i, &c) in cells.iter().enumerate() {
             let k = fill[c as usize];
             sorted[k] = first + i as u32;
-            spos[k] = pos[i];
+            for d in 0..D {
+                spos[d][k] = pos[i][d];
+            }
             fill[c as usize] += 1;
         }
         Binned {
@@ -239,7 +241,8 @@ impl<const D: usize> NeighbourList<D> {
                     }
                     for ia in a..b {
                         let i = owned.sorted[ia];
-                        let pi = &owned.pos[ia];
+                        let pi: [f64; D] = std::array::from_fn(|d| owned.pos[d][ia]);
+                        let pi = &pi;
                         let count = (own_end - ia - 1)
                             + o_rows.iter().map(|r| r.1 - r.0).sum::<usize>()
                             + g_rows.iter().map(|r| r.1 - r.0).sum::<usize>();
@@ -317,9 +320,17 @@ fn candidates<const D: usize>(
     out: &mut [[u32; 2]],
     mut len: usize,
 ) -> usize {
-    for (&j, pj) in cells.sorted[s..e].iter().zip(&cells.pos[s..e]) {
+    let js = &cells.sorted[s..e];
+    let xs: [&[f64]; D] = std::array::from_fn(|d| &cells.pos[d][s..e]);
+    for (k, &j) in js.iter().enumerate() {
+        // dist2 of pi and pj, the same operations in the same order.
+        let mut d2 = 0.0;
+        for d in 0..D {
+            let x = pi[d] - xs[d][k];
+            d2 += x * x;
+        }
         out[len] = [i, j];
-        len += usize::from(dist2(pi, pj) < r2);
+        len += usize::from(d2 < r2);
     }
     len
 }
