@@ -1,8 +1,9 @@
 //! Neighbour search: a cell list over owned + ghost particles and a Verlet pair list with a skin.
 //!
 //! The list holds every pair within r_list = r_c + skin that has at least one owned end, once,
-//! as `[i, j]` with i owned. Cells are at least r_list wide; each cell is paired with itself and
-//! its forward half of the 3^D stencil, so every pair is examined exactly once. An owned–ghost
+//! as `[i, j]` with i owned. Cells are at least r_list / 2 wide; an owned particle is paired with
+//! the owned particles of the forward half of the 5^D stencil and with the ghosts of the whole
+//! stencil, so every pair is examined exactly once and ghost–ghost pairs never. An owned–ghost
 //! pair is also listed on the rank (or for the image) that owns the other end, which applies
 //! the force only to its own particle. The order of the list does not matter for the result:
 //! forces are accumulated exactly ([`crate::fixed_sum`]).
@@ -35,21 +36,26 @@ fn dist2<const D: usize>(a: &[f64; D], b: &[f64; D]) -> f64 {
     s
 }
 
-/// A uniform grid of cells over a bounding box, with particles sorted by cell.
-pub struct CellGrid<const D: usize> {
+/// The cell geometry over a bounding box: origin, cells per axis and inverse cell widths.
+struct GridGeometry<const D: usize> {
     lo: [f64; D],
     inv_cell: [f64; D],
-    /// Cells per axis.
-    pub ncell: [usize; D],
-    /// `start[c]..start[c+1]` indexes `sorted` for cell c.
-    pub start: Vec<usize>,
-    /// Particle indices sorted by cell.
-    pub sorted: Vec<u32>,
+    ncell: [usize; D],
 }
 
-impl<const D: usize> CellGrid<D> {
-    /// Bins `pos` into cells at least `width` wide.
-    pub fn new(pos: &[[f64; D]], width: f64) -> Self {
+/// One set of particles binned into the cells of a [`GridGeometry`].
+struct Binned<const D: usize> {
+    /// `start[c]..start[c+1]` indexes `sorted` and `pos` for cell c.
+    start: Vec<usize>,
+    /// Particle indices sorted by cell (stable within a cell).
+    sorted: Vec<u32>,
+    /// Positions in the order of `sorted`, one array per axis.
+    pos: [Vec<f64>; D],
+}
+
+impl<const D: usize> GridGeometry<D> {
+    /// Cells at least `width` wide over the bounding box of `pos`.
+    fn new(pos: &[[f64; D]], width: f64) -> Self {
         let mut lo = [f64::INFINITY; D];
         let mut hi = [f64::NEG_INFINITY; D];
         for p in pos {
@@ -79,35 +85,21 @@ impl<const D: usize> CellGrid<D> {
             }
             width *= 1.25;
         }
-        let total: usize = ncell.iter().product();
-        let mut grid = CellGrid {
+        GridGeometry {
             lo,
             inv_cell,
             ncell,
-            start: vec![0; total + 1],
-            sorted: vec![0; pos.len()],
-        };
-        let cells: Vec<u32> = pos
-            .iter()
-            .map(|p| grid.flat(&grid.coords(p)) as u32)
-            .collect();
-        for &c in &cells {
-            grid.start[c as usize + 1] += 1;
         }
-        for c in 0..total {
-            grid.start[c + 1] += grid.start[c];
-        }
-        let mut fill = grid.start.clone();
-        for (i, &c) in cells.iter().enumerate() {
-            grid.sorted[fill[c as usize]] = i as u32;
-            fill[c as usize] += 1;
-        }
-        grid
+    }
+
+    /// Number of cells.
+    fn total(&self) -> usize {
+        self.ncell.iter().product()
     }
 
     /// Cell coordinates of a point (clamped to the grid).
     #[inline(always)]
-    pub fn coords(&self, p: &[f64; D]) -> [usize; D] {
+    fn coords(&self, p: &[f64; D]) -> [usize; D] {
         let mut c = [0usize; D];
         for d in 0..D {
             c[d] =
@@ -118,7 +110,7 @@ impl<const D: usize> CellGrid<D> {
 
     /// Cell coordinates of a flat index.
     #[inline(always)]
-    pub fn unflat(&self, mut f: usize) -> [usize; D] {
+    fn unflat(&self, mut f: usize) -> [usize; D] {
         let mut c = [0usize; D];
         for d in 0..D {
             c[d] = f % self.ncell[d];
@@ -129,7 +121,7 @@ impl<const D: usize> CellGrid<D> {
 
     /// Flat index of cell coordinates (x fastest).
     #[inline(always)]
-    pub fn flat(&self, c: &[usize; D]) -> usize {
+    fn flat(&self, c: &[usize; D]) -> usize {
         let mut f = 0;
         for d in (0..D).rev() {
             f = f * self.ncell[d] + c[d];
@@ -137,119 +129,156 @@ impl<const D: usize> CellGrid<D> {
         f
     }
 
-    /// Forward half of the 3^D neighbour offsets (the first non-zero component, from the last
-    /// axis down, is +1).
-    fn forward_stencil() -> Vec<[isize; D]> {
-        let mut out = Vec::new();
-        for s in 0..3usize.pow(D as u32) {
-            let mut o = [0isize; D];
-            let mut rem = s;
-            for x in o.iter_mut() {
-                *x = (rem % 3) as isize - 1;
-                rem /= 3;
-            }
-            if let Some(&last) = o.iter().rev().find(|&&x| x != 0)
-                && last > 0
-            {
-                out.push(o);
-            }
+    /// Flat cell index of every point.
+    fn cells(&self, pos: &[[f64; D]]) -> Vec<u32> {
+        pos.par_iter()
+            .with_min_len(4096)
+            .map(|p| self.flat(&self.coords(p)) as u32)
+            .collect()
+    }
+
+    /// Counting sort of `pos` (indices offset by `first`) into the cells.
+    fn bin(&self, pos: &[[f64; D]], first: u32) -> Binned<D> {
+        let total = self.total();
+        let cells = self.cells(pos);
+        let mut start = vec![0usize; total + 1];
+        for &c in &cells {
+            start[c as usize + 1] += 1;
         }
-        out
+        for c in 0..total {
+            start[c + 1] += start[c];
+        }
+        let mut fill = start.clone();
+        let mut sorted = vec![0u32; pos.len()];
+        let mut spos: [Vec<f64>; D] = std::array::from_fn(|_| vec![0.0; pos.len()]);
+        for (i, &c) in cells.iter().enumerate() {
+            let k = fill[c as usize];
+            sorted[k] = first + i as u32;
+            for d in 0..D {
+                spos[d][k] = pos[i][d];
+            }
+            fill[c as usize] += 1;
+        }
+        Binned {
+            start,
+            sorted,
+            pos: spos,
+        }
     }
 }
 
 impl<const D: usize> NeighbourList<D> {
     /// Builds the pair list over owned + ghost particles.
+    ///
+    /// Cells are at least r_list / 2 wide, so a pair within r_list lies at most two cells apart
+    /// along every axis. Owned and ghost particles are binned into two separate cell lists on
+    /// one grid. With x the fastest cell axis, the cells x − 2 … x + 2 of one row of the
+    /// stencil are contiguous in each list, so every (cell, row) pair is one slice of sorted
+    /// positions. An owned particle meets the owned particles of the forward half of the
+    /// 5^D stencil (rows whose last non-zero offset is positive, plus the later particles of
+    /// its own row) and the ghosts of the whole stencil; ghost–ghost pairs are never examined.
     pub fn build(particles: &Particles<D>, radius: f64) -> Self {
-        let n_owned = particles.n_owned as u32;
+        let n_owned = particles.n_owned;
         let pos = &particles.pos;
-        let grid = CellGrid::new(pos, radius);
-        let stencil = CellGrid::<D>::forward_stencil();
-        // Positions in cell order, so the inner loop streams through memory.
-        let sorted_pos: Vec<[f64; D]> = grid.sorted.iter().map(|&j| pos[j as usize]).collect();
+        // A hair wider than r_list / 2, so that rounding in the binning can never put a pair
+        // within r_list three cells apart.
+        let geom = GridGeometry::new(pos, 0.5 * radius * (1.0 + 1e-9));
+        let owned = geom.bin(&pos[..n_owned], 0);
+        let ghosts = geom.bin(&pos[n_owned..], n_owned as u32);
         let r2 = radius * radius;
-        let total_cells = grid.start.len() - 1;
-        let owned_end: Vec<usize> = (0..total_cells)
-            .map(|c| {
-                let (a, b) = (grid.start[c], grid.start[c + 1]);
-                a + grid.sorted[a..b].partition_point(|&j| j < n_owned)
-            })
-            .collect();
-        const CHUNK: usize = 64;
+        let nx = geom.ncell[0];
+        // Row offsets over the axes 1..D, each in −2..=2.
+        let mut rows: Vec<([isize; D], bool)> = Vec::new();
+        for s in 0..5usize.pow(D as u32 - 1) {
+            let mut o = [0isize; D];
+            let mut rem = s;
+            for x in o.iter_mut().skip(1) {
+                *x = (rem % 5) as isize - 2;
+                rem /= 5;
+            }
+            let forward = o.iter().rev().find(|&&x| x != 0).is_some_and(|&x| x > 0);
+            rows.push((o, forward));
+        }
+        let total_cells = geom.total();
+        const CHUNK: usize = 256;
         let chunks: Vec<Vec<[u32; 2]>> = (0..total_cells.div_ceil(CHUNK))
             .into_par_iter()
             .map(|chunk| {
                 let mut pairs: Vec<[u32; 2]> = Vec::new();
-                let mut scratch: Vec<[u32; 2]> = Vec::new();
+                // Slices (begin, end) of the owned and of the ghost list to scan.
+                let mut o_rows: Vec<(usize, usize)> = Vec::with_capacity(rows.len());
+                let mut g_rows: Vec<(usize, usize)> = Vec::with_capacity(rows.len());
                 let cells = chunk * CHUNK..((chunk + 1) * CHUNK).min(total_cells);
                 for c in cells {
-                    let (a, b) = (grid.start[c], grid.start[c + 1]);
+                    let (a, b) = (owned.start[c], owned.start[c + 1]);
                     if a == b {
                         continue;
                     }
-                    let coords = grid.unflat(c);
-                    // Within a cell the owned particles come first (the counting sort is
-                    // stable and owned indices are the smallest), so ghost–ghost candidates —
-                    // never listed — are skipped wholesale.
-                    let a_ghost = owned_end[c];
-                    // Own cell: each unordered pair once.
-                    for ia in a..a_ghost {
-                        let pi = &sorted_pos[ia];
-                        let i = grid.sorted[ia];
-                        candidates(
-                            pi,
-                            i,
-                            &grid.sorted[ia + 1..b],
-                            &sorted_pos[ia + 1..b],
-                            r2,
-                            n_owned,
-                            &mut scratch,
-                        );
-                    }
-                    // Forward neighbour cells.
-                    'stencil: for o in &stencil {
-                        let mut nc = [0usize; D];
-                        for d in 0..D {
+                    let coords = geom.unflat(c);
+                    let mut lo = coords;
+                    let mut hi = coords;
+                    lo[0] = coords[0].saturating_sub(2);
+                    hi[0] = (coords[0] + 2).min(nx - 1);
+                    o_rows.clear();
+                    g_rows.clear();
+                    let own_end = owned.start[geom.flat(&hi) + 1];
+                    'rows: for (o, forward) in &rows {
+                        for d in 1..D {
                             let x = coords[d] as isize + o[d];
-                            if x < 0 || x >= grid.ncell[d] as isize {
-                                continue 'stencil;
+                            if x < 0 || x >= geom.ncell[d] as isize {
+                                continue 'rows;
                             }
-                            nc[d] = x as usize;
+                            lo[d] = x as usize;
+                            hi[d] = x as usize;
                         }
-                        let f = grid.flat(&nc);
-                        let (fa, fb) = (grid.start[f], grid.start[f + 1]);
-                        let f_ghost = owned_end[f];
-                        if fa == fb || (a == a_ghost && fa == f_ghost) {
-                            continue;
+                        let (f0, f1) = (geom.flat(&lo), geom.flat(&hi) + 1);
+                        if *forward && owned.start[f0] < owned.start[f1] {
+                            o_rows.push((owned.start[f0], owned.start[f1]));
                         }
-                        for ia in a..b {
-                            let i = grid.sorted[ia];
-                            // Owned i meets everything, a ghost i only the owned of cell f.
-                            let end = if ia < a_ghost { fb } else { f_ghost };
-                            candidates(
-                                &sorted_pos[ia],
-                                i,
-                                &grid.sorted[fa..end],
-                                &sorted_pos[fa..end],
-                                r2,
-                                n_owned,
-                                &mut scratch,
-                            );
+                        if ghosts.start[f0] < ghosts.start[f1] {
+                            g_rows.push((ghosts.start[f0], ghosts.start[f1]));
                         }
                     }
-                    pairs.append(&mut scratch);
+                    for ia in a..b {
+                        let i = owned.sorted[ia];
+                        let pi: [f64; D] = std::array::from_fn(|d| owned.pos[d][ia]);
+                        let pi = &pi;
+                        let count = (own_end - ia - 1)
+                            + o_rows.iter().map(|r| r.1 - r.0).sum::<usize>()
+                            + g_rows.iter().map(|r| r.1 - r.0).sum::<usize>();
+                        let mut len = pairs.len();
+                        pairs.resize(len + count, [0, 0]);
+                        let out = &mut pairs[..];
+                        len = candidates(pi, i, &owned, ia + 1, own_end, r2, out, len);
+                        for &(s, e) in &o_rows {
+                            len = candidates(pi, i, &owned, s, e, r2, out, len);
+                        }
+                        for &(s, e) in &g_rows {
+                            len = candidates(pi, i, &ghosts, s, e, r2, out, len);
+                        }
+                        pairs.truncate(len);
+                    }
                 }
                 pairs
             })
             .collect();
+        // Concatenated in chunk order, the copies in parallel.
         let total: usize = chunks.iter().map(Vec::len).sum();
-        let mut pairs = Vec::with_capacity(total);
-        for c in chunks {
-            pairs.extend_from_slice(&c);
+        let mut pairs = vec![[0u32; 2]; total];
+        let mut rest = &mut pairs[..];
+        let mut parts = Vec::with_capacity(chunks.len());
+        for c in &chunks {
+            let (head, tail) = rest.split_at_mut(c.len());
+            parts.push(head);
+            rest = tail;
         }
+        parts
+            .into_par_iter()
+            .zip(chunks.par_iter())
+            .for_each(|(dst, src)| dst.copy_from_slice(src));
         NeighbourList {
             pairs,
-            build_pos: pos[..n_owned as usize].to_vec(),
+            build_pos: pos[..n_owned].to_vec(),
             radius,
         }
     }
@@ -276,31 +305,37 @@ impl<const D: usize> NeighbourList<D> {
     }
 }
 
-/// Appends the pairs of particle `i` (at `pi`) with candidates `js` (at `pjs`) within √r2 that
-/// have an owned end, owned end first. Branch-free in the distance test.
+/// Writes the pairs `[i, j]` of particle `i` (at `pi`) with the particles `s..e` of `cells`
+/// within √r2 into `out[len..]` and returns the new length. Branch-free in the distance test;
+/// `out` must have room for every candidate.
 #[inline(always)]
+#[allow(clippy::too_many_arguments)]
 fn candidates<const D: usize>(
     pi: &[f64; D],
     i: u32,
-    js: &[u32],
-    pjs: &[[f64; D]],
+    cells: &Binned<D>,
+    s: usize,
+    e: usize,
     r2: f64,
-    n_owned: u32,
-    out: &mut Vec<[u32; 2]>,
-) {
-    let i_owned = i < n_owned;
-    let mut len = out.len();
-    out.resize(len + js.len(), [0, 0]);
-    for (&j, pj) in js.iter().zip(pjs) {
-        let j_owned = j < n_owned;
-        out[len] = if i_owned { [i, j] } else { [j, i] };
-        let hit = (dist2(pi, pj) < r2) & (i_owned | j_owned);
-        len += usize::from(hit);
+    out: &mut [[u32; 2]],
+    mut len: usize,
+) -> usize {
+    let js = &cells.sorted[s..e];
+    let xs: [&[f64]; D] = std::array::from_fn(|d| &cells.pos[d][s..e]);
+    for (k, &j) in js.iter().enumerate() {
+        // dist2 of pi and pj, the same operations in the same order.
+        let mut d2 = 0.0;
+        for d in 0..D {
+            let x = pi[d] - xs[d][k];
+            d2 += x * x;
+        }
+        out[len] = [i, j];
+        len += usize::from(d2 < r2);
     }
-    out.truncate(len);
+    len
 }
 
 /// A spatial order of the owned particles (by cell of a grid `width` wide) for cache locality.
 pub fn spatial_order<const D: usize>(pos: &[[f64; D]], width: f64) -> Vec<u32> {
-    CellGrid::new(pos, width).sorted
+    GridGeometry::new(pos, width).bin(pos, 0).sorted
 }

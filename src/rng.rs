@@ -154,9 +154,22 @@ impl HashStream {
     /// The stream for `(seed, purpose, step, a, b)`.
     #[inline(always)]
     pub fn new(seed: u64, purpose: Purpose, step: u64, a: u64, b: u64) -> Self {
-        let mut h = mix64(seed ^ ((purpose as u64) << 56) ^ GOLDEN);
-        h = mix64(h ^ step.wrapping_mul(0xD6E8_FEB8_6659_FD93));
-        h = mix64(h ^ a.wrapping_mul(GOLDEN));
+        Self::from_prefix(Self::prefix(seed, purpose, step), a, b)
+    }
+
+    /// The part of the start value that depends on `(seed, purpose, step)` only: computed
+    /// once per step, it is finished per pair by [`Self::from_prefix`] (the same bits as
+    /// [`Self::new`]).
+    #[inline(always)]
+    pub fn prefix(seed: u64, purpose: Purpose, step: u64) -> u64 {
+        let h = mix64(seed ^ ((purpose as u64) << 56) ^ GOLDEN);
+        mix64(h ^ step.wrapping_mul(0xD6E8_FEB8_6659_FD93))
+    }
+
+    /// The stream for `(a, b)` under a [`Self::prefix`].
+    #[inline(always)]
+    pub fn from_prefix(prefix: u64, a: u64, b: u64) -> Self {
+        let mut h = mix64(prefix ^ a.wrapping_mul(GOLDEN));
         h = mix64(h ^ b.wrapping_mul(0xCA5A_8263_9512_1157));
         Self { state: h }
     }

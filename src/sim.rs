@@ -17,7 +17,7 @@
 use crate::comm::{Comm, U64Op};
 use crate::config::{Case, FluidCfg, IntegratorCfg, Lattice, Observable, VelocityProfile};
 use crate::diagnostics::{STRESS_PARTS, Series, tensor_components};
-use crate::domain::{HaloPlan, Slab, migrate};
+use crate::domain::{HaloPlan, Slab, send_leavers, wrap_owned};
 use crate::fixed_sum::FixedSum;
 use crate::geometry::{GRADIENT, SimBox};
 use crate::models::dpd::Dpd;
@@ -308,13 +308,11 @@ impl<'c, const D: usize> Simulation<'c, D> {
         let t0 = Instant::now();
         let offset = self.sim_box.le_offset(self.step, self.dt);
         let range = self.range();
-        migrate(
-            &mut self.particles,
-            &self.sim_box,
-            &self.slab,
-            self.comm,
-            offset,
-        )?;
+        let (particles, sim_box, slab) = (&mut self.particles, &self.sim_box, &self.slab);
+        let owners = self
+            .pool
+            .install(|| wrap_owned(particles, sim_box, slab, offset));
+        send_leavers(&mut self.particles, &self.slab, self.comm, &owners)?;
         // Spatial order for cache locality (results do not depend on the order).
         let order = self
             .pool

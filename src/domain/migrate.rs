@@ -7,6 +7,7 @@ use super::tags;
 use crate::comm::Comm;
 use crate::geometry::SimBox;
 use crate::particles::Particles;
+use rayon::prelude::*;
 
 /// Wraps and migrates the owned particles (ghosts must have been dropped). Errors, on every
 /// rank alike, if a particle moved further than one slab since the last call.
@@ -17,27 +18,55 @@ pub fn migrate<const D: usize>(
     comm: &dyn Comm,
     offset: f64,
 ) -> Result<(), String> {
+    let owners = wrap_owned(particles, sim_box, slab, offset);
+    send_leavers(particles, slab, comm, &owners)
+}
+
+/// Drops the ghosts, wraps every owned particle back into the box and returns the rank that
+/// owns each. Per particle and independent, so parallel (on the current rayon pool).
+pub fn wrap_owned<const D: usize>(
+    particles: &mut Particles<D>,
+    sim_box: &SimBox<D>,
+    slab: &Slab,
+    offset: f64,
+) -> Vec<usize> {
     particles.clear_ghosts();
+    let n = particles.n_owned;
+    let Particles {
+        pos,
+        vel,
+        vel_half,
+        image,
+        ..
+    } = &mut *particles;
+    pos[..n]
+        .par_iter_mut()
+        .zip(vel[..n].par_iter_mut())
+        .zip(vel_half[..n].par_iter_mut())
+        .zip(image[..n].par_iter_mut())
+        .with_min_len(2048)
+        .map(|(((p, v), vh), im)| {
+            sim_box.wrap(p, &mut [v, vh], im, offset);
+            slab.owner_of(p[slab.axis])
+        })
+        .collect()
+}
+
+/// Sends the owned particles whose owner (from [`wrap_owned`]) is another rank to it, in index
+/// order, and receives the arrivals. Errors, on every rank alike, if a particle moved further
+/// than one slab.
+pub fn send_leavers<const D: usize>(
+    particles: &mut Particles<D>,
+    slab: &Slab,
+    comm: &dyn Comm,
+    owners: &[usize],
+) -> Result<(), String> {
     let n = particles.n_owned;
     let mut keep = vec![true; n];
     let mut to_up = Vec::new();
     let mut to_down = Vec::new();
     let mut lost: Option<(u64, [f64; D])> = None;
-    for i in 0..n {
-        let Particles {
-            pos,
-            vel,
-            vel_half,
-            image,
-            ..
-        } = &mut *particles;
-        sim_box.wrap(
-            &mut pos[i],
-            &mut [&mut vel[i], &mut vel_half[i]],
-            &mut image[i],
-            offset,
-        );
-        let owner = slab.owner_of(particles.pos[i][slab.axis]);
+    for (i, &owner) in owners.iter().enumerate() {
         if owner == slab.rank {
             continue;
         }

@@ -13,7 +13,7 @@ mod slab;
 
 pub use by_id::{id_block, redistribute, sort_by_id};
 pub use halo::HaloPlan;
-pub use migrate::migrate;
+pub use migrate::{migrate, send_leavers, wrap_owned};
 pub use slab::Slab;
 
 /// Message tags.

@@ -87,6 +87,27 @@ impl<const D: usize> PairKernel<D> for Dpd {
         gids: (u64, u64),
         step: u64,
     ) -> Option<PairTerms<D>> {
+        self.eval_keyed(
+            r_vec,
+            v_rel,
+            gids,
+            <Self as PairKernel<D>>::step_key(self, step),
+        )
+    }
+
+    /// The hash-stream prefix of (seed, purpose, step).
+    fn step_key(&self, step: u64) -> u64 {
+        HashStream::prefix(self.seed, Purpose::DpdPair, step)
+    }
+
+    #[inline]
+    fn eval_keyed(
+        &self,
+        r_vec: &[f64; D],
+        v_rel: &[f64; D],
+        gids: (u64, u64),
+        step_key: u64,
+    ) -> Option<PairTerms<D>> {
         let mut r2 = 0.0;
         for x in r_vec {
             r2 += x * x;
@@ -114,7 +135,7 @@ impl<const D: usize> PairKernel<D> for Dpd {
         } else {
             (gids.1, gids.0)
         };
-        let mut stream = HashStream::new(self.seed, Purpose::DpdPair, step, lo, hi);
+        let mut stream = HashStream::from_prefix(step_key, lo, hi);
         let theta = match self.noise {
             Noise::Gaussian => stream.normal(),
             Noise::Uniform => SQRT_3 * (2.0 * stream.uniform() - 1.0),

@@ -51,6 +51,24 @@ pub trait PairKernel<const D: usize>: Sync {
         gids: (u64, u64),
         step: u64,
     ) -> Option<PairTerms<D>>;
+
+    /// What of `step` [`Self::eval_keyed`] needs, computed once per step (by default the step
+    /// itself).
+    fn step_key(&self, step: u64) -> u64 {
+        step
+    }
+
+    /// [`Self::eval`] with the step given as [`Self::step_key`]: the same result.
+    #[inline(always)]
+    fn eval_keyed(
+        &self,
+        r_vec: &[f64; D],
+        v_rel: &[f64; D],
+        gids: (u64, u64),
+        step_key: u64,
+    ) -> Option<PairTerms<D>> {
+        self.eval(r_vec, v_rel, gids, step_key)
+    }
 }
 
 /// Pair vector r_i − r_j: the one formula for every pair on every rank.
@@ -69,6 +87,8 @@ pub type Virial = [Vec<FixedSum>; 3];
 
 /// One chunk's virial accumulators: 3 parts × a 3×3 tensor (the 2D case uses the top-left 2×2).
 type ChunkVirial = [FixedSum; 27];
+/// Pairs per block of the distance pre-pass.
+const BLOCK: usize = 512;
 /// A pair whose force could not be accumulated: (id, id, force).
 type BadPair = (u64, u64, f64);
 
@@ -94,6 +114,8 @@ pub fn compute_forces<const D: usize, K: PairKernel<D>>(
     let per_chunk = list.pairs.len().div_ceil(chunks).max(1);
     workspace.buffers.resize_with(chunks, Vec::new);
     let (pos, vel, gid) = (&particles.pos, &particles.vel, &particles.gid);
+    let rc2 = kernel.cutoff() * kernel.cutoff();
+    let step_key = kernel.step_key(step);
     let results: Vec<(ChunkVirial, Option<BadPair>)> = workspace
         .buffers
         .par_iter_mut()
@@ -107,44 +129,65 @@ pub fn compute_forces<const D: usize, K: PairKernel<D>>(
             acc.resize(n_owned, [FixedSum::ZERO; D]);
             let mut virial = [FixedSum::ZERO; 27];
             let mut bad: Option<BadPair> = None;
-            for (k, &[i, j]) in pairs.iter().enumerate() {
-                if want_virial && k % 2048 == 2047 {
-                    virial.iter_mut().for_each(FixedSum::normalize);
-                }
-                let (i, j) = (i as usize, j as usize);
-                let Some(t) = kernel.eval(
-                    &separation(&pos[i], &pos[j]),
-                    &separation(&vel[i], &vel[j]),
-                    (gid[i], gid[j]),
-                    step,
-                ) else {
-                    continue;
-                };
-                let f = t.parts[0] + t.parts[1] + t.parts[2];
-                if !FixedSum::representable(f) {
-                    // NaN, infinite or absurd: the run has blown up; report, do not accumulate.
-                    bad.get_or_insert((gid[i], gid[j], f));
-                    continue;
-                }
-                let owned_j = j < n_owned;
-                for d in 0..D {
-                    let fd = f * t.e[d];
-                    acc[i][d].add(fd);
-                    if owned_j {
-                        acc[j][d].add(-fd);
+            let mut evaluated = 0usize;
+            let mut near = [[0u32; 2]; BLOCK];
+            for block in pairs.chunks(BLOCK) {
+                // Branch-free pre-pass: keep the pairs the kernel may accept (r² below the
+                // cutoff², by the kernel's own formula; also zero and NaN, which it rejects
+                // itself), so the listed pairs beyond the cutoff cost no mispredicted branch.
+                let mut n_near = 0;
+                for &[i, j] in block {
+                    let r = separation(&pos[i as usize], &pos[j as usize]);
+                    let mut r2 = 0.0;
+                    for x in r {
+                        r2 += x * x;
                     }
+                    near[n_near] = [i, j];
+                    // Not `r2 < rc2`: a NaN must reach the kernel, which reports it.
+                    #[allow(clippy::neg_cmp_op_on_partial_ord)]
+                    let keep = !(r2 >= rc2);
+                    n_near += usize::from(keep);
                 }
-                if want_virial {
-                    let w = if owned_j { t.r } else { 0.5 * t.r };
-                    if !t.parts.iter().all(|&p| FixedSum::representable(w * p)) {
-                        bad.get_or_insert((gid[i], gid[j], w * f));
+                for &[i, j] in &near[..n_near] {
+                    evaluated += 1;
+                    if want_virial && evaluated.is_multiple_of(2048) {
+                        virial.iter_mut().for_each(FixedSum::normalize);
+                    }
+                    let (i, j) = (i as usize, j as usize);
+                    let Some(t) = kernel.eval_keyed(
+                        &separation(&pos[i], &pos[j]),
+                        &separation(&vel[i], &vel[j]),
+                        (gid[i], gid[j]),
+                        step_key,
+                    ) else {
+                        continue;
+                    };
+                    let f = t.parts[0] + t.parts[1] + t.parts[2];
+                    if !FixedSum::representable(f) {
+                        // NaN, infinite or absurd: the run has blown up; report, do not accumulate.
+                        bad.get_or_insert((gid[i], gid[j], f));
                         continue;
                     }
-                    for (part, &p) in t.parts.iter().enumerate() {
-                        let s = w * p;
-                        for a in 0..D {
-                            for b in 0..D {
-                                virial[part * 9 + a * 3 + b].add(s * t.e[a] * t.e[b]);
+                    let owned_j = j < n_owned;
+                    for d in 0..D {
+                        let fd = f * t.e[d];
+                        acc[i][d].add(fd);
+                        if owned_j {
+                            acc[j][d].add(-fd);
+                        }
+                    }
+                    if want_virial {
+                        let w = if owned_j { t.r } else { 0.5 * t.r };
+                        if !t.parts.iter().all(|&p| FixedSum::representable(w * p)) {
+                            bad.get_or_insert((gid[i], gid[j], w * f));
+                            continue;
+                        }
+                        for (part, &p) in t.parts.iter().enumerate() {
+                            let s = w * p;
+                            for a in 0..D {
+                                for b in 0..D {
+                                    virial[part * 9 + a * 3 + b].add(s * t.e[a] * t.e[b]);
+                                }
                             }
                         }
                     }
