@@ -191,16 +191,36 @@ impl HashStream {
     /// 256 layers, as in Doornik's and rand_distr's variants): one 64-bit draw in ~99 % of calls.
     #[inline]
     pub fn normal(&mut self) -> f64 {
+        self.normal_with(ziggurat())
+    }
+
+    /// Fills `out` with standard normals — the same numbers, in the same order, as `out.len()`
+    /// calls of [`Self::normal`] — with the ziggurat table looked up once.
+    pub fn fill_normals(&mut self, out: &mut [f64]) {
         let z = ziggurat();
+        for o in out {
+            *o = self.normal_with(z);
+        }
+    }
+
+    #[inline(always)]
+    fn normal_with(&mut self, z: &Ziggurat) -> f64 {
+        let bits = self.next_u64();
+        let i = (bits & 0xff) as usize;
+        // 52 bits → u ∈ (−1, 1)
+        let u = 2.0 * (((bits >> 12) as f64 + 0.5) * (1.0 / (1u64 << 52) as f64)) - 1.0;
+        let x = u * z.x[i];
+        if x.abs() < z.x[i + 1] {
+            return x;
+        }
+        self.normal_slow(z, i, u, x)
+    }
+
+    /// The ziggurat's rare paths (base strip tail, wedges), then the retry loop.
+    #[cold]
+    #[inline(never)]
+    fn normal_slow(&mut self, z: &Ziggurat, mut i: usize, mut u: f64, mut x: f64) -> f64 {
         loop {
-            let bits = self.next_u64();
-            let i = (bits & 0xff) as usize;
-            // 52 bits → u ∈ (−1, 1)
-            let u = 2.0 * (((bits >> 12) as f64 + 0.5) * (1.0 / (1u64 << 52) as f64)) - 1.0;
-            let x = u * z.x[i];
-            if x.abs() < z.x[i + 1] {
-                return x;
-            }
             if i == 0 {
                 // Tail beyond R (Marsaglia 1964).
                 loop {
@@ -212,6 +232,13 @@ impl HashStream {
                 }
             }
             if z.f[i + 1] + (z.f[i] - z.f[i + 1]) * self.uniform() < (-0.5 * x * x).exp() {
+                return x;
+            }
+            let bits = self.next_u64();
+            i = (bits & 0xff) as usize;
+            u = 2.0 * (((bits >> 12) as f64 + 0.5) * (1.0 / (1u64 << 52) as f64)) - 1.0;
+            x = u * z.x[i];
+            if x.abs() < z.x[i + 1] {
                 return x;
             }
         }
@@ -249,6 +276,19 @@ fn ziggurat() -> &'static Ziggurat {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn fill_normals_gives_the_numbers_of_repeated_normal_calls() {
+        for key in 0..50u64 {
+            let mut a = HashStream::new(3, Purpose::Test, key, 1, 2);
+            let mut b = a;
+            let mut buf = vec![0.0; 4000];
+            a.fill_normals(&mut buf);
+            for (k, x) in buf.iter().enumerate() {
+                assert_eq!(x.to_bits(), b.normal().to_bits(), "key {key} draw {k}");
+            }
+        }
+    }
 
     /// Known-answer vectors of Random123 (`tests/kat_vectors`, philox4x32 10 rounds).
     #[test]

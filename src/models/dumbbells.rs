@@ -185,12 +185,16 @@ pub fn step_ensemble<const D: usize>(
 ) {
     let amp = (p.dt / p.lambda).sqrt();
     let dt = p.dt;
-    for c in q.chunks_exact_mut(D) {
+    // All the particle's normals first (the same numbers in the same order as drawing them
+    // dumbbell by dumbbell), then the arithmetic.
+    let mut normals = vec![0.0; q.len()];
+    noise.fill_normals(&mut normals);
+    for (c, g) in q.chunks_exact_mut(D).zip(normals.chunks_exact(D)) {
         let mut x = [0.0; D];
         x.copy_from_slice(c);
         let mut xi = [0.0; D];
-        for v in xi.iter_mut() {
-            *v = amp * noise.normal();
+        for d in 0..D {
+            xi[d] = amp * g[d];
         }
         let a0 = drift(&x, kappa, p.spring, p.lambda);
         match p.scheme {
