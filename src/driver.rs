@@ -363,6 +363,9 @@ fn drive<const D: usize>(
     let mut checkpointed_at = None;
     let mut stopped_by_signal = false;
     while sim.step < stop_at {
+        if STOP_REQUESTED.load(Ordering::SeqCst) {
+            sim.request_stop();
+        }
         sim.advance()?;
         if sim.is_sample_step() {
             sim.sample();
@@ -381,14 +384,8 @@ fn drive<const D: usize>(
             last_checkpoint = checkpoint(&mut sim, options)?;
             checkpointed_at = Some(step);
         }
-        // Collective, so every rank stops after the same step.
-        let mut stop = [if STOP_REQUESTED.load(Ordering::SeqCst) {
-            1.0
-        } else {
-            0.0
-        }];
-        comm.allreduce_max(&mut stop);
-        if stop[0] > 0.0 {
+        // Agreed within the step's own reduction, so every rank stops after the same step.
+        if sim.stop_agreed() {
             stopped_by_signal = true;
             if is_root {
                 tracing::warn!("stop requested: stopping after step {step}");

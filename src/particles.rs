@@ -83,6 +83,23 @@ impl<const D: usize> Particles<D> {
         }
     }
 
+    /// The owned particles' core fields (id, position, velocity, force, v_half, image), without
+    /// ghosts or registered fields.
+    pub fn owned_core(&self) -> Self {
+        let n = self.n_owned;
+        Self {
+            n_owned: n,
+            gid: self.gid[..n].to_vec(),
+            pos: self.pos[..n].to_vec(),
+            vel: self.vel[..n].to_vec(),
+            force: self.force[..n].to_vec(),
+            vel_half: self.vel_half[..n].to_vec(),
+            image: self.image[..n].to_vec(),
+            extra: Vec::new(),
+            var: Vec::new(),
+        }
+    }
+
     /// Index of the fixed-width field called `name`.
     pub fn extra_index(&self, name: &str) -> Option<usize> {
         self.extra.iter().position(|f| f.name == name)

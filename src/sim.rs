@@ -84,6 +84,10 @@ pub struct Simulation<'c, const D: usize> {
     pool: rayon::ThreadPool,
     /// Models with per-particle state of their own.
     models: Vec<Box<dyn StateModel<D>>>,
+    /// This rank was asked to stop (a signal); shared with the others in the next step.
+    stop_requested_here: bool,
+    /// Some rank asked to stop during the last step (the same on every rank).
+    stop_agreed: bool,
 }
 
 /// Name of the extra field that carries the neighbour-list build positions in checkpoints.
@@ -257,6 +261,8 @@ impl<'c, const D: usize> Simulation<'c, D> {
             times: PhaseTimes::default(),
             pool,
             models: Vec::new(),
+            stop_requested_here: false,
+            stop_agreed: false,
         })
     }
 
@@ -278,6 +284,17 @@ impl<'c, const D: usize> Simulation<'c, D> {
             p.extra[k].data[i * D..(i + 1) * D].copy_from_slice(x);
         }
         p
+    }
+
+    /// Marks that this rank was asked to stop; [`Self::stop_agreed`] tells every rank after the
+    /// next step (no extra collective: it travels with the step's displacement reduction).
+    pub fn request_stop(&mut self) {
+        self.stop_requested_here = true;
+    }
+
+    /// Whether any rank asked to stop before the last step (collectively agreed).
+    pub fn stop_agreed(&self) -> bool {
+        self.stop_agreed
     }
 
     /// Step of the last neighbour-list build.
@@ -436,8 +453,13 @@ impl<'c, const D: usize> Simulation<'c, D> {
 
         let t1 = Instant::now();
         let (list, particles) = (&self.list, &self.particles);
-        let mut moved = [self.pool.install(|| list.max_displacement(particles))];
+        // One reduction per step carries the displacement and any rank's stop request.
+        let mut moved = [
+            self.pool.install(|| list.max_displacement(particles)),
+            if self.stop_requested_here { 1.0 } else { 0.0 },
+        ];
         self.comm.allreduce_max(&mut moved);
+        self.stop_agreed = moved[1] > 0.0;
         let drift = if self.sim_box.sheared() {
             self.sim_box.le_velocity_jump() * dt * (self.step - self.halo.step_at_build()) as f64
         } else {

@@ -150,12 +150,7 @@ pub fn write<const D: usize>(
         series_hash(&sim.series),
     ];
     let sum = checksum(&mine, comm, &scalars);
-    let made = if rank == 0 {
-        std::fs::create_dir_all(dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))
-    } else {
-        Ok(())
-    };
-    collective_ok(comm, made, "checkpoint directory")?;
+    super::create_dir_collective(dir, comm)?;
     let path = dir.join(file_name(sim.step));
     let tmp = dir.join(format!("{}.tmp", file_name(sim.step)));
     let nth = WRITES.fetch_add(1, Ordering::SeqCst) + 1;
@@ -247,14 +242,14 @@ pub fn write<const D: usize>(
     f.close()?;
     let mut done = Ok(());
     if rank == 0 {
-        done = publish(&tmp, &path, dir, keep);
+        done = publish(&tmp, &path, sim.step, dir, keep);
     }
     collective_ok(comm, done, "checkpoint")?;
     Ok(path)
 }
 
 /// fsync, atomic rename, fsync of the directory, then removal of all but the newest `keep`.
-fn publish(tmp: &Path, path: &Path, dir: &Path, keep: usize) -> Result<(), String> {
+fn publish(tmp: &Path, path: &Path, this: u64, dir: &Path, keep: usize) -> Result<(), String> {
     let sync = |p: &Path| -> std::io::Result<()> { std::fs::File::open(p)?.sync_all() };
     sync(tmp).map_err(|e| format!("cannot flush {}: {e}", tmp.display()))?;
     std::fs::rename(tmp, path)
@@ -262,8 +257,6 @@ fn publish(tmp: &Path, path: &Path, dir: &Path, keep: usize) -> Result<(), Strin
     // Durability of the rename; some file systems refuse to sync a directory (not fatal).
     let _ = sync(dir);
     // Keep the newest `keep` up to this step; never the one just written, never a later one.
-    let step_of = |p: &Path| list(dir).into_iter().find(|(_, q)| q == p).map(|(s, _)| s);
-    let this = step_of(path).unwrap_or(u64::MAX);
     let older: Vec<(u64, PathBuf)> = list(dir).into_iter().filter(|(s, _)| *s < this).collect();
     for (_, old) in older.into_iter().skip(keep.max(1) - 1) {
         if let Err(e) = std::fs::remove_file(&old) {

@@ -57,3 +57,13 @@ pub(crate) fn collective_ok(
         Ok(()) => Ok(()),
     }
 }
+
+/// Creates `dir` (and its parents) on rank 0; every rank returns the same verdict (collective).
+pub(crate) fn create_dir_collective(dir: &std::path::Path, comm: &dyn Comm) -> Result<(), String> {
+    let made = if comm.rank() == 0 {
+        std::fs::create_dir_all(dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))
+    } else {
+        Ok(())
+    };
+    collective_ok(comm, made, &format!("creating {}", dir.display()))
+}

@@ -42,26 +42,16 @@ pub trait Element: H5Type + Copy + 'static {
 /// Opaque deferred buffer (see [`Element`]).
 pub struct PendingBuf(Pending);
 
-impl Element for f64 {
-    fn pending(data: Vec<Self>) -> PendingBuf {
-        PendingBuf(Pending::F64(data))
-    }
+macro_rules! element {
+    ($($t:ty => $variant:ident),*) => {$(
+        impl Element for $t {
+            fn pending(data: Vec<Self>) -> PendingBuf {
+                PendingBuf(Pending::$variant(data))
+            }
+        }
+    )*};
 }
-impl Element for u64 {
-    fn pending(data: Vec<Self>) -> PendingBuf {
-        PendingBuf(Pending::U64(data))
-    }
-}
-impl Element for i32 {
-    fn pending(data: Vec<Self>) -> PendingBuf {
-        PendingBuf(Pending::I32(data))
-    }
-}
-impl Element for u8 {
-    fn pending(data: Vec<Self>) -> PendingBuf {
-        PendingBuf(Pending::U8(data))
-    }
-}
+element!(f64 => F64, u64 => U64, i32 => I32, u8 => U8);
 
 /// An HDF5 file being written by every rank (collective).
 pub struct SharedFile<'c> {

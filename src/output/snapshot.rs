@@ -55,13 +55,7 @@ impl SnapshotWriter {
         restarting: bool,
     ) -> Result<Self, String> {
         let comm = sim.comm();
-        let made = if comm.rank() == 0 {
-            std::fs::create_dir_all(out)
-                .map_err(|e| format!("cannot create {}: {e}", out.display()))
-        } else {
-            Ok(())
-        };
-        super::collective_ok(comm, made, "output directory")?;
+        super::create_dir_collective(out, comm)?;
         let mut writer = Self {
             path: out.join(FILE),
             xdmf: out.join(XDMF),
@@ -249,9 +243,9 @@ impl SnapshotWriter {
     /// Appends the current state as a frame (collective).
     pub fn write_frame<const D: usize>(&mut self, sim: &Simulation<'_, D>) -> Result<(), String> {
         let comm = sim.comm();
-        let mut owned = sim.particles.clone();
-        owned.clear_ghosts();
-        let mine: Particles<D> = super::id_ordered(&owned, sim.total_particles, comm)?;
+        // Only the core fields travel (a model's ensembles are not part of a frame).
+        let mine: Particles<D> =
+            super::id_ordered(&sim.particles.owned_core(), sim.total_particles, comm)?;
         let n = sim.total_particles as usize;
         let block = id_block(sim.total_particles, comm.size(), comm.rank());
         let (start, rows) = (block.start as usize, mine.n_owned);
