@@ -134,3 +134,101 @@ pub fn report(case: &Case, ranks: usize) -> String {
     ));
     s
 }
+
+/// The report `check` prints for a homogeneous-flow scene, and whether it fits this machine
+/// on `ranks` ranks (memory of the largest rank's ensembles against MemAvailable here).
+pub fn flow_report(case: &crate::config::FlowCase, ranks: usize) -> (String, Result<(), String>) {
+    use crate::config::flow::{FlowKind, Precision};
+    let p = &case.polymer;
+    let params = case.dumbbell_params();
+    let n = case.flow.particles;
+    let n_d = p.per_particle as u64;
+    let dim = case.dimension;
+    let lambda = p.relaxation_time;
+    let gib = 1024.0 * 1024.0 * 1024.0;
+    let per_rank = crate::flow_driver::rank_memory(case, ranks, 0);
+    let total = n as f64 * p.bytes_per_particle(dim);
+    let mut s = String::new();
+    let mut line = |t: String| {
+        s.push_str(&t);
+        s.push('\n');
+    };
+    line(format!(
+        "case: {}",
+        if case.title.is_empty() {
+            "(untitled)"
+        } else {
+            &case.title
+        }
+    ));
+    line(format!(
+        "homogeneous flow: {:?}, rate {} ({}D); Weissenberg number Wi = rate × λ = {:.4}",
+        case.flow.kind,
+        case.flow.rate,
+        dim,
+        case.flow.rate * lambda
+    ));
+    if case.flow.kind == FlowKind::UniaxialElongation && case.flow.rate * lambda >= 0.5 {
+        line(
+            "  note: ε̇λ ≥ 1/2 is beyond the coil–stretch transition: Hookean dumbbells stretch \
+             without bound (no steady state); FENE ones saturate"
+                .into(),
+        );
+    }
+    line(format!(
+        "dumbbells: {n} particles × {n_d} = {:.3e}, spring {:?}, scheme {:?}, λ = {lambda}, G = {}",
+        (n * n_d) as f64,
+        params.spring,
+        params.scheme,
+        p.modulus
+    ));
+    line(format!(
+        "time step: Δt = {} = {:.4} λ; {} steps = {:.3} λ; equilibration {} steps; sample every {}",
+        params.dt,
+        params.dt / lambda,
+        case.run.steps,
+        case.run.steps as f64 * params.dt / lambda,
+        case.run.equilibration,
+        case.run.sample_every
+    ));
+    line(format!(
+        "memory: {:.3} MiB on the largest of {ranks} rank(s), {:.3} MiB in all ({}{})",
+        per_rank / (1024.0 * 1024.0),
+        total / (1024.0 * 1024.0),
+        match p.precision {
+            Precision::Double => "double precision",
+            Precision::Single => "single precision",
+        },
+        if p.variance_reduction {
+            ", × 2 for the control copies"
+        } else {
+            ""
+        }
+    ));
+    let work = (n * n_d) as f64 * case.run.steps as f64;
+    line(format!(
+        "cost: {work:.3e} dumbbell-steps; at ~5·10⁷ dumbbell-steps/s per core (Hookean, \
+         docs/performance.md) about {:.1} core-seconds",
+        work / 5e7
+    ));
+    let free = crate::flow_driver::available_memory();
+    let verdict = match free {
+        Some(free) if per_rank > 0.9 * free => Err(format!(
+            "one rank's ensembles need {:.2} GiB but this machine has {:.2} GiB available; use \
+             more ranks, fewer dumbbells per particle or polymer.precision = \"single\"",
+            per_rank / gib,
+            free / gib
+        )),
+        Some(free) if total > 0.9 * free => {
+            line(format!(
+                "  note: all ranks together need {:.2} GiB, more than this machine's {:.2} GiB \
+                 available: spread them over several nodes",
+                total / gib,
+                free / gib
+            ));
+            Ok(())
+        }
+        _ => Ok(()),
+    };
+    (s, verdict)
+}

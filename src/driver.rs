@@ -32,12 +32,17 @@ pub fn request_stop() {
     STOP_REQUESTED.store(true, Ordering::SeqCst);
 }
 
+/// Whether a stop was requested in this process (a signal, or [`request_stop`]).
+pub(crate) fn stop_requested() -> bool {
+    STOP_REQUESTED.load(Ordering::SeqCst)
+}
+
 /// Clears a stop request.
 pub fn clear_stop() {
     STOP_REQUESTED.store(false, Ordering::SeqCst);
 }
 
-fn threads_of(options: &RunOptions) -> usize {
+pub(crate) fn threads_of(options: &RunOptions) -> usize {
     if options.threads == 0 {
         std::thread::available_parallelism().map_or(1, |n| n.get())
     } else {
@@ -125,24 +130,18 @@ pub fn restart_case(
         }
         let mut refused = Vec::new();
         for path in candidates {
-            let case = ck::read_case(&path);
-            let mut flag = [if case.is_err() { 1.0 } else { 0.0 }];
-            comm.allreduce_max(&mut flag);
-            let attempt = match case {
-                Ok(case) if flag[0] == 0.0 => {
-                    let loaded = LoadedCase {
-                        source: toml::to_string(&case).unwrap_or_default(),
-                        case,
-                        path: path.clone(),
-                    };
-                    match loaded.case.dimension {
-                        2 => restore_and_drive::<2>(&loaded, &path, comm, options, threads),
-                        3 => restore_and_drive::<3>(&loaded, &path, comm, options, threads),
-                        d => Err(Restart::Refused(format!("dimension {d} is not supported"))),
-                    }
-                }
-                Ok(_) => Err(Restart::Refused("unreadable on another rank".into())),
-                Err(e) => Err(Restart::Refused(e)),
+            // A homogeneous-flow checkpoint is continued by the flow driver (every rank reads
+            // the same attribute; agreed collectively all the same).
+            let is_flow = matches!(
+                ck::format_of(&path),
+                Ok(f) if f == crate::output::flow_checkpoint::FORMAT
+            );
+            let mut flow_flag = [if is_flow { 1.0 } else { 0.0 }];
+            comm.allreduce_max(&mut flow_flag);
+            let attempt = if flow_flag[0] > 0.0 {
+                crate::flow_driver::restart_from(&path, comm, options, threads)
+            } else {
+                restart_particles(&path, comm, options, threads)
             };
             match attempt {
                 Ok(summary) => return Ok(summary),
@@ -171,8 +170,37 @@ pub fn restart_case(
     }
 }
 
+/// Continues a particle scene from the checkpoint `path` (collective).
 #[cfg(feature = "hdf5")]
-enum Restart {
+fn restart_particles(
+    path: &Path,
+    comm: &dyn Comm,
+    options: &RunOptions,
+    threads: usize,
+) -> Result<Summary, Restart> {
+    let case = crate::output::checkpoint::read_case(path);
+    let mut flag = [if case.is_err() { 1.0 } else { 0.0 }];
+    comm.allreduce_max(&mut flag);
+    match case {
+        Ok(case) if flag[0] == 0.0 => {
+            let loaded = LoadedCase {
+                source: toml::to_string(&case).unwrap_or_default(),
+                case,
+                path: path.to_path_buf(),
+            };
+            match loaded.case.dimension {
+                2 => restore_and_drive::<2>(&loaded, path, comm, options, threads),
+                3 => restore_and_drive::<3>(&loaded, path, comm, options, threads),
+                d => Err(Restart::Refused(format!("dimension {d} is not supported"))),
+            }
+        }
+        Ok(_) => Err(Restart::Refused("unreadable on another rank".into())),
+        Err(e) => Err(Restart::Refused(e)),
+    }
+}
+
+#[cfg(feature = "hdf5")]
+pub(crate) enum Restart {
     /// The checkpoint is unusable: try an older one.
     Refused(String),
     /// The run itself failed after a good start.
@@ -213,7 +241,7 @@ fn restore_and_drive<const D: usize>(
 /// A fresh run into an output directory that holds checkpoints of an earlier run moves them to
 /// `checkpoints.previous/` (replacing an older one), so a later `restart OUT/checkpoints` can
 /// never continue the wrong run and nothing is deleted unasked (collective).
-fn set_aside_old_checkpoints(dir: &Path, comm: &dyn Comm) -> Result<(), String> {
+pub(crate) fn set_aside_old_checkpoints(dir: &Path, comm: &dyn Comm) -> Result<(), String> {
     let mut result = Ok(());
     if comm.rank() == 0
         && dir.is_dir()
@@ -248,7 +276,7 @@ fn set_aside_old_checkpoints(dir: &Path, comm: &dyn Comm) -> Result<(), String> 
 /// `NAME.corrupt` (rank 0, after every rank has decided), so it is kept for inspection but no
 /// restart picks it again.
 #[cfg(feature = "hdf5")]
-fn set_aside_if_corrupt(path: &Path, reason: &str, comm: &dyn Comm) {
+pub(crate) fn set_aside_if_corrupt(path: &Path, reason: &str, comm: &dyn Comm) {
     comm.barrier();
     let damaged = reason.contains("corrupt") || reason.contains("not a readable HDF5 file");
     if comm.rank() == 0 && damaged && path.is_file() {
@@ -469,6 +497,7 @@ fn drive<const D: usize>(
         loop_seconds,
         particle_steps_per_second: sim.total_particles as f64 * steps_run as f64
             / loop_seconds.max(1e-300),
+        dumbbell_steps_per_second: None,
         observables,
         velocity_profile: profile,
         validation,

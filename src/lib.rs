@@ -19,6 +19,7 @@ pub mod diagnostics;
 pub mod domain;
 pub mod driver;
 pub mod fixed_sum;
+pub mod flow_driver;
 pub mod geometry;
 pub mod models;
 pub mod neighbour;

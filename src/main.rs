@@ -116,13 +116,32 @@ fn main() -> ExitCode {
             case,
             ranks,
             overrides,
-        } => match config::load_with_overrides(&case, &overrides) {
+        } => match config::load_scene(&case, &overrides) {
             Ok(loaded) => {
                 let ranks = ranks.max(1);
+                let loaded = match loaded.scene {
+                    config::Scene::Particles(c) => *c,
+                    config::Scene::HomogeneousFlow(flow) => {
+                        let (report, verdict) = mesorheo::check::flow_report(&flow, ranks);
+                        if root {
+                            print!("{report}");
+                        }
+                        return match verdict {
+                            Ok(()) => ExitCode::SUCCESS,
+                            Err(e) => {
+                                if root {
+                                    eprintln!("error: {}: {e}", case.display());
+                                }
+                                ExitCode::from(2)
+                            }
+                        };
+                    }
+                };
+                let ranks = ranks.max(1);
                 if root {
-                    print!("{}", mesorheo::check::report(&loaded.case, ranks));
+                    print!("{}", mesorheo::check::report(&loaded, ranks));
                 }
-                let max = mesorheo::check::max_ranks(&loaded.case);
+                let max = mesorheo::check::max_ranks(&loaded);
                 if ranks > max {
                     if root {
                         eprintln!(
@@ -154,7 +173,7 @@ fn main() -> ExitCode {
             if let Some(n) = steps {
                 overrides.push(format!("run.steps={n}"));
             }
-            let loaded = match config::load_with_overrides(&case, &overrides) {
+            let loaded = match config::load_scene(&case, &overrides) {
                 Ok(l) => l,
                 Err(e) => {
                     if root {
@@ -170,7 +189,19 @@ fn main() -> ExitCode {
                 out: Some(out.clone()),
             };
             session(&*comm, &out, cli.quiet, cli.verbose, |comm| {
-                run_case(&loaded, comm, &options)
+                match &loaded.scene {
+                    config::Scene::HomogeneousFlow(flow) => {
+                        mesorheo::flow_driver::run_flow_case(flow, &loaded, comm, &options)
+                    }
+                    config::Scene::Particles(c) => {
+                        let particles = config::LoadedCase {
+                            case: (**c).clone(),
+                            path: loaded.path.clone(),
+                            source: loaded.source.clone(),
+                        };
+                        run_case(&particles, comm, &options)
+                    }
+                }
             })
         }
         Command::Restart {

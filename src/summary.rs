@@ -1,6 +1,6 @@
 //! `summary.json` and the self-validation of stock scenes against their `[[reference]]`.
 
-use crate::config::{Case, Metric, ReferenceCfg};
+use crate::config::{Case, Metric, ReferenceCfg, ValueReference};
 use crate::diagnostics::Estimate;
 use serde::Serialize;
 use std::collections::BTreeMap;
@@ -68,6 +68,9 @@ pub struct Summary {
     pub loop_seconds: f64,
     /// particles × (steps run in this session) / loop_seconds.
     pub particle_steps_per_second: f64,
+    /// dumbbells × (steps run in this session) / loop_seconds (scenes with ensembles).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub dumbbell_steps_per_second: Option<f64>,
     /// Time averages over the steady window.
     pub observables: BTreeMap<String, Estimate>,
     /// Binned mean velocity u_x(y) (sheared runs that ask for it).
@@ -90,26 +93,7 @@ pub fn validate(
     case.reference
         .iter()
         .map(|r| match r {
-            ReferenceCfg::Value(v) => {
-                let got = observables.get(&v.observable).map_or(f64::NAN, |e| e.mean);
-                let (metric, value) = match v.metric {
-                    Metric::RelativeError => (
-                        format!("relative_error({})", v.observable),
-                        ((got - v.value) / v.value).abs(),
-                    ),
-                    Metric::AbsoluteError => (
-                        format!("absolute_error({})", v.observable),
-                        (got - v.value).abs(),
-                    ),
-                };
-                Validation {
-                    name: v.name.clone(),
-                    metric,
-                    value,
-                    tolerance: v.tolerance,
-                    pass: value <= v.tolerance,
-                }
-            }
+            ReferenceCfg::Value(v) => check_value(v, observables),
             ReferenceCfg::LinearShearProfile(p) => {
                 let scale = (case.domain.shear_rate * case.domain.lengths[1]).abs();
                 let value = profile
@@ -129,6 +113,28 @@ pub fn validate(
         .collect()
 }
 
+/// Compares one observable's time average with its reference value.
+pub fn check_value(v: &ValueReference, observables: &BTreeMap<String, Estimate>) -> Validation {
+    let got = observables.get(&v.observable).map_or(f64::NAN, |e| e.mean);
+    let (metric, value) = match v.metric {
+        Metric::RelativeError => (
+            format!("relative_error({})", v.observable),
+            ((got - v.value) / v.value).abs(),
+        ),
+        Metric::AbsoluteError => (
+            format!("absolute_error({})", v.observable),
+            (got - v.value).abs(),
+        ),
+    };
+    Validation {
+        name: v.name.clone(),
+        metric,
+        value,
+        tolerance: v.tolerance,
+        pass: value <= v.tolerance,
+    }
+}
+
 /// Human-readable end-of-run report.
 pub fn render(summary: &Summary) -> String {
     let mut s = String::new();
@@ -141,6 +147,12 @@ pub fn render(summary: &Summary) -> String {
         summary.loop_seconds,
         summary.particle_steps_per_second
     ));
+    if let Some(r) = summary.dumbbell_steps_per_second {
+        s.push_str(&format!(
+            "  {r:.3e} dumbbell-steps/s ({:.3e} per thread)\n",
+            r / (summary.ranks * summary.threads).max(1) as f64
+        ));
+    }
     for (k, e) in &summary.observables {
         s.push_str(&format!(
             "  {k:<40} {:>14.6} ± {:<10.3e} ({} samples)\n",

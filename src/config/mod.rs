@@ -5,6 +5,7 @@
 //! `docs/case-reference.md` is generated from [`reference::KEYS`], and a test checks that the
 //! table, the structs and the document agree.
 
+pub mod flow;
 pub mod reference;
 mod spans;
 mod tagged;
@@ -15,6 +16,7 @@ use crate::models::dpd::Noise;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
+pub use flow::FlowCase;
 pub use spans::CaseError;
 
 /// A whole case file.
@@ -482,15 +484,99 @@ pub struct LoadedCase {
     pub source: String,
 }
 
-/// Reads, parses and validates a case file.
+/// What a case file describes.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Scene {
+    /// Particles in a box with a fluid model (DPD, …): the engine with halo, lists, shear.
+    Particles(Box<Case>),
+    /// Particles carrying dumbbell ensembles in an imposed homogeneous flow (a `[flow]` table).
+    HomogeneousFlow(Box<FlowCase>),
+}
+
+impl Scene {
+    /// Spatial dimension.
+    pub fn dimension(&self) -> usize {
+        match self {
+            Scene::Particles(c) => c.dimension,
+            Scene::HomogeneousFlow(c) => c.dimension,
+        }
+    }
+
+    /// The scene as TOML (the echo stored in checkpoints and summaries).
+    pub fn to_toml(&self) -> Result<String, String> {
+        match self {
+            Scene::Particles(c) => toml::to_string(c),
+            Scene::HomogeneousFlow(c) => toml::to_string(c),
+        }
+        .map_err(|e| format!("cannot echo the case: {e}"))
+    }
+}
+
+/// A parsed, validated case file of any kind of scene.
+#[derive(Clone, Debug)]
+pub struct LoadedScene {
+    /// The scene.
+    pub scene: Scene,
+    /// The file.
+    pub path: PathBuf,
+    /// The (possibly overridden) text.
+    pub source: String,
+}
+
+/// Reads, parses and validates a particle case file.
 pub fn load(path: &Path) -> Result<LoadedCase, CaseError> {
     load_with_overrides(path, &[])
+}
+
+/// Reads a case file of any kind of scene, applies `--set` overrides, parses and validates it.
+pub fn load_scene(path: &Path, overrides: &[String]) -> Result<LoadedScene, CaseError> {
+    let (source, shown) = read_with_overrides(path, overrides)?;
+    let scene = parse_scene(&source, &shown)?;
+    Ok(LoadedScene {
+        scene,
+        path: path.to_path_buf(),
+        source,
+    })
+}
+
+/// Parses and validates case text of any kind of scene: a `[flow]` table makes it a
+/// homogeneous-flow scene, otherwise it is a particle scene.
+pub fn parse_scene(source: &str, path: &Path) -> Result<Scene, CaseError> {
+    let index = spans::SpanIndex::new(source, path)?;
+    let table: toml::Table = toml::from_str(source).map_err(|e| index.syntax_error(&e))?;
+    if !table.contains_key("flow") {
+        return parse(source, path).map(|c| Scene::Particles(Box::new(c)));
+    }
+    tagged::precheck_references(&table, &index)?;
+    let de = toml::Deserializer::parse(source).map_err(|e| index.syntax_error(&e))?;
+    let case: FlowCase = serde_path_to_error::deserialize(de).map_err(|e| {
+        let mut err = index.serde_error(&e);
+        if err.message.contains("unknown field") {
+            err.message.push_str(
+                " (this is a homogeneous-flow scene because it has a [flow] table; [box],                  [particles] and [fluid] belong to particle scenes)",
+            );
+        }
+        err
+    })?;
+    flow::validate(&case, &index)?;
+    Ok(Scene::HomogeneousFlow(Box::new(case)))
 }
 
 /// Reads a case file, applies `key.path=value` overrides (as `--set` on the command line gives
 /// them; values are TOML literals, bare words are taken as strings), then parses and validates
 /// the result, so an override is checked like any other key.
 pub fn load_with_overrides(path: &Path, overrides: &[String]) -> Result<LoadedCase, CaseError> {
+    let (source, shown) = read_with_overrides(path, overrides)?;
+    let case = parse(&source, &shown)?;
+    Ok(LoadedCase {
+        case,
+        path: path.to_path_buf(),
+        source,
+    })
+}
+
+/// The case text with `--set` overrides applied, and the name to show in messages.
+fn read_with_overrides(path: &Path, overrides: &[String]) -> Result<(String, PathBuf), CaseError> {
     let bad = |message: String| CaseError {
         file: path.display().to_string(),
         line: 0,
@@ -511,12 +597,7 @@ pub fn load_with_overrides(path: &Path, overrides: &[String]) -> Result<LoadedCa
         source = doc.to_string();
         shown = PathBuf::from(format!("{} (with --set overrides)", path.display()));
     }
-    let case = parse(&source, &shown)?;
-    Ok(LoadedCase {
-        case,
-        path: path.to_path_buf(),
-        source,
-    })
+    Ok((source, shown))
 }
 
 fn apply_override(doc: &mut toml_edit::DocumentMut, o: &str) -> Result<(), String> {
@@ -545,6 +626,13 @@ fn apply_override(doc: &mut toml_edit::DocumentMut, o: &str) -> Result<(), Strin
 pub fn parse(source: &str, path: &Path) -> Result<Case, CaseError> {
     let index = spans::SpanIndex::new(source, path)?;
     let table: toml::Table = toml::from_str(source).map_err(|e| index.syntax_error(&e))?;
+    if table.contains_key("flow") {
+        return Err(index.error(
+            &[spans::Segment::Key("flow".into())],
+            "this is a homogeneous-flow scene; it is run by `mesorheo run`, which reads both \
+             kinds (this entry point reads particle scenes only)",
+        ));
+    }
     tagged::precheck(&table, &index)?;
     let de = toml::Deserializer::parse(source).map_err(|e| index.syntax_error(&e))?;
     let case: Case = serde_path_to_error::deserialize(de).map_err(|e| index.serde_error(&e))?;

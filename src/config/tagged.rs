@@ -31,6 +31,11 @@ pub fn precheck(doc: &toml::Table, ix: &SpanIndex) -> Result<(), CaseError> {
             one(t, vec![Segment::Key(name.into())], variants, ix)?;
         }
     }
+    precheck_references(doc, ix)
+}
+
+/// Checks every `[[reference]]` table (all kinds of scene have them).
+pub fn precheck_references(doc: &toml::Table, ix: &SpanIndex) -> Result<(), CaseError> {
     if let Some(toml::Value::Array(refs)) = doc.get("reference") {
         for (i, r) in refs.iter().enumerate() {
             if let toml::Value::Table(t) = r {

@@ -257,34 +257,7 @@ pub fn validate(case: &Case, ix: &SpanIndex) -> Result<(), CaseError> {
         );
     }
     // [run]
-    let r = &case.run;
-    if r.steps == 0 {
-        return err(
-            &["run", "steps"],
-            "found 0; a run needs at least one step".into(),
-        );
-    }
-    if r.sample_every == 0 {
-        return err(&["run", "sample_every"], "found 0; must be ≥ 1".into());
-    }
-    if r.equilibration >= r.steps {
-        return err(
-            &["run", "equilibration"],
-            format!(
-                "found {}, which leaves no step to average over (steps = {}); use fewer",
-                r.equilibration, r.steps
-            ),
-        );
-    }
-    if !(r.progress_seconds.is_finite() && r.progress_seconds >= 0.0) {
-        return err(
-            &["run", "progress_seconds"],
-            format!(
-                "found {}; must be ≥ 0 (0 turns progress lines off)",
-                r.progress_seconds
-            ),
-        );
-    }
+    validate_run(&case.run, case.diagnostics.blocks, ix)?;
     // [output]
     let o = &case.output;
     if o.checkpoint_keep == 0 {
@@ -334,21 +307,6 @@ pub fn validate(case: &Case, ix: &SpanIndex) -> Result<(), CaseError> {
             format!("found {}; must be between 1 and {MAX_BINS}", d.profile_bins),
         );
     }
-    if d.blocks > MAX_BINS {
-        return err(
-            &["diagnostics", "blocks"],
-            format!("found {}; must be between 2 and {MAX_BINS}", d.blocks),
-        );
-    }
-    if d.blocks < 2 {
-        return err(
-            &["diagnostics", "blocks"],
-            format!(
-                "found {}; block averaging needs at least 2 blocks",
-                d.blocks
-            ),
-        );
-    }
     for (i, o) in d.observables.iter().enumerate() {
         if d.observables[..i].contains(o) {
             return Err(ix.error(
@@ -378,17 +336,6 @@ pub fn validate(case: &Case, ix: &SpanIndex) -> Result<(), CaseError> {
                 "the second normal stress difference needs a 3-dimensional case".to_string(),
             ));
         }
-    }
-    let samples = (r.steps - r.equilibration) / r.sample_every;
-    if samples < d.blocks as u64 {
-        return err(
-            &["run", "sample_every"],
-            format!(
-                "only {samples} samples after equilibration, fewer than the {} blocks of the \
-                 error estimate; sample more often or run longer",
-                d.blocks
-            ),
-        );
     }
     // [[reference]]
     let scalars = crate::diagnostics::scalar_names(case);
@@ -443,6 +390,62 @@ pub fn validate(case: &Case, ix: &SpanIndex) -> Result<(), CaseError> {
                 }
             }
         }
+    }
+    Ok(())
+}
+
+/// `[run]` and the block count of the error estimates (shared by every kind of scene).
+pub(super) fn validate_run(r: &RunCfg, blocks: usize, ix: &SpanIndex) -> Result<(), CaseError> {
+    let err = |keys: &[&str], msg: String| Err(ix.error(&path(keys), msg));
+    if r.steps == 0 {
+        return err(
+            &["run", "steps"],
+            "found 0; a run needs at least one step".into(),
+        );
+    }
+    if r.sample_every == 0 {
+        return err(&["run", "sample_every"], "found 0; must be ≥ 1".into());
+    }
+    if r.equilibration >= r.steps {
+        return err(
+            &["run", "equilibration"],
+            format!(
+                "found {}, which leaves no step to average over (steps = {}); use fewer",
+                r.equilibration, r.steps
+            ),
+        );
+    }
+    if !(r.progress_seconds.is_finite() && r.progress_seconds >= 0.0) {
+        return err(
+            &["run", "progress_seconds"],
+            format!(
+                "found {}; must be ≥ 0 (0 turns progress lines off)",
+                r.progress_seconds
+            ),
+        );
+    }
+    if blocks > MAX_BINS {
+        return err(
+            &["diagnostics", "blocks"],
+            format!("found {}; must be between 2 and {MAX_BINS}", blocks),
+        );
+    }
+    if blocks < 2 {
+        return err(
+            &["diagnostics", "blocks"],
+            format!("found {}; block averaging needs at least 2 blocks", blocks),
+        );
+    }
+    let samples = (r.steps - r.equilibration) / r.sample_every;
+    if samples < blocks as u64 {
+        return err(
+            &["run", "sample_every"],
+            format!(
+                "only {samples} samples after equilibration, fewer than the {} blocks of the \
+                 error estimate; sample more often or run longer",
+                blocks
+            ),
+        );
     }
     Ok(())
 }

@@ -83,8 +83,14 @@ pub struct HomogeneousEnsembles<'c, const D: usize> {
     comm: &'c dyn Comm,
     /// Global ids of this rank's particles.
     pub gids: Vec<u64>,
-    /// Connector vectors, N_d × D per particle.
+    /// Connector vectors, N_d × D per particle (double-precision storage; empty vectors when
+    /// the ensembles are stored in single precision, see [`Self::q_single`]).
     pub q: Vec<Vec<f64>>,
+    /// Connector vectors stored in single precision (`Some` after
+    /// [`Self::with_single_precision`]): half the memory; each step widens a particle's
+    /// ensemble to f64, advances it with the same arithmetic and rounds it back, so the
+    /// storage adds a relative error of 2⁻²⁴ per step, far below the sampling error.
+    pub q_single: Option<Vec<Vec<f32>>>,
     /// Dumbbells per particle.
     pub n_d: usize,
     /// Model parameters.
@@ -100,6 +106,34 @@ pub struct HomogeneousEnsembles<'c, const D: usize> {
     /// Equilibrium copies driven by the same noise (variance reduction), if enabled.
     pub control: Option<Vec<Vec<f64>>>,
     pool: rayon::ThreadPool,
+}
+
+/// Particle `i`'s connectors in double precision: borrowed from f64 storage, widened from f32.
+fn widened<'a>(
+    q: &'a [Vec<f64>],
+    single: Option<&'a [Vec<f32>]>,
+    i: usize,
+) -> std::borrow::Cow<'a, [f64]> {
+    match single {
+        Some(s) => std::borrow::Cow::Owned(s[i].iter().map(|&x| f64::from(x)).collect()),
+        None => std::borrow::Cow::Borrowed(&q[i]),
+    }
+}
+
+/// Connector storage handed to [`HomogeneousEnsembles::from_state`].
+pub enum Connectors {
+    /// f64 storage, one vector of N_d × D per particle.
+    Double(Vec<Vec<f64>>),
+    /// f32 storage.
+    Single(Vec<Vec<f32>>),
+}
+
+/// A view of the connector storage.
+pub enum ConnectorsRef<'a> {
+    /// f64 storage.
+    Double(&'a [Vec<f64>]),
+    /// f32 storage.
+    Single(&'a [Vec<f32>]),
 }
 
 /// Ensemble-averaged stress with its error bar.
@@ -153,13 +187,108 @@ impl<'c, const D: usize> HomogeneousEnsembles<'c, D> {
             step: 0,
             total,
             control: None,
+            q_single: None,
             pool,
         })
     }
 
-    /// Switches on the control-variate variance reduction (before the first step).
+    /// Ensembles restored from a checkpoint: `q` (and `control`) hold this rank's id block
+    /// (`comm`'s [`id_block`]) at `step`.
+    #[allow(clippy::too_many_arguments)]
+    pub fn from_state(
+        comm: &'c dyn Comm,
+        threads: usize,
+        total: u64,
+        n_d: usize,
+        params: DumbbellParams,
+        flow: Flow,
+        seed: u64,
+        step: u64,
+        q: Connectors,
+        control: Option<Vec<Vec<f64>>>,
+    ) -> Result<Self, String> {
+        params.check()?;
+        let gids: Vec<u64> = id_block(total, comm.size(), comm.rank()).collect();
+        let rows = match &q {
+            Connectors::Double(q) => q.len(),
+            Connectors::Single(q) => q.len(),
+        };
+        if rows != gids.len() || control.as_ref().is_some_and(|c| c.len() != gids.len()) {
+            return Err(format!(
+                "restored {rows} ensembles for an id block of {} particles",
+                gids.len()
+            ));
+        }
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .map_err(|e| format!("cannot start {threads} threads: {e}"))?;
+        let (q, q_single) = match q {
+            Connectors::Double(q) => (q, None),
+            Connectors::Single(q) => (vec![Vec::new(); gids.len()], Some(q)),
+        };
+        Ok(Self {
+            comm,
+            gids,
+            q,
+            n_d,
+            params,
+            flow,
+            seed,
+            step,
+            total,
+            control,
+            q_single,
+            pool,
+        })
+    }
+
+    /// Stores the connectors in single precision from now on (before the first step).
+    pub fn with_single_precision(mut self) -> Self {
+        assert_eq!(self.step, 0, "the storage precision is chosen at the start");
+        let single = self
+            .q
+            .iter_mut()
+            .map(|q| std::mem::take(q).into_iter().map(|x| x as f32).collect())
+            .collect();
+        self.q_single = Some(single);
+        self
+    }
+
+    /// The connectors of this rank's particles, in their storage precision.
+    pub fn connectors(&self) -> ConnectorsRef<'_> {
+        match &self.q_single {
+            Some(q) => ConnectorsRef::Single(q),
+            None => ConnectorsRef::Double(&self.q),
+        }
+    }
+
+    /// Particle `i`'s connectors in double precision (widened from single storage).
+    fn ensemble_f64(&self, i: usize) -> std::borrow::Cow<'_, [f64]> {
+        widened(&self.q, self.q_single.as_deref(), i)
+    }
+
+    /// Bytes of connector storage on this rank (incl. the control copy).
+    pub fn memory_bytes(&self) -> usize {
+        let words: usize = match &self.q_single {
+            Some(q) => q.iter().map(|v| v.len() * 4).sum(),
+            None => self.q.iter().map(|v| v.len() * 8).sum(),
+        };
+        words
+            + self
+                .control
+                .as_ref()
+                .map_or(0, |c| c.iter().map(|v| v.len() * 8).sum())
+    }
+
+    /// Switches on the control-variate variance reduction (before the first step; double
+    /// precision only, so that both copies see the same arithmetic).
     pub fn with_control_variates(mut self) -> Self {
         assert_eq!(self.step, 0, "control variates start with the ensembles");
+        assert!(
+            self.q_single.is_none(),
+            "control variates need double-precision storage"
+        );
         self.control = Some(self.q.clone());
         self
     }
@@ -174,11 +303,27 @@ impl<'c, const D: usize> HomogeneousEnsembles<'c, D> {
         let kappa = self.flow.kappa::<D>(self.time());
         let (p, seed, step) = (self.params, self.seed, self.step);
         let (q, gids) = (&mut self.q, &self.gids);
-        self.pool.install(|| {
-            q.par_iter_mut().zip(gids.par_iter()).for_each(|(q, &g)| {
-                step_ensemble::<D>(q, &kappa, &p, &mut noise_stream(seed, g, step));
-            })
-        });
+        if let Some(single) = &mut self.q_single {
+            self.pool.install(|| {
+                single.par_iter_mut().zip(gids.par_iter()).for_each_init(
+                    Vec::new,
+                    |wide: &mut Vec<f64>, (q, &g)| {
+                        wide.clear();
+                        wide.extend(q.iter().map(|&x| f64::from(x)));
+                        step_ensemble::<D>(wide, &kappa, &p, &mut noise_stream(seed, g, step));
+                        for (s, w) in q.iter_mut().zip(wide.iter()) {
+                            *s = *w as f32;
+                        }
+                    },
+                )
+            });
+        } else {
+            self.pool.install(|| {
+                q.par_iter_mut().zip(gids.par_iter()).for_each(|(q, &g)| {
+                    step_ensemble::<D>(q, &kappa, &p, &mut noise_stream(seed, g, step));
+                })
+            });
+        }
         if let Some(c) = &mut self.control {
             let rest = [[0.0; D]; D];
             self.pool.install(|| {
@@ -195,10 +340,12 @@ impl<'c, const D: usize> HomogeneousEnsembles<'c, D> {
     /// particle-to-particle spread (collective; exact sums, so rank-count independent).
     pub fn stress(&self) -> StressEstimate<D> {
         let spring = self.params.spring;
-        let q = &self.q;
+        let n = self.gids.len();
+        let (q, single) = (&self.q, self.q_single.as_deref());
         let mut per: Vec<[f64; 9]> = self.pool.install(|| {
-            q.par_iter()
-                .map(|q| kramers_stress::<D>(q, spring))
+            (0..n)
+                .into_par_iter()
+                .map(|i| kramers_stress::<D>(&widened(q, single, i), spring))
                 .collect()
         });
         if let Some(c) = &self.control {
@@ -267,12 +414,12 @@ impl<'c, const D: usize> HomogeneousEnsembles<'c, D> {
 
     /// Largest |Q|² of any dumbbell (collective).
     pub fn max_q2(&self) -> f64 {
-        let local = self
-            .q
-            .iter()
-            .flat_map(|q| {
-                q.chunks_exact(D)
+        let local = (0..self.gids.len())
+            .map(|i| {
+                self.ensemble_f64(i)
+                    .chunks_exact(D)
                     .map(|c| c.iter().map(|v| v * v).sum::<f64>())
+                    .fold(0.0, f64::max)
             })
             .fold(0.0, f64::max);
         let mut v = [local];
@@ -283,9 +430,12 @@ impl<'c, const D: usize> HomogeneousEnsembles<'c, D> {
     /// A digest of every connector vector (collective, order-independent).
     pub fn digest(&self) -> u64 {
         let mut acc = [0u64];
-        for (q, &g) in self.q.iter().zip(&self.gids) {
+        for (i, &g) in self.gids.iter().enumerate() {
             let mut words = vec![g];
-            words.extend(q.iter().map(|x| x.to_bits()));
+            words.extend(self.ensemble_f64(i).iter().map(|x| x.to_bits()));
+            if let Some(c) = &self.control {
+                words.extend(c[i].iter().map(|x| x.to_bits()));
+            }
             acc[0] = acc[0].wrapping_add(crate::sim::hash_words(&words));
         }
         self.comm.allreduce_u64(&mut acc, crate::comm::U64Op::Sum);

@@ -101,7 +101,7 @@ fn checksum<const D: usize>(p: &Particles<D>, comm: &dyn Comm, scalars: &[u64]) 
 }
 
 /// Hash of a text (the case echo).
-fn text_hash(text: &str) -> u64 {
+pub(crate) fn text_hash(text: &str) -> u64 {
     let words: Vec<u64> = text
         .as_bytes()
         .chunks(8)
@@ -115,7 +115,7 @@ fn text_hash(text: &str) -> u64 {
 }
 
 /// Hash of the sampled series (steps, every scalar series in name order, the profiles).
-fn series_hash(series: &Series) -> u64 {
+pub(crate) fn series_hash(series: &Series) -> u64 {
     let mut words: Vec<u64> = series.steps.clone();
     for (name, values) in &series.scalars {
         words.push(text_hash(name));
@@ -249,7 +249,13 @@ pub fn write<const D: usize>(
 }
 
 /// fsync, atomic rename, fsync of the directory, then removal of all but the newest `keep`.
-fn publish(tmp: &Path, path: &Path, this: u64, dir: &Path, keep: usize) -> Result<(), String> {
+pub(crate) fn publish(
+    tmp: &Path,
+    path: &Path,
+    this: u64,
+    dir: &Path,
+    keep: usize,
+) -> Result<(), String> {
     let sync = |p: &Path| -> std::io::Result<()> { std::fs::File::open(p)?.sync_all() };
     sync(tmp).map_err(|e| format!("cannot flush {}: {e}", tmp.display()))?;
     std::fs::rename(tmp, path)
@@ -307,7 +313,7 @@ pub(crate) fn write_series(f: &mut SharedFile, series: &Series, root: bool) -> R
     Ok(())
 }
 
-fn read_series(f: &hdf5::File) -> Result<Series, String> {
+pub(crate) fn read_series(f: &hdf5::File) -> Result<Series, String> {
     let mut series = Series::default();
     let group = f
         .group("observables")
@@ -370,6 +376,14 @@ pub fn read_case(path: &Path) -> Result<Case, String> {
         &PathBuf::from(format!("{} (case echo)", path.display())),
     )
     .map_err(|e| e.to_string())
+}
+
+/// The `format` attribute of a mesorheo HDF5 file (what kind of checkpoint it is).
+pub fn format_of(path: &Path) -> Result<String, String> {
+    let f = hdf5::File::open(path)
+        .map_err(|e| format!("{}: not a readable HDF5 file ({e})", path.display()))?;
+    read_attr_str(&f, "/", "format")
+        .map_err(|_| format!("{}: not a mesorheo checkpoint", path.display()))
 }
 
 fn open(path: &Path) -> Result<hdf5::File, String> {

@@ -21,6 +21,7 @@ use std::path::{Path, PathBuf};
 /// A buffer waiting for its rank's turn.
 enum Pending {
     F64(Vec<f64>),
+    F32(Vec<f32>),
     U64(Vec<u64>),
     I32(Vec<i32>),
     U8(Vec<u8>),
@@ -51,7 +52,7 @@ macro_rules! element {
         }
     )*};
 }
-element!(f64 => F64, u64 => U64, i32 => I32, u8 => U8);
+element!(f64 => F64, f32 => F32, u64 => U64, i32 => I32, u8 => U8);
 
 /// An HDF5 file being written by every rank (collective).
 pub struct SharedFile<'c> {
@@ -454,6 +455,7 @@ impl<'c> SharedFile<'c> {
             let (n, s, sh) = (&w.dataset, &w.start, &w.shape);
             match &w.data {
                 Pending::F64(d) => write_block(&f, &self.path, n, s, sh, d)?,
+                Pending::F32(d) => write_block(&f, &self.path, n, s, sh, d)?,
                 Pending::U64(d) => write_block(&f, &self.path, n, s, sh, d)?,
                 Pending::I32(d) => write_block(&f, &self.path, n, s, sh, d)?,
                 Pending::U8(d) => write_block(&f, &self.path, n, s, sh, d)?,

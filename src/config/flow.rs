@@ -1,0 +1,538 @@
+//! Homogeneous-flow scenes: particles that carry dumbbell ensembles under an imposed velocity
+//! gradient κ(t), the same for every particle (no fluid solver, no positions). A case file is
+//! such a scene when it has a `[flow]` table; it then has `[polymer]` instead of `[box]`,
+//! `[particles]` and `[fluid]`:
+//!
+//! ```toml
+//! dimension = 3
+//! [flow]
+//! kind = "simple_shear"      # rest | simple_shear | shear_reversal | planar_elongation | uniaxial_elongation
+//! rate = 1.0                 # γ̇ or ε̇
+//! particles = 600            # particles carrying an ensemble each
+//! [polymer]
+//! kind = "dumbbells"
+//! spring = "hookean"         # or "fene" with b
+//! relaxation_time = 1.0      # λ
+//! per_particle = 1000        # N_d
+//! [integrator]
+//! kind = "brownian_dynamics"
+//! dt = 0.01
+//! [run]
+//! steps = 2000
+//! ```
+
+use super::spans::{Segment, SpanIndex};
+use super::{CaseError, Metric, OutputCfg, ReferenceCfg, RunCfg};
+use crate::models::dumbbells::{DumbbellParams, Scheme, Spring};
+use crate::models::homogeneous_flow::Flow;
+use serde::{Deserialize, Serialize};
+
+/// A homogeneous-flow scene.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct FlowCase {
+    /// Free-text title.
+    #[serde(default)]
+    pub title: String,
+    /// 2 or 3.
+    pub dimension: usize,
+    /// Seed of every random number of the run.
+    #[serde(default = "super::default_seed")]
+    pub seed: u64,
+    /// The imposed flow.
+    pub flow: FlowCfg,
+    /// The ensembles the particles carry.
+    pub polymer: PolymerCfg,
+    /// Time step.
+    pub integrator: BrownianIntegratorCfg,
+    /// Run length and sampling.
+    pub run: RunCfg,
+    /// Error estimates.
+    #[serde(default)]
+    pub diagnostics: FlowDiagnosticsCfg,
+    /// Checkpoints (no snapshots: the particles have no positions).
+    #[serde(default)]
+    pub output: OutputCfg,
+    /// Known answers the run checks itself against.
+    #[serde(default)]
+    pub reference: Vec<ReferenceCfg>,
+}
+
+/// Imposed homogeneous flows (κ_αβ = ∂v_α/∂x_β).
+#[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum FlowKind {
+    /// κ = 0.
+    Rest,
+    /// κ_xy = γ̇.
+    SimpleShear,
+    /// κ_xy = γ̇, then −γ̇ from `reverse_at` on.
+    ShearReversal,
+    /// κ = diag(ε̇, −ε̇, 0).
+    PlanarElongation,
+    /// κ = diag(ε̇, −ε̇/2, −ε̇/2) (3D).
+    UniaxialElongation,
+}
+
+/// `[flow]`
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct FlowCfg {
+    /// Which flow.
+    pub kind: FlowKind,
+    /// γ̇ (shear) or ε̇ (elongation); 0 at rest.
+    #[serde(default)]
+    pub rate: f64,
+    /// Time of the reversal (shear_reversal only).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub reverse_at: Option<f64>,
+    /// Particles, each carrying an ensemble.
+    pub particles: u64,
+}
+
+/// Model of the ensembles.
+#[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum PolymerKind {
+    /// Brownian dumbbells (CONNFFESSIT).
+    Dumbbells,
+}
+
+/// Spring laws.
+#[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum SpringKind {
+    /// F = H Q.
+    Hookean,
+    /// F = H Q / (1 − Q²/Q₀²).
+    Fene,
+}
+
+/// Stochastic schemes.
+#[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum SchemeKind {
+    /// Euler–Maruyama (weak order 1).
+    EulerMaruyama,
+    /// Stochastic Heun / SRK2 (weak order 2).
+    Heun,
+    /// Öttinger's semi-implicit predictor–corrector (FENE stays inside √b).
+    SemiImplicit,
+}
+
+/// Storage precision of the connector vectors.
+#[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq, Eq, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum Precision {
+    /// 8 bytes per component.
+    #[default]
+    Double,
+    /// 4 bytes per component (arithmetic still in double precision).
+    Single,
+}
+
+/// `[polymer]`
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct PolymerCfg {
+    /// Model.
+    pub kind: PolymerKind,
+    /// Spring law.
+    pub spring: SpringKind,
+    /// FENE extensibility b = H Q₀²/k_BT.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub b: Option<f64>,
+    /// Relaxation time λ = ζ/(4H).
+    pub relaxation_time: f64,
+    /// Modulus G = n k_BT (stresses are reported in its units × G).
+    #[serde(default = "super::one")]
+    pub modulus: f64,
+    /// Dumbbells per particle N_d.
+    pub per_particle: usize,
+    /// Scheme; default Heun (Hookean) or semi-implicit (FENE).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub scheme: Option<SchemeKind>,
+    /// Control variates (an equilibrium copy of each ensemble driven by the same noise).
+    #[serde(default)]
+    pub variance_reduction: bool,
+    /// Storage precision of Q.
+    #[serde(default)]
+    pub precision: Precision,
+}
+
+/// Integrators of a homogeneous-flow scene.
+#[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum BrownianKind {
+    /// Brownian dynamics of the connectors (scheme in `polymer.scheme`).
+    BrownianDynamics,
+}
+
+/// `[integrator]` of a homogeneous-flow scene.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct BrownianIntegratorCfg {
+    /// Kind.
+    pub kind: BrownianKind,
+    /// Time step Δt.
+    pub dt: f64,
+}
+
+/// `[diagnostics]` of a homogeneous-flow scene.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct FlowDiagnosticsCfg {
+    /// Number of blocks for the block-averaged standard errors.
+    #[serde(default = "super::default_blocks")]
+    pub blocks: usize,
+}
+
+impl Default for FlowDiagnosticsCfg {
+    fn default() -> Self {
+        Self {
+            blocks: super::default_blocks(),
+        }
+    }
+}
+
+impl PolymerCfg {
+    /// The spring law.
+    pub fn spring_law(&self) -> Spring {
+        match self.spring {
+            SpringKind::Hookean => Spring::Hookean,
+            SpringKind::Fene => Spring::Fene {
+                b: self.b.unwrap_or(f64::NAN),
+            },
+        }
+    }
+
+    /// The scheme, with its default.
+    pub fn scheme_or_default(&self) -> Scheme {
+        match (self.scheme, self.spring) {
+            (Some(SchemeKind::EulerMaruyama), _) => Scheme::EulerMaruyama,
+            (Some(SchemeKind::Heun), _) => Scheme::Heun,
+            (Some(SchemeKind::SemiImplicit), _) | (None, SpringKind::Fene) => Scheme::SemiImplicit,
+            (None, SpringKind::Hookean) => Scheme::Heun,
+        }
+    }
+
+    /// Bytes per particle for the connector vectors (and the control copy).
+    pub fn bytes_per_particle(&self, dimension: usize) -> f64 {
+        let word = match self.precision {
+            Precision::Double => 8.0,
+            Precision::Single => 4.0,
+        };
+        let copies = if self.variance_reduction { 2.0 } else { 1.0 };
+        self.per_particle as f64 * dimension as f64 * word * copies
+    }
+}
+
+impl FlowCase {
+    /// The flow as the model sees it.
+    pub fn flow_model(&self) -> Flow {
+        let rate = self.flow.rate;
+        match self.flow.kind {
+            FlowKind::Rest => Flow::Rest,
+            FlowKind::SimpleShear => Flow::SimpleShear { rate },
+            FlowKind::ShearReversal => Flow::ShearReversal {
+                rate,
+                at: self.flow.reverse_at.unwrap_or(f64::INFINITY),
+            },
+            FlowKind::PlanarElongation => Flow::PlanarElongation { rate },
+            FlowKind::UniaxialElongation => Flow::UniaxialElongation { rate },
+        }
+    }
+
+    /// Model parameters.
+    pub fn dumbbell_params(&self) -> DumbbellParams {
+        DumbbellParams {
+            spring: self.polymer.spring_law(),
+            scheme: self.polymer.scheme_or_default(),
+            lambda: self.polymer.relaxation_time,
+            dt: self.integrator.dt,
+        }
+    }
+
+    /// Time step.
+    pub fn dt(&self) -> f64 {
+        self.integrator.dt
+    }
+
+    /// Names of the scalar observables this scene records (what `[[reference]]` may name).
+    pub fn scalar_names(&self) -> Vec<String> {
+        let d = self.dimension;
+        let mut names: Vec<String> = crate::diagnostics::tensor_components(d)
+            .into_iter()
+            .map(|(_, _, n)| format!("polymer_stress_{n}"))
+            .collect();
+        names.push("first_normal_stress_difference".into());
+        if d == 3 {
+            names.push("second_normal_stress_difference".into());
+        }
+        match self.flow.kind {
+            FlowKind::SimpleShear | FlowKind::ShearReversal => {
+                names.push("polymer_viscosity".into());
+                names.push("first_normal_stress_coefficient".into());
+                if d == 3 {
+                    names.push("second_normal_stress_coefficient".into());
+                }
+            }
+            FlowKind::PlanarElongation | FlowKind::UniaxialElongation => {
+                names.push("extensional_viscosity".into());
+            }
+            FlowKind::Rest => {}
+        }
+        names.push("max_connector_length".into());
+        names.sort();
+        names
+    }
+}
+
+fn k(s: &str) -> Segment {
+    Segment::Key(s.to_owned())
+}
+
+/// Largest N_d (6.7·10⁷): one particle's ensemble is one contiguous buffer; larger ensembles
+/// are better spread over more particles.
+const MAX_PER_PARTICLE: usize = 1 << 26;
+
+/// Value checks of a homogeneous-flow scene; the first failure is reported.
+pub fn validate(case: &FlowCase, ix: &SpanIndex) -> Result<(), CaseError> {
+    let err = |keys: &[&str], msg: String| -> Result<(), CaseError> {
+        Err(ix.error(&keys.iter().map(|s| k(s)).collect::<Vec<_>>(), msg))
+    };
+    let dim = case.dimension;
+    if dim != 2 && dim != 3 {
+        return err(
+            &["dimension"],
+            format!("found {dim}; valid values are 2 and 3"),
+        );
+    }
+    // [flow]
+    let f = &case.flow;
+    if !f.rate.is_finite() {
+        return err(
+            &["flow", "rate"],
+            format!("found {}; must be a finite number", f.rate),
+        );
+    }
+    match f.kind {
+        FlowKind::Rest if f.rate != 0.0 => {
+            return err(
+                &["flow", "rate"],
+                format!(
+                    "found {} for kind = \"rest\"; a fluid at rest has rate 0 (leave it out)",
+                    f.rate
+                ),
+            );
+        }
+        FlowKind::Rest => {}
+        _ if f.rate == 0.0 => {
+            return err(
+                &["flow", "rate"],
+                "missing or 0: give the shear rate γ̇ or elongation rate ε̇ (≠ 0), or use \
+                 kind = \"rest\""
+                    .into(),
+            );
+        }
+        _ => {}
+    }
+    if f.kind == FlowKind::UniaxialElongation && dim != 3 {
+        return err(
+            &["flow", "kind"],
+            "uniaxial elongation needs a 3-dimensional case; in 2D use \"planar_elongation\""
+                .into(),
+        );
+    }
+    match (f.kind, f.reverse_at) {
+        (FlowKind::ShearReversal, None) => {
+            return err(
+                &["flow", "reverse_at"],
+                "missing: a shear reversal needs the time of the reversal (> 0)".into(),
+            );
+        }
+        (FlowKind::ShearReversal, Some(t)) if !(t.is_finite() && t > 0.0) => {
+            return err(&["flow", "reverse_at"], format!("found {t}; must be > 0"));
+        }
+        (k, Some(_)) if k != FlowKind::ShearReversal => {
+            return err(
+                &["flow", "reverse_at"],
+                "only kind = \"shear_reversal\" has a reversal time; remove this key".into(),
+            );
+        }
+        _ => {}
+    }
+    if f.particles < 2 {
+        return err(
+            &["flow", "particles"],
+            format!(
+                "found {}; at least 2 particles are needed (the error bar comes from their spread)",
+                f.particles
+            ),
+        );
+    }
+    if f.particles > super::validate::MAX_PARTICLES {
+        return err(
+            &["flow", "particles"],
+            format!(
+                "found {}; at most {} (32-bit ids key the random numbers)",
+                f.particles,
+                super::validate::MAX_PARTICLES
+            ),
+        );
+    }
+    // [polymer]
+    let p = &case.polymer;
+    let pk = |key: &str| vec![k("polymer"), k(key)];
+    if !(p.relaxation_time.is_finite() && p.relaxation_time > 0.0) {
+        return Err(ix.error(
+            &pk("relaxation_time"),
+            format!("found {}; λ must be > 0", p.relaxation_time),
+        ));
+    }
+    if !(p.modulus.is_finite() && p.modulus > 0.0) {
+        return Err(ix.error(
+            &pk("modulus"),
+            format!("found {}; G = n k_BT must be > 0", p.modulus),
+        ));
+    }
+    if p.per_particle == 0 || p.per_particle > MAX_PER_PARTICLE {
+        return Err(ix.error(
+            &pk("per_particle"),
+            format!(
+                "found {}; must be between 1 and {MAX_PER_PARTICLE} (10²–10⁴ is typical)",
+                p.per_particle
+            ),
+        ));
+    }
+    match (p.spring, p.b) {
+        (SpringKind::Fene, None) => {
+            return Err(ix.error(
+                &pk("b"),
+                "missing: a FENE spring needs its extensibility b = H Q₀²/k_BT (> 2; 10–100 \
+                 typical)",
+            ));
+        }
+        (SpringKind::Fene, Some(b)) if !(b.is_finite() && b > 2.0) => {
+            return Err(ix.error(
+                &pk("b"),
+                format!("found {b}; must be > 2 (typically 10–100)"),
+            ));
+        }
+        (SpringKind::Hookean, Some(_)) => {
+            return Err(ix.error(
+                &pk("b"),
+                "a Hookean spring has no extensibility; remove b or use spring = \"fene\"",
+            ));
+        }
+        _ => {}
+    }
+    if p.spring == SpringKind::Fene && p.scheme_or_default() != Scheme::SemiImplicit {
+        return Err(ix.error(
+            &pk("scheme"),
+            format!(
+                "found \"{}\": an explicit scheme can stretch a FENE dumbbell beyond √b; use \
+                 \"semi_implicit\" (or leave scheme out)",
+                match p.scheme {
+                    Some(SchemeKind::EulerMaruyama) => "euler_maruyama",
+                    _ => "heun",
+                }
+            ),
+        ));
+    }
+    if p.variance_reduction && p.precision == Precision::Single {
+        return Err(ix.error(
+            &pk("variance_reduction"),
+            "control variates need both copies to see identical arithmetic; they are \
+             available in double precision only (set precision = \"double\")",
+        ));
+    }
+    // [integrator]
+    let dt = case.integrator.dt;
+    if !(dt.is_finite() && dt > 0.0) {
+        return err(&["integrator", "dt"], format!("found {dt}; must be > 0"));
+    }
+    let lambda = p.relaxation_time;
+    if dt > 0.5 * lambda {
+        return err(
+            &["integrator", "dt"],
+            format!(
+                "Δt = {dt} is more than λ/2 = {}: the relaxation is not resolved (explicit \
+                 schemes are unstable beyond Δt = 4λ, and errors are O(Δt/λ) long before); use \
+                 Δt ≤ λ/10",
+                0.5 * lambda
+            ),
+        );
+    }
+    let fastest = f.rate.abs();
+    if fastest * dt > 0.5 {
+        return err(
+            &["integrator", "dt"],
+            format!(
+                "rate × Δt = {:.3} > 0.5: the flow deforms a dumbbell by more than half its \
+                 length per step; use Δt ≤ {:.3e}",
+                fastest * dt,
+                0.1 / fastest
+            ),
+        );
+    }
+    // [run]
+    super::validate::validate_run(&case.run, case.diagnostics.blocks, ix)?;
+    // [output]
+    let o = &case.output;
+    if o.checkpoint_keep == 0 {
+        return err(
+            &["output", "checkpoint_keep"],
+            "found 0; keep at least 1 checkpoint (a restart needs one)".to_owned(),
+        );
+    }
+    if o.snapshot_every > 0 {
+        return err(
+            &["output", "snapshot_every"],
+            "a homogeneous-flow scene has no particle positions to snapshot; its stress time \
+             series is written to OUT/polymer_stress.csv. Remove snapshot_every"
+                .to_owned(),
+        );
+    }
+    // [[reference]]
+    let scalars = case.scalar_names();
+    for (i, rf) in case.reference.iter().enumerate() {
+        let at = |key: &str| vec![k("reference"), Segment::Index(i), k(key)];
+        match rf {
+            ReferenceCfg::Value(v) => {
+                if !scalars.iter().any(|s| s == &v.observable) {
+                    return Err(ix.error(
+                        &at("observable"),
+                        format!(
+                            "found \"{}\", which this scene does not measure; measured here: {}",
+                            v.observable,
+                            scalars.join(", ")
+                        ),
+                    ));
+                }
+                if !(v.tolerance.is_finite() && v.tolerance > 0.0) {
+                    return Err(ix.error(
+                        &at("tolerance"),
+                        format!("found {}; must be > 0", v.tolerance),
+                    ));
+                }
+                if !v.value.is_finite() || (v.metric == Metric::RelativeError && v.value == 0.0) {
+                    return Err(ix.error(
+                        &at("value"),
+                        format!(
+                            "found {}; must be finite (and ≠ 0 for a relative error)",
+                            v.value
+                        ),
+                    ));
+                }
+            }
+            ReferenceCfg::LinearShearProfile(_) => {
+                return Err(ix.error(
+                    &at("kind"),
+                    "a homogeneous-flow scene has no velocity profile; use kind = \"value\"",
+                ));
+            }
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,341 @@
+//! Checkpoints of homogeneous-flow scenes: every particle's dumbbell ensemble (and its control
+//! copy) in global-id order, so the run continues bitwise identically on any rank count.
+//!
+//! Layout (`format = "mesorheo-flow-checkpoint"`, `format_version = 1`):
+//!
+//! ```text
+//! /                        attributes: format, format_version, code_version, step, time, dt,
+//!                          dimension, particles, per_particle, precision, seed,
+//!                          case (TOML echo), checksum (hex)
+//! /ensembles/connectors    [N, N_d·D]  f64 (or f32 with precision = "single")
+//! /ensembles/control       [N, N_d·D]  f64   equilibrium copies (variance reduction only)
+//! /observables/step        [S]         u64   sampled time series (so averages continue)
+//! /observables/<name>      [S]         f64
+//! ```
+//!
+//! Ranks hold contiguous id blocks, so each writes and reads its rows directly. No random
+//! state is stored: the noise is keyed by (seed, particle id, step). The checksum combines
+//! an order-independent hash of every particle's words with the scalar attributes.
+
+use super::checkpoint::{file_name, publish, read_series, series_hash, text_hash, write_series};
+use super::collective_ok;
+use super::shared_file::{SharedFile, read_attr, read_attr_str, read_block};
+use crate::comm::{Comm, U64Op};
+use crate::config::FlowCase;
+use crate::diagnostics::Series;
+use crate::domain::id_block;
+use crate::models::homogeneous_flow::{Connectors, ConnectorsRef, HomogeneousEnsembles};
+use crate::sim::hash_words;
+use std::path::{Path, PathBuf};
+
+/// Value of the `format` attribute.
+pub const FORMAT: &str = "mesorheo-flow-checkpoint";
+/// Value of the `format_version` attribute.
+pub const FORMAT_VERSION: u64 = 1;
+
+/// Order-independent checksum of every rank's ensembles plus the scalar metadata (collective).
+fn checksum(
+    gids: &[u64],
+    rows: &dyn Fn(usize, &mut Vec<u64>),
+    comm: &dyn Comm,
+    scalars: &[u64],
+) -> u64 {
+    let (mut sum, mut xor) = (0u64, 0u64);
+    let mut words = Vec::new();
+    for (i, &g) in gids.iter().enumerate() {
+        words.clear();
+        words.push(g);
+        rows(i, &mut words);
+        let h = hash_words(&words);
+        sum = sum.wrapping_add(h);
+        xor ^= h.rotate_left(29).wrapping_mul(0xD6E8_FEB8_6659_FD93);
+    }
+    let mut s = [sum];
+    let mut x = [xor];
+    comm.allreduce_u64(&mut s, U64Op::Sum);
+    comm.allreduce_u64(&mut x, U64Op::Xor);
+    let mut all = vec![s[0], x[0]];
+    all.extend_from_slice(scalars);
+    hash_words(&all)
+}
+
+/// The words of particle `i` (connectors, then the control copy) appended to `out`.
+fn push_words(q: &ConnectorsRef<'_>, control: Option<&[Vec<f64>]>, i: usize, out: &mut Vec<u64>) {
+    match q {
+        ConnectorsRef::Double(q) => out.extend(q[i].iter().map(|x| x.to_bits())),
+        ConnectorsRef::Single(q) => out.extend(q[i].iter().map(|x| u64::from(x.to_bits()))),
+    }
+    if let Some(c) = control {
+        out.extend(c[i].iter().map(|x| x.to_bits()));
+    }
+}
+
+fn scalars(
+    step: u64,
+    total: u64,
+    dim: u64,
+    n_d: u64,
+    single: bool,
+    case: &str,
+    series: &Series,
+) -> Vec<u64> {
+    vec![
+        step,
+        total,
+        dim,
+        n_d,
+        u64::from(single),
+        FORMAT_VERSION,
+        text_hash(case),
+        series_hash(series),
+    ]
+}
+
+/// Writes the checkpoint of the current step into `dir`, keeping the newest `keep`
+/// (collective). Returns the path.
+pub fn write<const D: usize>(
+    e: &HomogeneousEnsembles<'_, D>,
+    case: &FlowCase,
+    series: &Series,
+    dir: &Path,
+    keep: usize,
+    comm: &dyn Comm,
+) -> Result<PathBuf, String> {
+    let (rank, size) = (comm.rank(), comm.size());
+    let total = e.total;
+    let block = id_block(total, size, rank);
+    let case_toml = toml::to_string(case).map_err(|err| format!("cannot echo the case: {err}"))?;
+    let q = e.connectors();
+    let single = matches!(q, ConnectorsRef::Single(_));
+    let control = e.control.as_deref();
+    let sc = scalars(
+        e.step,
+        total,
+        D as u64,
+        e.n_d as u64,
+        single,
+        &case_toml,
+        series,
+    );
+    let sum = checksum(
+        &e.gids,
+        &|i, out| push_words(&q, control, i, out),
+        comm,
+        &sc,
+    );
+    super::create_dir_collective(dir, comm)?;
+    let path = dir.join(file_name(e.step));
+    let tmp = dir.join(format!("{}.tmp", file_name(e.step)));
+    let mut f = SharedFile::create(&tmp, comm)?;
+    let (n, width) = (total as usize, e.n_d * D);
+    let (start, rows) = (block.start as usize, (block.end - block.start) as usize);
+    f.attr_str("/", "format", FORMAT)?;
+    f.attr("/", "format_version", &FORMAT_VERSION)?;
+    f.attr_str("/", "code_version", env!("CARGO_PKG_VERSION"))?;
+    f.attr("/", "step", &e.step)?;
+    f.attr("/", "time", &e.time())?;
+    f.attr("/", "dt", &e.params.dt)?;
+    f.attr("/", "dimension", &(D as u64))?;
+    f.attr("/", "particles", &total)?;
+    f.attr("/", "per_particle", &(e.n_d as u64))?;
+    f.attr_str("/", "precision", if single { "single" } else { "double" })?;
+    f.attr("/", "seed", &e.seed)?;
+    f.attr_str("/", "case", &case_toml)?;
+    f.attr_str("/", "checksum", &format!("{sum:016x}"))?;
+    f.group("ensembles")?;
+    match q {
+        ConnectorsRef::Double(q) => {
+            f.dataset::<f64>("ensembles/connectors", &[n, width], false)?;
+            f.write(
+                "ensembles/connectors",
+                &[start, 0],
+                &[rows, width],
+                &q.concat(),
+            )?;
+        }
+        ConnectorsRef::Single(q) => {
+            f.dataset::<f32>("ensembles/connectors", &[n, width], false)?;
+            f.write(
+                "ensembles/connectors",
+                &[start, 0],
+                &[rows, width],
+                &q.concat(),
+            )?;
+        }
+    }
+    if let Some(c) = control {
+        f.dataset::<f64>("ensembles/control", &[n, width], false)?;
+        f.write(
+            "ensembles/control",
+            &[start, 0],
+            &[rows, width],
+            &c.concat(),
+        )?;
+    }
+    write_series(&mut f, series, rank == 0)?;
+    f.close()?;
+    let mut done = Ok(());
+    if rank == 0 {
+        done = publish(&tmp, &path, e.step, dir, keep);
+    }
+    collective_ok(comm, done, "checkpoint")?;
+    Ok(path)
+}
+
+/// A flow checkpoint as read by one rank (its id block).
+pub struct RestoredFlow {
+    /// The case echoed in the file.
+    pub case: FlowCase,
+    /// Step of the checkpoint.
+    pub step: u64,
+    /// Total particle count.
+    pub total: u64,
+    /// This rank's connectors.
+    pub connectors: Connectors,
+    /// This rank's control copies.
+    pub control: Option<Vec<Vec<f64>>>,
+    /// Sampled series up to the checkpoint.
+    pub series: Series,
+}
+
+/// The case echoed in a flow checkpoint (any rank, independent).
+pub fn read_case(path: &Path) -> Result<FlowCase, String> {
+    let f = open(path)?;
+    let text = read_attr_str(&f, "/", "case")?;
+    match crate::config::parse_scene(
+        &text,
+        &PathBuf::from(format!("{} (case echo)", path.display())),
+    )
+    .map_err(|e| e.to_string())?
+    {
+        crate::config::Scene::HomogeneousFlow(c) => Ok(*c),
+        crate::config::Scene::Particles(_) => Err(format!(
+            "{}: the case echo is not a homogeneous-flow scene: the file is corrupt",
+            path.display()
+        )),
+    }
+}
+
+fn open(path: &Path) -> Result<hdf5::File, String> {
+    let f = hdf5::File::open(path)
+        .map_err(|e| format!("{}: not a readable HDF5 file ({e})", path.display()))?;
+    let format = read_attr_str(&f, "/", "format")
+        .map_err(|_| format!("{}: not a mesorheo checkpoint", path.display()))?;
+    if format != FORMAT {
+        return Err(format!(
+            "{}: format is {format:?}, expected {FORMAT:?}",
+            path.display()
+        ));
+    }
+    let version: u64 = read_attr(&f, "/", "format_version")?;
+    if version != FORMAT_VERSION {
+        return Err(format!(
+            "{}: flow checkpoint format version {version}, this mesorheo reads version \
+             {FORMAT_VERSION}",
+            path.display()
+        ));
+    }
+    Ok(f)
+}
+
+fn rows_of<T: Copy>(flat: Vec<T>, width: usize) -> Vec<Vec<T>> {
+    flat.chunks_exact(width.max(1)).map(<[T]>::to_vec).collect()
+}
+
+/// Reads and verifies a flow checkpoint (collective; every rank returns the same verdict).
+pub fn read<const D: usize>(path: &Path, comm: &dyn Comm) -> Result<RestoredFlow, String> {
+    let local = read_local::<D>(path, comm);
+    let mut failed = [if local.is_err() { 1.0 } else { 0.0 }];
+    comm.allreduce_max(&mut failed);
+    let (r, stored, sc) = match local {
+        Err(e) => return Err(e),
+        Ok(_) if failed[0] > 0.0 => {
+            return Err(format!("{}: unreadable on another rank", path.display()));
+        }
+        Ok(r) => r,
+    };
+    let gids: Vec<u64> = id_block(r.total, comm.size(), comm.rank()).collect();
+    let q = match &r.connectors {
+        Connectors::Double(q) => ConnectorsRef::Double(q),
+        Connectors::Single(q) => ConnectorsRef::Single(q),
+    };
+    let control = r.control.as_deref();
+    let sum = checksum(&gids, &|i, out| push_words(&q, control, i, out), comm, &sc);
+    if sum != stored {
+        return Err(format!(
+            "{}: checksum mismatch (stored {stored:016x}, computed {sum:016x}): the file is corrupt",
+            path.display()
+        ));
+    }
+    Ok(r)
+}
+
+fn read_local<const D: usize>(
+    path: &Path,
+    comm: &dyn Comm,
+) -> Result<(RestoredFlow, u64, Vec<u64>), String> {
+    let f = open(path)?;
+    let corrupt = |what: String| format!("{}: {what}: the file is corrupt", path.display());
+    let dim: u64 = read_attr(&f, "/", "dimension")?;
+    if dim != D as u64 {
+        return Err(format!(
+            "{}: the checkpoint is {dim}-dimensional",
+            path.display()
+        ));
+    }
+    let total: u64 = read_attr(&f, "/", "particles")?;
+    let step: u64 = read_attr(&f, "/", "step")?;
+    let n_d: u64 = read_attr(&f, "/", "per_particle")?;
+    let precision = read_attr_str(&f, "/", "precision")?;
+    let case_text = read_attr_str(&f, "/", "case")?;
+    let stored = read_attr_str(&f, "/", "checksum")?;
+    let stored = u64::from_str_radix(&stored, 16)
+        .map_err(|_| corrupt(format!("checksum attribute {stored:?} is not hexadecimal")))?;
+    let case = read_case(path)?;
+    if case.flow.particles != total || case.polymer.per_particle as u64 != n_d {
+        return Err(corrupt(
+            "the particle or dumbbell count differs from the case echo".into(),
+        ));
+    }
+    let block = id_block(total, comm.size(), comm.rank());
+    let (start, rows) = (block.start as usize, (block.end - block.start) as usize);
+    let width = n_d as usize * D;
+    let single = match precision.as_str() {
+        "double" => false,
+        "single" => true,
+        other => return Err(corrupt(format!("unknown precision {other:?}"))),
+    };
+    let connectors = if single {
+        Connectors::Single(rows_of(
+            read_block::<f32>(&f, "ensembles/connectors", &[start, 0], &[rows, width])?,
+            width,
+        ))
+    } else {
+        Connectors::Double(rows_of(
+            read_block::<f64>(&f, "ensembles/connectors", &[start, 0], &[rows, width])?,
+            width,
+        ))
+    };
+    let control = if case.polymer.variance_reduction {
+        Some(rows_of(
+            read_block::<f64>(&f, "ensembles/control", &[start, 0], &[rows, width])?,
+            width,
+        ))
+    } else {
+        None
+    };
+    let series = read_series(&f)?;
+    let sc = scalars(step, total, D as u64, n_d, single, &case_text, &series);
+    Ok((
+        RestoredFlow {
+            case,
+            step,
+            total,
+            connectors,
+            control,
+            series,
+        },
+        stored,
+        sc,
+    ))
+}
