@@ -1,5 +1,5 @@
 //! Corpus of malformed case files: every file in `tests/bad_cases/` must be rejected by
-//! `mesorheo::config::load` with an error that
+//! `mesorheo::config::load_scene` (either kind of scene) with an error that
 //! - contains every `# expect: <substring>` line of the file,
 //! - reports the line given by the file's `# at: <line>` header,
 //! - names the file.
@@ -80,7 +80,7 @@ fn check(path: &Path) -> Vec<String> {
         Err(e) => return vec![format!("malformed header: {e}")],
     };
     let expected_line = exp.lines[0];
-    let result = std::panic::catch_unwind(|| mesorheo::config::load(path));
+    let result = std::panic::catch_unwind(|| mesorheo::config::load_scene(path, &[]));
     let err = match result {
         Err(panic) => {
             let msg = panic

@@ -551,7 +551,7 @@ pub fn parse_scene(source: &str, path: &Path) -> Result<Scene, CaseError> {
     let de = toml::Deserializer::parse(source).map_err(|e| index.syntax_error(&e))?;
     let case: FlowCase = serde_path_to_error::deserialize(de).map_err(|e| {
         let mut err = index.serde_error(&e);
-        if err.message.contains("unknown field") {
+        if err.message.contains("unknown key") {
             err.message.push_str(
                 " (this is a homogeneous-flow scene because it has a [flow] table; [box],                  [particles] and [fluid] belong to particle scenes)",
             );
