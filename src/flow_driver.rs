@@ -17,8 +17,8 @@
 //! ```
 
 use crate::comm::Comm;
+use crate::config::FlowCase;
 use crate::config::flow::{FlowKind, Precision};
-use crate::config::{FlowCase, LoadedScene};
 use crate::diagnostics::{Series, block_average, tensor_components};
 use crate::domain::id_block;
 use crate::driver::{RunOptions, set_aside_old_checkpoints, stop_requested, threads_of};
@@ -35,7 +35,7 @@ const STDERR: &str = "_stderr";
 /// summary.
 pub fn run_flow_case(
     case: &FlowCase,
-    loaded: &LoadedScene,
+    case_file: &Path,
     comm: &dyn Comm,
     options: &RunOptions,
 ) -> Result<Summary, String> {
@@ -48,7 +48,7 @@ pub fn run_flow_case(
                 e,
                 case.clone(),
                 Series::default(),
-                &loaded.path,
+                case_file,
                 None,
                 comm,
                 options,
@@ -61,7 +61,7 @@ pub fn run_flow_case(
                 e,
                 case.clone(),
                 Series::default(),
-                &loaded.path,
+                case_file,
                 None,
                 comm,
                 options,

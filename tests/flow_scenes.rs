@@ -1,0 +1,224 @@
+//! Homogeneous-flow scenes run from case files: results bitwise identical on 1–3 ranks × 1–2
+//! threads; N steps ≡ N/2 + checkpoint + restart (on another rank count) + N/2, bitwise, with
+//! double or single storage and with control variates; a corrupt flow checkpoint is refused
+//! and the previous one used; single-precision storage halves the memory and changes the stress
+//! only at the rounding level; scenes that do not fit the memory are refused up front.
+#![cfg(feature = "hdf5")]
+
+use mesorheo::config::{FlowCase, Scene, parse_scene};
+use mesorheo::driver::{RunOptions, in_process, restart_case};
+use mesorheo::flow_driver::run_flow_case;
+use mesorheo::summary::Summary;
+use std::path::{Path, PathBuf};
+
+fn flow_case(extra_polymer: &str, steps: u64) -> FlowCase {
+    let text = format!(
+        r#"
+dimension = 3
+seed = 5
+[flow]
+kind = "shear_reversal"
+rate = 2.0
+reverse_at = 0.3
+particles = 37
+[polymer]
+kind = "dumbbells"
+spring = "hookean"
+relaxation_time = 1.0
+per_particle = 16
+{extra_polymer}
+[integrator]
+kind = "brownian_dynamics"
+dt = 0.01
+[run]
+steps = {steps}
+equilibration = 10
+sample_every = 5
+progress_seconds = 0
+[diagnostics]
+blocks = 4
+"#
+    );
+    match parse_scene(&text, Path::new("flow.toml")).unwrap_or_else(|e| panic!("{e}")) {
+        Scene::HomogeneousFlow(c) => *c,
+        Scene::Particles(_) => panic!("a [flow] table makes a flow scene"),
+    }
+}
+
+fn options(threads: usize, out: Option<&Path>, until: Option<u64>) -> RunOptions {
+    RunOptions {
+        threads,
+        steps: None,
+        until_step: until,
+        out: out.map(Path::to_path_buf),
+    }
+}
+
+fn run(case: &FlowCase, ranks: usize, o: RunOptions) -> Summary {
+    let case = case.clone();
+    in_process(ranks, move |c| {
+        run_flow_case(&case, Path::new("flow.toml"), c, &o)
+    })
+    .unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// The observables' bit patterns (what a restart or another decomposition must reproduce).
+fn observable_bits(s: &Summary) -> Vec<(String, u64, u64)> {
+    s.observables
+        .iter()
+        .map(|(k, e)| (k.clone(), e.mean.to_bits(), e.stderr.to_bits()))
+        .collect()
+}
+
+#[test]
+fn flow_scene_is_bitwise_identical_on_any_rank_and_thread_count() {
+    for extra in ["", "variance_reduction = true", "precision = \"single\""] {
+        let case = flow_case(extra, 60);
+        let reference = run(&case, 1, options(1, None, None));
+        assert_eq!(reference.steps, 60);
+        assert!(reference.observables.contains_key("polymer_viscosity"));
+        for (ranks, threads) in [(1, 2), (2, 1), (3, 2)] {
+            let s = run(&case, ranks, options(threads, None, None));
+            assert_eq!(
+                s.state_digest, reference.state_digest,
+                "{extra}: {ranks} ranks × {threads} threads"
+            );
+            assert_eq!(observable_bits(&s), observable_bits(&reference), "{extra}");
+        }
+    }
+}
+
+#[test]
+fn flow_restart_is_bitwise_on_other_rank_counts() {
+    for extra in ["", "variance_reduction = true", "precision = \"single\""] {
+        let case = flow_case(extra, 80);
+        let whole = run(&case, 1, options(1, None, None));
+        for (first, second) in [(1, 2), (3, 1)] {
+            let dir = tempfile::tempdir().expect("tempdir");
+            let out = dir.path().to_path_buf();
+            // Stop at step 40, across the reversal at t = 0.3 (step 30).
+            let half = run(&case, first, options(1, Some(&out), Some(40)));
+            assert!(!half.completed);
+            assert_eq!(half.steps, 40);
+            let ck = PathBuf::from(half.last_checkpoint.expect("checkpoint written"));
+            assert!(ck.exists());
+            let o = out.clone();
+            let rest = in_process(second, move |c| {
+                restart_case(&o.join("checkpoints"), c, &options(1, Some(&o), None))
+            })
+            .unwrap_or_else(|e| panic!("{e}"));
+            assert!(rest.completed);
+            assert_eq!(rest.steps, 80);
+            assert_eq!(
+                rest.state_digest, whole.state_digest,
+                "{extra}: {first}→{second}"
+            );
+            // The sampled series continued: the same time averages, bit for bit.
+            assert_eq!(observable_bits(&rest), observable_bits(&whole), "{extra}");
+            // The stress time series covers the whole run.
+            let csv = std::fs::read_to_string(out.join("polymer_stress.csv")).expect("csv");
+            assert_eq!(
+                csv.lines().count(),
+                1 + 80 / 5,
+                "header + one line per sample"
+            );
+            assert!(
+                csv.lines()
+                    .next()
+                    .unwrap()
+                    .contains("polymer_stress_xy_stderr")
+            );
+        }
+    }
+}
+
+#[test]
+fn corrupt_flow_checkpoint_falls_back_to_the_previous_one() {
+    let mut case = flow_case("", 60);
+    case.output.checkpoint_every = 20;
+    let whole = run(&case, 1, options(1, None, None));
+    let dir = tempfile::tempdir().expect("tempdir");
+    let out = dir.path().to_path_buf();
+    let half = run(&case, 2, options(1, Some(&out), Some(40)));
+    let newest = PathBuf::from(half.last_checkpoint.expect("checkpoint"));
+    // Flip bytes in the middle of the newest checkpoint (the connector data).
+    let mut bytes = std::fs::read(&newest).expect("read");
+    let n = bytes.len();
+    for b in &mut bytes[n / 2..n / 2 + 64] {
+        *b ^= 0x5a;
+    }
+    std::fs::write(&newest, bytes).expect("write");
+    let o = out.clone();
+    let rest = in_process(2, move |c| {
+        restart_case(&o.join("checkpoints"), c, &options(1, Some(&o), None))
+    })
+    .unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(
+        rest.restarted_from
+            .as_deref()
+            .map(|p| p.contains("000000000020")),
+        Some(true)
+    );
+    assert_eq!(rest.state_digest, whole.state_digest);
+    assert!(
+        newest.with_extension("h5.corrupt").exists(),
+        "the damaged checkpoint is set aside"
+    );
+}
+
+#[test]
+fn single_precision_storage_halves_memory_and_changes_only_rounding() {
+    use mesorheo::comm::SerialComm;
+    use mesorheo::models::dumbbells::{DumbbellParams, Scheme, Spring};
+    use mesorheo::models::homogeneous_flow::{Flow, HomogeneousEnsembles};
+    let comm = SerialComm::new();
+    let p = DumbbellParams {
+        spring: Spring::Hookean,
+        scheme: Scheme::Heun,
+        lambda: 1.0,
+        dt: 0.01,
+    };
+    let flow = Flow::SimpleShear { rate: 3.0 };
+    let mut double = HomogeneousEnsembles::<3>::new(&comm, 1, 50, 200, p, flow, 9).unwrap();
+    let mut single = HomogeneousEnsembles::<3>::new(&comm, 1, 50, 200, p, flow, 9)
+        .unwrap()
+        .with_single_precision();
+    assert_eq!(2 * single.memory_bytes(), double.memory_bytes());
+    for _ in 0..200 {
+        double.advance();
+        single.advance();
+    }
+    let (a, b) = (double.stress(), single.stress());
+    // The same noise drives both: they differ by the accumulated f32 rounding (2⁻²⁴ ≈ 6·10⁻⁸
+    // relative per step), i.e. far below the sampling error (stderr), but they do differ.
+    let diff = (a.mean[0][1] - b.mean[0][1]).abs();
+    assert!(diff > 0.0, "single storage must round");
+    assert!(
+        diff < 1e-5 * a.mean[0][1].abs() && diff < 1e-3 * a.stderr[0][1],
+        "τ_xy {} vs {} (stderr {})",
+        a.mean[0][1],
+        b.mean[0][1],
+        a.stderr[0][1]
+    );
+}
+
+#[test]
+fn scenes_that_do_not_fit_the_memory_are_refused() {
+    // 4·10⁹ particles × 6.7·10⁷ dumbbells: far beyond any node.
+    let mut case = flow_case("", 60);
+    case.flow.particles = 4_000_000_000;
+    case.polymer.per_particle = 1 << 26;
+    let (report, verdict) = mesorheo::check::flow_report(&case, 4);
+    assert!(report.contains("memory:"), "{report}");
+    let err = verdict.expect_err("refused");
+    assert!(err.contains("GiB") && err.contains("precision"), "{err}");
+    // The run refuses before allocating anything.
+    let e = in_process(2, move |c| {
+        run_flow_case(&case, Path::new("huge.toml"), c, &options(1, None, None))
+    })
+    .expect_err("refused");
+    assert!(e.contains("GiB available"), "{e}");
+    // A scene that fits passes.
+    let (_, ok) = mesorheo::check::flow_report(&flow_case("", 60), 1);
+    assert!(ok.is_ok());
+}
