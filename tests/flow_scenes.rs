@@ -222,3 +222,30 @@ fn scenes_that_do_not_fit_the_memory_are_refused() {
     let (_, ok) = mesorheo::check::flow_report(&flow_case("", 60), 1);
     assert!(ok.is_ok());
 }
+
+#[test]
+fn stock_dumbbell_scenes_pass_their_references() {
+    // The FENE stock scene (semi-implicit, ~3× the cost) runs under `./run validate stock`.
+    for name in [
+        "dumbbells_hookean_shear_3d.toml",
+        "dumbbells_elongation_3d.toml",
+    ] {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("cases")
+            .join(name);
+        let loaded = mesorheo::config::load_scene(&path, &[]).unwrap_or_else(|e| panic!("{e}"));
+        let Scene::HomogeneousFlow(case) = loaded.scene else {
+            panic!("{name} is a homogeneous-flow scene");
+        };
+        let s = run(&case, 1, options(2, None, None));
+        assert!(s.completed);
+        assert!(!s.validation.is_empty(), "{name} has references");
+        for v in &s.validation {
+            assert!(
+                v.pass,
+                "{name}: {}: {} = {} > {}",
+                v.name, v.metric, v.value, v.tolerance
+            );
+        }
+    }
+}
