@@ -474,7 +474,7 @@ fn hookean_shear_reversal_follows_the_exact_moments_and_ucm_at_wi_1_and_5() {
 // So FENE-P over-predicts FENE already at Wi → 0 by the exact factors (b + 5)/(b + 3) in η_p
 // (+3.8 % at b = 50, +15 % at b = 10) and (b + 5)(b + 7)/(b + 3)² in Ψ₁ (+12 %, +51 %): the
 // closure ⟨QQ/(1 − Q²/b)⟩ → ⟨QQ⟩/(1 − ⟨Q²⟩/b) is not a small correction for Ψ₁ at small b. Hence
-// the FENE-P comparison is one-sided and loose (tolerances below, from these exact gaps), and the
+// the FENE-P comparison is one-sided and loose (bounds below, scaled by these exact gaps), and the
 // quantitative checks are the exact Wi → 0 limit and the Δt → 0 Richardson reference.
 
 /// FENE-P steady shear: (η_p/(Gλ), Ψ₁/(2Gλ²)).
@@ -662,18 +662,22 @@ fn fene_steady_shear(b: f64) {
             );
             let err = (x(2).0 - reference.0).abs() / reference.0;
             assert!(err < 0.01, "{what}: Δt = {h} is {:.2} % off", 100.0 * err);
-            // FENE-P, approximate: above FENE (as the exact Wi → 0 limits are) and by at most the
-            // exact Wi → 0 gap (1 − FENE/FENE-P = 3.6 % / 13.3 % in η_p, 10.4 % / 33.7 % in Ψ₁ at
-            // b = 50 / 10) plus 20 percentage points of Wi dependence (the closure error grows
-            // with stretching: the distribution of |Q|² is far from a delta at these Wi).
+            // FENE-P, approximate: FENE-P lies above FENE (as the exact Wi → 0 limits do) and
+            // 1 − FENE/FENE-P is below a loose bound: 15 % for η_p, 40 % for Ψ₁. The scale of the
+            // bounds is set by the exact Wi → 0 gaps (3.6 % / 13.3 % in η_p, 10.4 % / 33.7 % in
+            // Ψ₁ at b = 50 / 10): a 10–15 % bound is impossible for Ψ₁ at b = 10, where the
+            // closure is 34 % off already at rest. Measured: η_p 5.2 / 8.1 % (b = 50, Wi 1 / 10),
+            // 13.1 / 8.1 % (b = 10); Ψ₁ 14.7 / 30.0 %, 33.9 / 34.4 %.
             let gap = 1.0 - reference.0 / fp;
+            let bound = if pick == 0 { 0.15 } else { 0.40 };
             eprintln!(
-                "{what}: 1 − FENE/FENE-P = {:.1} % (exact at Wi → 0: {:.1} %)",
+                "{what}: 1 − FENE/FENE-P = {:.1} % (exact at Wi → 0: {:.1} %; bound {:.0} %)",
                 100.0 * gap,
-                100.0 * gap0
+                100.0 * gap0,
+                100.0 * bound
             );
             assert!(
-                gap > 0.0 && gap < gap0 + 0.2,
+                gap > 0.0 && gap < bound,
                 "{what}: FENE {:.4} vs FENE-P {fp:.4}",
                 reference.0
             );
