@@ -479,7 +479,9 @@ fn hookean_shear_reversal_follows_the_exact_moments_and_ucm_at_wi_1_and_5() {
 
 /// FENE-P steady shear: (η_p/(Gλ), Ψ₁/(2Gλ²)).
 fn fene_p_shear(b: f64, wi: f64) -> (f64, f64) {
-    // g(Z) = bZ³ − (b+3)Z² − 2Wi² is increasing for Z ≥ 1 + 3/b > 2(b+3)/(3b)… Newton from above.
+    // g(Z) = bZ³ − (b+3)Z² − 2Wi² is increasing and convex for Z ≥ 1 + 3/b, so Newton converges
+    // monotonically from any start above the root; at the root x = Z − 1 − 3/b = 2Wi²/(bZ²) and
+    // Z ≥ x give x ≤ (2Wi²/b)^{1/3}, so this start is above it.
     let mut z = 1.0 + 3.0 / b + (2.0 * wi * wi / b).cbrt();
     for _ in 0..100 {
         let g = b * z * z * z - (b + 3.0) * z * z - 2.0 * wi * wi;
@@ -563,7 +565,7 @@ fn fene_steady_shear(b: f64) {
     // (a) Wi → 0: the exact FENE limits, with control variates, η_p at Wi = 0.1 and Ψ₁ at
     // Wi = 0.2 (N₁ ∝ Wi² is too small to resolve at 0.1 in this budget). The O(Wi²) shear
     // thinning there, scaled from the thinning measured at Wi = 1 (η_p −4 % (b = 50) … −7 %
-    // (b = 10), Ψ₁ −10 % … −14 %), is ≤ 0.07 % in η_p and ≤ 0.6 % in Ψ₁: ≤ 0.5σ, inside the 4σ.
+    // (b = 10), Ψ₁ −10 % … −14 %), is ≤ 0.07 % in η_p and ≤ 0.6 % in Ψ₁ (≈ 0.5σ), inside the 4σ.
     // Δt = 0.1λ: the time-step bias measured at Wi = 1 is ≤ 0.2 % (below).
     let (eta0, psi0) = (b / (b + 5.0), b * b / ((b + 5.0) * (b + 7.0)));
     let (eta, _) = steady_shear(fene_params(b, 0.1), 0.1, 200, 100, 3.0, 60.0, 51, true);
