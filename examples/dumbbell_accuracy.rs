@@ -18,7 +18,9 @@
 //!
 //! Knobs: `nd` (N_d at fixed 100 particles, Heun, Δt = 0.02λ); `dt` (Δt × Euler/Heun at 100 ×
 //! 1000); `cv` (control variates off/on at Wi = 0.1 and 1, N_d = 100, 1000); `fene` (Δt for
-//! b = 50, 10 at Wi = 1, 10). Precision (f32 storage) is pending and not swept.
+//! b = 50, 10 at Wi = 1, 10); `precision` (f64 vs f32 storage of the connectors, Heun, Wi = 1,
+//! Δt = 0.02λ, 100 × 1000; spring column "hookean f32"). Knob names given as arguments run only
+//! those points: `cargo run --release --example dumbbell_accuracy -- precision`.
 
 use mesorheo::comm::SerialComm;
 use mesorheo::models::dumbbells::{
@@ -36,6 +38,8 @@ struct Point {
     n_d: usize,
     particles: u64,
     cv: bool,
+    /// f32 storage of the connectors.
+    single: bool,
     t_warm: f64,
     t_avg: f64,
 }
@@ -87,6 +91,9 @@ fn run(pt: &Point, seed: u64) -> Result {
     if pt.cv {
         e = e.with_control_variates();
     }
+    if pt.single {
+        e = e.with_single_precision();
+    }
     let warm = (pt.t_warm / pt.dt).round() as u64;
     let avg = (pt.t_avg / pt.dt).round() as u64;
     let every = ((0.1 / pt.dt).round() as u64).max(1);
@@ -102,7 +109,7 @@ fn run(pt: &Point, seed: u64) -> Result {
         e.advance();
         if i % every == 0 {
             for j in 0..np {
-                let mut s = kramers_stress::<3>(&e.q[j], p.spring);
+                let mut s = kramers_stress::<3>(&e.ensemble(j), p.spring);
                 if let Some(c) = &e.control {
                     let s0 = kramers_stress::<3>(&c[j], p.spring);
                     for (a, b) in s.iter_mut().zip(s0) {
@@ -157,6 +164,7 @@ fn main() {
         n_d,
         particles: 100,
         cv,
+        single: false,
         t_warm: 8.0,
         t_avg: 20.0,
     };
@@ -176,15 +184,31 @@ fn main() {
             }
         }
     }
+    for single in [false, true] {
+        let mut pt = hookean("precision", Scheme::Heun, 1.0, 0.02, 1000, false);
+        pt.single = single;
+        points.push(pt);
+    }
+    // Optional knob names on the command line run only those points.
+    let only: Vec<String> = std::env::args().skip(1).collect();
+    let wanted = |knob: &str| only.is_empty() || only.iter().any(|k| k == knob);
+    points.retain(|pt| wanted(pt.knob));
     println!(
         "knob,spring,b,scheme,wi,dt,n_d,particles,cv,eta,eta_se,eta_err,eta_bias,psi1,psi1_se,psi1_err,psi1_bias,wall_s,cpu_s"
     );
     for (i, pt) in points.iter().enumerate() {
-        let r = run(pt, 100 + i as u64);
+        // The two precision points share a seed: they differ by the f32 rounding only.
+        let seed = if pt.knob == "precision" {
+            900
+        } else {
+            100 + i as u64
+        };
+        let r = run(pt, seed);
         let (eb, pb) = r.expected.expect("Hookean");
         println!(
-            "{},hookean,,{},{},{},{},{},{},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{:.3},{:.2}",
+            "{},hookean{},,{},{},{},{},{},{},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{:.3},{:.2}",
             pt.knob,
+            if pt.single { " f32" } else { "" },
             scheme_name(pt.scheme),
             pt.wi,
             pt.dt,
@@ -205,6 +229,9 @@ fn main() {
     }
     // FENE, semi-implicit: Δt sweep per (b, Wi); reference from the two finest steps.
     for b in [50.0, 10.0] {
+        if !wanted("fene") {
+            break;
+        }
         for (wi, dts, t_warm, t_avg) in [
             (1.0, [0.8, 0.4, 0.2, 0.1, 0.05], 5.0, 100.0),
             (10.0, [0.32, 0.16, 0.08, 0.04, 0.02], 3.0, 20.0),
@@ -222,6 +249,7 @@ fn main() {
                         n_d: 100,
                         particles: 400,
                         cv: false,
+                        single: false,
                         t_warm,
                         t_avg,
                     };

@@ -98,7 +98,8 @@ def main():
           "| Ψ₁/(2Gλ²) ± σ | err | bias | wall s | CPU s |")
     print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     for r in rows:
-        spring = "Hookean" if r["spring"] == "hookean" else f"FENE b = {r['b']}"
+        spring = {"hookean": "Hookean", "hookean f32": "Hookean, f32 storage"}.get(
+            r["spring"], f"FENE b = {r['b']}")
         bias = lambda v: f"{float(v):+.4f}" if v else "–"
         print(f"| {r['knob']} | {spring} | {r['scheme']} | {r['wi']} | {r['dt']} | {r['n_d']} | "
               f"{r['particles']} | {'on' if r['cv'] == '1' else 'off'} | "

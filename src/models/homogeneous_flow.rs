@@ -264,7 +264,7 @@ impl<'c, const D: usize> HomogeneousEnsembles<'c, D> {
     }
 
     /// Particle `i`'s connectors in double precision (widened from single storage).
-    fn ensemble_f64(&self, i: usize) -> std::borrow::Cow<'_, [f64]> {
+    pub fn ensemble(&self, i: usize) -> std::borrow::Cow<'_, [f64]> {
         widened(&self.q, self.q_single.as_deref(), i)
     }
 
@@ -416,7 +416,7 @@ impl<'c, const D: usize> HomogeneousEnsembles<'c, D> {
     pub fn max_q2(&self) -> f64 {
         let local = (0..self.gids.len())
             .map(|i| {
-                self.ensemble_f64(i)
+                self.ensemble(i)
                     .chunks_exact(D)
                     .map(|c| c.iter().map(|v| v * v).sum::<f64>())
                     .fold(0.0, f64::max)
@@ -432,7 +432,7 @@ impl<'c, const D: usize> HomogeneousEnsembles<'c, D> {
         let mut acc = [0u64];
         for (i, &g) in self.gids.iter().enumerate() {
             let mut words = vec![g];
-            words.extend(self.ensemble_f64(i).iter().map(|x| x.to_bits()));
+            words.extend(self.ensemble(i).iter().map(|x| x.to_bits()));
             if let Some(c) = &self.control {
                 words.extend(c[i].iter().map(|x| x.to_bits()));
             }
