@@ -77,7 +77,7 @@ fn flow_scene_is_bitwise_identical_on_any_rank_and_thread_count() {
         let reference = run(&case, 1, options(1, None, None));
         assert_eq!(reference.steps, 60);
         assert!(reference.observables.contains_key("polymer_viscosity"));
-        for (ranks, threads) in [(1, 2), (2, 1), (3, 2)] {
+        for (ranks, threads) in [(1, 2), (2, 1), (3, 2), (4, 1)] {
             let s = run(&case, ranks, options(threads, None, None));
             assert_eq!(
                 s.state_digest, reference.state_digest,
@@ -101,7 +101,11 @@ fn flow_restart_is_bitwise_on_other_rank_counts() {
             assert!(!half.completed);
             assert_eq!(half.steps, 40);
             let ck = PathBuf::from(half.last_checkpoint.expect("checkpoint written"));
-            assert!(ck.exists());
+            let info = mesorheo::output::info::describe(&ck).expect("info");
+            assert!(
+                info.contains("homogeneous-flow scene") && info.contains("/ensembles/connectors"),
+                "{info}"
+            );
             let o = out.clone();
             let rest = in_process(second, move |c| {
                 restart_case(&o.join("checkpoints"), c, &options(1, Some(&o), None))

@@ -486,11 +486,12 @@ pub fn validate(case: &FlowCase, ix: &SpanIndex) -> Result<(), CaseError> {
             "found 0; keep at least 1 checkpoint (a restart needs one)".to_owned(),
         );
     }
-    if o.snapshot_every > 0 {
+    if o.snapshot_every > 0 || o.snapshot_fields != OutputCfg::default().snapshot_fields {
         return err(
             &["output", "snapshot_every"],
             "a homogeneous-flow scene has no particle positions to snapshot; its stress time \
-             series is written to OUT/polymer_stress.csv. Remove snapshot_every"
+             series is written to OUT/polymer_stress.csv. Remove snapshot_every and \
+             snapshot_fields"
                 .to_owned(),
         );
     }

@@ -15,6 +15,8 @@ pub fn describe(path: &std::path::Path) -> Result<String, String> {
         .unwrap_or_default();
     let kind = if format == super::checkpoint::FORMAT {
         "checkpoint"
+    } else if format == super::flow_checkpoint::FORMAT {
+        "checkpoint of a homogeneous-flow scene (dumbbell ensembles)"
     } else if f.link_exists("h5md") {
         "snapshot series (H5MD)"
     } else {
