@@ -184,7 +184,11 @@ fn rates<const D: usize>(spring: Spring, scheme: Scheme, threads: usize) -> [f64
     let start: Vec<Vec<f64>> = (0..PARTICLES)
         .map(|g| {
             let mut q = vec![0.0; N_D * D];
-            sample_equilibrium::<D>(&mut q, spring, &mut NormalStream::new(1, Purpose::Test, 0, g, 0));
+            sample_equilibrium::<D>(
+                &mut q,
+                spring,
+                &mut NormalStream::new(1, Purpose::Test, 0, g, 0),
+            );
             q
         })
         .collect();
