@@ -259,11 +259,13 @@ impl HashStream {
 ///   with the layer table a `static` (no initialisation check per call) and one 64-bit draw per
 ///   normal in ~99 % of the calls: 8 bits choose the layer, the top 52 bits give u ∈ (−1, 1)
 ///   (built by writing them into the mantissa of a float in [2, 4): no integer→float
-///   conversion). The rare paths (wedges, tail beyond R) are out of line.
+///   conversion). The rare paths (wedges, tail beyond R) are out of line, on a side stream
+///   (see `normal_slow`), so the hot loop keeps the xoshiro state in registers.
 ///
 /// Statistics are tested below (moments, tails, χ² of the histogram, lag-1 and neighbouring-key
-/// correlations). About 2.5 ns per normal here against ~3–4 ns for [`HashStream::normal`]; the
-/// bits differ from [`HashStream`]'s (the DPD pair noise keeps that one, digests pinned).
+/// correlations). Generator alone ≈ 1.3× [`HashStream::fill_normals`] (2.4–2.9 ns per normal
+/// against ~3.1 ns, best repetitions on a loaded machine; docs/performance.md); the bits differ
+/// from [`HashStream`]'s (the DPD pair noise keeps that one, digests pinned).
 #[derive(Clone, Debug)]
 pub struct NormalStream {
     s: [u64; 4],
