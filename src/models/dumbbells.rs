@@ -262,15 +262,19 @@ fn for_each_dumbbell<const D: usize>(
     amp: f64,
     update: impl Fn(&[f64; D], &[f64; D]) -> [f64; D],
 ) {
+    // A local copy whose address never escapes: its four words stay in registers (drawing
+    // through `noise` itself stored them back to memory after every normal).
+    let mut g = noise.clone();
     for c in q.chunks_exact_mut(D) {
         let mut x = [0.0; D];
         x.copy_from_slice(c);
         let mut xi = [0.0; D];
         for v in xi.iter_mut() {
-            *v = amp * noise.normal();
+            *v = amp * g.normal();
         }
         c.copy_from_slice(&update(&x, &xi));
     }
+    *noise = g;
 }
 
 /// As [`for_each_dumbbell`] — the same numbers in the same order — but the normals of up to
