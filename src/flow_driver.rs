@@ -2,9 +2,11 @@
 //! restart of the ensembles, the step loop with progress lines, sampling of the polymer stress,
 //! checkpoints and clean stops, the stress time series and the summary.
 //!
-//! Observables (stresses in units of `polymer.modulus` G; the ensemble average of each
-//! particle, averaged over particles with exact sums, then over time after `run.equilibration`
-//! with block-averaged errors):
+//! Observables (stresses in units of `polymer.modulus` G). Each sample takes every particle's
+//! ensemble average; the series (`polymer_stress.csv`) holds their mean over particles with the
+//! spread's standard error; the summary holds, after `run.equilibration`, the mean over particles
+//! of each particle's time average with the standard error s/√N of those N independent time
+//! averages (exact sums, so bitwise the same on any rank count):
 //!
 //! ```text
 //! polymer_stress_αβ                 τ_αβ = G (⟨Q F(Q)⟩ − I)_αβ
@@ -19,10 +21,10 @@
 use crate::comm::Comm;
 use crate::config::FlowCase;
 use crate::config::flow::{FlowKind, Precision};
-use crate::diagnostics::{Series, block_average, tensor_components};
+use crate::diagnostics::{Series, tensor_components};
 use crate::domain::id_block;
 use crate::driver::{RunOptions, set_aside_old_checkpoints, stop_requested, threads_of};
-use crate::models::homogeneous_flow::HomogeneousEnsembles;
+use crate::models::homogeneous_flow::{HomogeneousEnsembles, particle_moments};
 use crate::summary::{Summary, check_value};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -42,34 +44,33 @@ pub fn run_flow_case(
     let threads = threads_of(options);
     check_memory(case, comm)?;
     match case.dimension {
-        2 => {
-            let e = fresh::<2>(case, comm, threads)?;
-            drive(
-                e,
-                case.clone(),
-                Series::default(),
-                case_file,
-                None,
-                comm,
-                options,
-                threads,
-            )
-        }
-        3 => {
-            let e = fresh::<3>(case, comm, threads)?;
-            drive(
-                e,
-                case.clone(),
-                Series::default(),
-                case_file,
-                None,
-                comm,
-                options,
-                threads,
-            )
-        }
+        2 => start::<2>(case, case_file, comm, options, threads),
+        3 => start::<3>(case, case_file, comm, options, threads),
         d => Err(format!("dimension {d} is not supported")),
     }
+}
+
+fn start<const D: usize>(
+    case: &FlowCase,
+    case_file: &Path,
+    comm: &dyn Comm,
+    options: &RunOptions,
+    threads: usize,
+) -> Result<Summary, String> {
+    let e = fresh::<D>(case, comm, threads)?;
+    let averages = ParticleAverages::new(e.gids.len(), quantities(case).len());
+    let series = Series::default();
+    drive(
+        e,
+        case.clone(),
+        series,
+        averages,
+        case_file,
+        None,
+        comm,
+        options,
+        threads,
+    )
 }
 
 fn fresh<'c, const D: usize>(
@@ -193,25 +194,113 @@ fn restore<const D: usize>(
             comm.size()
         );
     }
-    drive(e, case, r.series, path, Some(path), comm, options, threads).map_err(Restart::Failed)
+    drive(
+        e,
+        case,
+        r.series,
+        r.averages,
+        path,
+        Some(path),
+        comm,
+        options,
+        threads,
+    )
+    .map_err(Restart::Failed)
 }
 
-#[cfg(not(feature = "hdf5"))]
-pub(crate) fn restart_from(
-    path: &Path,
-    _comm: &dyn Comm,
-    _options: &RunOptions,
-    _threads: usize,
-) -> Result<Summary, crate::driver::Restart> {
-    Err(crate::driver::Restart::Failed(format!(
-        "cannot restart from {}: built without HDF5",
-        path.display()
-    )))
+/// A per-particle observable, computed from one particle's τ/G.
+#[derive(Clone, Copy, Debug)]
+enum Quantity {
+    /// G τ_ab/G.
+    Stress(usize, usize),
+    /// N₁ = τ_xx − τ_yy.
+    N1,
+    /// N₂ = τ_yy − τ_zz.
+    N2,
+    /// τ_xy / κ_xy.
+    Viscosity,
+    /// N₁ / κ_xy².
+    Psi1,
+    /// N₂ / κ_xy².
+    Psi2,
+    /// N₁ / κ_xx.
+    Extensional,
 }
 
-/// Records the stress of the current step (collective).
-fn sample<const D: usize>(e: &HomogeneousEnsembles<'_, D>, case: &FlowCase, series: &mut Series) {
-    let st = e.stress();
+impl Quantity {
+    /// The value for one particle's τ/G `s` (D × D row-major), modulus `g`, gradient `kappa`.
+    fn of<const D: usize>(self, s: &[f64; 9], g: f64, kappa: &[[f64; D]; D]) -> f64 {
+        let n1 = s[0] - s[D + 1];
+        let n2 = if D == 3 { s[4] - s[8] } else { 0.0 };
+        let shear = kappa[0][1];
+        match self {
+            Quantity::Stress(a, b) => g * s[a * D + b],
+            Quantity::N1 => g * n1,
+            Quantity::N2 => g * n2,
+            Quantity::Viscosity => g * s[1] / shear,
+            Quantity::Psi1 => g * n1 / (shear * shear),
+            Quantity::Psi2 => g * n2 / (shear * shear),
+            Quantity::Extensional => g * n1 / kappa[0][0],
+        }
+    }
+}
+
+/// The observables averaged per particle — every scalar name of the scene but
+/// `max_connector_length` — in [`FlowCase::scalar_names`] order.
+fn quantities(case: &FlowCase) -> Vec<(String, Quantity)> {
+    case.scalar_names()
+        .into_iter()
+        .filter_map(|name| {
+            let q = match name.as_str() {
+                "first_normal_stress_difference" => Quantity::N1,
+                "second_normal_stress_difference" => Quantity::N2,
+                "polymer_viscosity" => Quantity::Viscosity,
+                "first_normal_stress_coefficient" => Quantity::Psi1,
+                "second_normal_stress_coefficient" => Quantity::Psi2,
+                "extensional_viscosity" => Quantity::Extensional,
+                other => {
+                    let c = other.strip_prefix("polymer_stress_")?.as_bytes();
+                    let axis = |x: u8| (x - b'x') as usize;
+                    Quantity::Stress(axis(c[0]), axis(c[1]))
+                }
+            };
+            Some((name, q))
+        })
+        .collect()
+}
+
+/// Running sums, per particle of this rank, of every [`quantities`] value over the samples after
+/// equilibration. The time average of each particle is an independent estimate (independent
+/// noise, no interaction), so the spread between particles gives honest error bars whatever
+/// the time correlation of the stress (which block averages of short runs underestimate).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct ParticleAverages {
+    /// sums[k][i]: quantity i of this rank's particle k.
+    pub sums: Vec<Vec<f64>>,
+    /// Samples added.
+    pub samples: u64,
+}
+
+impl ParticleAverages {
+    /// Zero sums for `particles` particles and `width` quantities.
+    pub fn new(particles: usize, width: usize) -> Self {
+        Self {
+            sums: vec![vec![0.0; width]; particles],
+            samples: 0,
+        }
+    }
+}
+
+/// Records the stress of the current step (collective): the particle-averaged series (from step
+/// 0) and, after equilibration, the per-particle running sums.
+fn sample<const D: usize>(
+    e: &HomogeneousEnsembles<'_, D>,
+    case: &FlowCase,
+    series: &mut Series,
+    averages: &mut ParticleAverages,
+) {
+    let per = e.particle_stresses();
+    let st = e.stress_of(&per);
     let g = case.polymer.modulus;
     let kappa = case.flow_model().kappa::<D>(e.time());
     series.steps.push(e.step);
@@ -262,6 +351,15 @@ fn sample<const D: usize>(e: &HomogeneousEnsembles<'_, D>, case: &FlowCase, seri
         FlowKind::Rest => {}
     }
     series.push("max_connector_length", e.max_q2().sqrt());
+    if e.step > case.run.equilibration {
+        let q = quantities(case);
+        for (row, s) in averages.sums.iter_mut().zip(&per) {
+            for (x, (_, quantity)) in row.iter_mut().zip(&q) {
+                *x += quantity.of::<D>(s, g, &kappa);
+            }
+        }
+        averages.samples += 1;
+    }
 }
 
 /// Writes a checkpoint of the current step, if output is on (collective).
@@ -269,6 +367,7 @@ fn checkpoint<const D: usize>(
     e: &HomogeneousEnsembles<'_, D>,
     case: &FlowCase,
     series: &Series,
+    averages: &ParticleAverages,
     out: &Path,
     comm: &dyn Comm,
 ) -> Result<PathBuf, String> {
@@ -279,6 +378,7 @@ fn checkpoint<const D: usize>(
             e,
             case,
             series,
+            averages,
             &out.join("checkpoints"),
             case.output.checkpoint_keep,
             comm,
@@ -294,7 +394,7 @@ fn checkpoint<const D: usize>(
     }
     #[cfg(not(feature = "hdf5"))]
     {
-        let _ = (e, case, series, out, comm);
+        let _ = (e, case, series, averages, out, comm);
         Err("checkpoints need HDF5: this mesorheo was built without the `hdf5` feature".into())
     }
 }
@@ -338,6 +438,7 @@ fn drive<const D: usize>(
     mut e: HomogeneousEnsembles<'_, D>,
     mut case: FlowCase,
     mut series: Series,
+    mut averages: ParticleAverages,
     case_file: &Path,
     restarted_from: Option<&Path>,
     comm: &dyn Comm,
@@ -395,7 +496,7 @@ fn drive<const D: usize>(
         let step = e.step;
         if step.is_multiple_of(case.run.sample_every) {
             let t = Instant::now();
-            sample(&e, &case, &mut series);
+            sample(&e, &case, &mut series, &mut averages);
             times.diagnostics += t.elapsed().as_secs_f64();
         }
         let ck = case.output.checkpoint_every;
@@ -404,7 +505,7 @@ fn drive<const D: usize>(
             && step.is_multiple_of(ck)
         {
             let t = Instant::now();
-            last_checkpoint = Some(checkpoint(&e, &case, &series, out, comm)?);
+            last_checkpoint = Some(checkpoint(&e, &case, &series, &averages, out, comm)?);
             times.checkpoints += t.elapsed().as_secs_f64();
             checkpointed_at = Some(step);
         }
@@ -439,7 +540,7 @@ fn drive<const D: usize>(
         && checkpointed_at != Some(e.step)
     {
         let t = Instant::now();
-        last_checkpoint = Some(checkpoint(&e, &case, &series, out, comm)?);
+        last_checkpoint = Some(checkpoint(&e, &case, &series, &averages, out, comm)?);
         times.checkpoints += t.elapsed().as_secs_f64();
     }
     if !completed {
@@ -457,25 +558,45 @@ fn drive<const D: usize>(
         write_series_csv(&series, case.dt(), out)
             .map_err(|err| format!("cannot write {}/polymer_stress.csv: {err}", out.display()))?;
     }
-    // Time averages over the samples after equilibration.
-    let steady: Vec<usize> = (0..series.steps.len())
-        .filter(|&k| series.steps[k] > case.run.equilibration)
-        .collect();
-    let observables: BTreeMap<String, crate::diagnostics::Estimate> = case
-        .scalar_names()
-        .into_iter()
-        .filter_map(|name| {
-            let values = series.scalars.get(&name)?;
-            let window: Vec<f64> = steady.iter().map(|&k| values[k]).collect();
-            let mut est = block_average(&window, case.diagnostics.blocks);
-            if name == "max_connector_length" {
-                // The largest over the window, not an average.
-                est.mean = window.iter().copied().fold(f64::NAN, f64::max);
-                est.stderr = 0.0;
-            }
-            Some((name, est))
+    // Time averages after equilibration: the mean over particles of each particle's time
+    // average, with the standard error from their spread.
+    let q = quantities(&case);
+    let k = averages.samples.max(1) as f64;
+    let m = particle_moments(comm, averages.sums.len(), q.len(), e.total, |p, i| {
+        averages.sums[p][i] / k
+    });
+    let mut observables: BTreeMap<String, crate::diagnostics::Estimate> = q
+        .iter()
+        .zip(&m)
+        .map(|((name, _), &(mean, stderr))| {
+            let (mean, stderr) = if averages.samples == 0 {
+                (f64::NAN, f64::NAN)
+            } else {
+                (mean, stderr)
+            };
+            let est = crate::diagnostics::Estimate {
+                mean,
+                stderr,
+                samples: averages.samples as usize,
+            };
+            (name.clone(), est)
         })
         .collect();
+    // The largest |Q| seen after equilibration (not an average).
+    if let Some(values) = series.scalars.get("max_connector_length") {
+        let window: Vec<f64> = (0..series.steps.len())
+            .filter(|&k| series.steps[k] > case.run.equilibration)
+            .map(|k| values[k])
+            .collect();
+        observables.insert(
+            "max_connector_length".into(),
+            crate::diagnostics::Estimate {
+                mean: window.iter().copied().fold(f64::NAN, f64::max),
+                stderr: 0.0,
+                samples: window.len(),
+            },
+        );
+    }
     let validation = if completed {
         case.reference
             .iter()

@@ -108,6 +108,39 @@ pub struct HomogeneousEnsembles<'c, const D: usize> {
     pool: rayon::ThreadPool,
 }
 
+/// Means over all particles of all ranks of `width` per-particle values (`value(k, i)`: value i
+/// of this rank's particle k), each with its standard error from the particle-to-particle spread
+/// (s/√N): the particles carry independent ensembles, so they are independent samples.
+/// Collective; the sums are exact (fixed point), so the result does not depend on the rank count.
+pub fn particle_moments(
+    comm: &dyn Comm,
+    local: usize,
+    width: usize,
+    total: u64,
+    value: impl Fn(usize, usize) -> f64,
+) -> Vec<(f64, f64)> {
+    let mut sums = vec![FixedSum::ZERO; 2 * width];
+    for k in 0..local {
+        if k % 2048 == 2047 {
+            sums.iter_mut().for_each(FixedSum::normalize);
+        }
+        for i in 0..width {
+            let v = value(k, i);
+            sums[i].add(v);
+            sums[width + i].add(v * v);
+        }
+    }
+    FixedSum::allreduce(comm, &mut sums);
+    let n = total as f64;
+    (0..width)
+        .map(|i| {
+            let m = sums[i].value() / n;
+            let var = (sums[width + i].value() / n - m * m).max(0.0) * n / (n - 1.0).max(1.0);
+            (m, (var / n).sqrt())
+        })
+        .collect()
+}
+
 /// Particle `i`'s connectors in double precision: borrowed from f64 storage, widened from f32.
 fn widened<'a>(
     q: &'a [Vec<f64>],
@@ -336,9 +369,9 @@ impl<'c, const D: usize> HomogeneousEnsembles<'c, D> {
         self.step += 1;
     }
 
-    /// τ/G averaged over all particles of all ranks, with the standard error from the
-    /// particle-to-particle spread (collective; exact sums, so rank-count independent).
-    pub fn stress(&self) -> StressEstimate<D> {
+    /// τ/G of each particle of this rank: its ensemble average, with control variates the
+    /// corrected estimator τ(Q) − τ(Q_eq) + E[τ_eq]; D × D row-major in the first D² entries.
+    pub fn particle_stresses(&self) -> Vec<[f64; 9]> {
         let spring = self.params.spring;
         let n = self.gids.len();
         let (q, single) = (&self.q, self.q_single.as_deref());
@@ -370,6 +403,17 @@ impl<'c, const D: usize> HomogeneousEnsembles<'c, D> {
                 }
             }
         }
+        per
+    }
+
+    /// τ/G averaged over all particles of all ranks, with the standard error from the
+    /// particle-to-particle spread (collective; exact sums, so rank-count independent).
+    pub fn stress(&self) -> StressEstimate<D> {
+        self.stress_of(&self.particle_stresses())
+    }
+
+    /// [`Self::stress`] of given [`Self::particle_stresses`] (collective).
+    pub fn stress_of(&self, per: &[[f64; 9]]) -> StressEstimate<D> {
         // Per particle: the D² components, then N₁ and N₂.
         let w = D * D + 2;
         let value = |s: &[f64; 9], i: usize| -> f64 {
@@ -380,24 +424,10 @@ impl<'c, const D: usize> HomogeneousEnsembles<'c, D> {
                 _ => 0.0,
             }
         };
-        let mut sums = vec![FixedSum::ZERO; 2 * w];
-        for (k, s) in per.iter().enumerate() {
-            if k % 2048 == 2047 {
-                sums.iter_mut().for_each(FixedSum::normalize);
-            }
-            for i in 0..w {
-                let v = value(s, i);
-                sums[i].add(v);
-                sums[w + i].add(v * v);
-            }
-        }
-        FixedSum::allreduce(self.comm, &mut sums);
-        let n = self.total as f64;
-        let moments = |i: usize| -> (f64, f64) {
-            let m = sums[i].value() / n;
-            let var = (sums[w + i].value() / n - m * m).max(0.0) * n / (n - 1.0).max(1.0);
-            (m, (var / n).sqrt())
-        };
+        let m = particle_moments(self.comm, per.len(), w, self.total, |k, i| {
+            value(&per[k], i)
+        });
+        let moments = |i: usize| m[i];
         let mut est = StressEstimate {
             mean: [[0.0; D]; D],
             stderr: [[0.0; D]; D],

@@ -9,6 +9,8 @@
 //!                          case (TOML echo), checksum (hex)
 //! /ensembles/connectors    [N, N_d·D]  f64 (or f32 with precision = "single")
 //! /ensembles/control       [N, N_d·D]  f64   equilibrium copies (variance reduction only)
+//! /ensembles/averages      [N, K]      f64   per-particle sums of the K averaged observables
+//!                                            (attribute `samples`: how many samples they hold)
 //! /observables/step        [S]         u64   sampled time series (so averages continue)
 //! /observables/<name>      [S]         f64
 //! ```
@@ -24,6 +26,7 @@ use crate::comm::{Comm, U64Op};
 use crate::config::FlowCase;
 use crate::diagnostics::Series;
 use crate::domain::id_block;
+use crate::flow_driver::ParticleAverages;
 use crate::models::homogeneous_flow::{Connectors, ConnectorsRef, HomogeneousEnsembles};
 use crate::sim::hash_words;
 use std::path::{Path, PathBuf};
@@ -59,8 +62,15 @@ fn checksum(
     hash_words(&all)
 }
 
-/// The words of particle `i` (connectors, then the control copy) appended to `out`.
-fn push_words(q: &ConnectorsRef<'_>, control: Option<&[Vec<f64>]>, i: usize, out: &mut Vec<u64>) {
+/// The words of particle `i` (running sums, connectors, control copy) appended to `out`.
+fn push_words(
+    q: &ConnectorsRef<'_>,
+    control: Option<&[Vec<f64>]>,
+    averages: &[Vec<f64>],
+    i: usize,
+    out: &mut Vec<u64>,
+) {
+    out.extend(averages[i].iter().map(|x| x.to_bits()));
     match q {
         ConnectorsRef::Double(q) => out.extend(q[i].iter().map(|x| x.to_bits())),
         ConnectorsRef::Single(q) => out.extend(q[i].iter().map(|x| u64::from(x.to_bits()))),
@@ -70,6 +80,7 @@ fn push_words(q: &ConnectorsRef<'_>, control: Option<&[Vec<f64>]>, i: usize, out
     }
 }
 
+#[allow(clippy::too_many_arguments)]
 fn scalars(
     step: u64,
     total: u64,
@@ -78,8 +89,10 @@ fn scalars(
     single: bool,
     case: &str,
     series: &Series,
+    samples: u64,
 ) -> Vec<u64> {
     vec![
+        samples,
         step,
         total,
         dim,
@@ -97,6 +110,7 @@ pub fn write<const D: usize>(
     e: &HomogeneousEnsembles<'_, D>,
     case: &FlowCase,
     series: &Series,
+    averages: &ParticleAverages,
     dir: &Path,
     keep: usize,
     comm: &dyn Comm,
@@ -116,10 +130,12 @@ pub fn write<const D: usize>(
         single,
         &case_toml,
         series,
+        averages.samples,
     );
+    let av = &averages.sums;
     let sum = checksum(
         &e.gids,
-        &|i, out| push_words(&q, control, i, out),
+        &|i, out| push_words(&q, control, av, i, out),
         comm,
         &sc,
     );
@@ -172,6 +188,20 @@ pub fn write<const D: usize>(
             &c.concat(),
         )?;
     }
+    let k = av.first().map_or(0, Vec::len);
+    let k_all = {
+        let mut v = [k as f64];
+        comm.allreduce_max(&mut v);
+        v[0] as usize
+    };
+    f.dataset::<f64>("ensembles/averages", &[n, k_all], false)?;
+    f.write(
+        "ensembles/averages",
+        &[start, 0],
+        &[rows, k_all],
+        &av.concat(),
+    )?;
+    f.attr("ensembles/averages", "samples", &averages.samples)?;
     write_series(&mut f, series, rank == 0)?;
     f.close()?;
     let mut done = Ok(());
@@ -196,6 +226,8 @@ pub struct RestoredFlow {
     pub control: Option<Vec<Vec<f64>>>,
     /// Sampled series up to the checkpoint.
     pub series: Series,
+    /// This rank's per-particle running sums.
+    pub averages: ParticleAverages,
 }
 
 /// The case echoed in a flow checkpoint (any rank, independent).
@@ -260,7 +292,13 @@ pub fn read<const D: usize>(path: &Path, comm: &dyn Comm) -> Result<RestoredFlow
         Connectors::Single(q) => ConnectorsRef::Single(q),
     };
     let control = r.control.as_deref();
-    let sum = checksum(&gids, &|i, out| push_words(&q, control, i, out), comm, &sc);
+    let av = &r.averages.sums;
+    let sum = checksum(
+        &gids,
+        &|i, out| push_words(&q, control, av, i, out),
+        comm,
+        &sc,
+    );
     if sum != stored {
         return Err(format!(
             "{}: checksum mismatch (stored {stored:016x}, computed {sum:016x}): the file is corrupt",
@@ -325,7 +363,24 @@ fn read_local<const D: usize>(
         None
     };
     let series = read_series(&f)?;
-    let sc = scalars(step, total, D as u64, n_d, single, &case_text, &series);
+    let k = f
+        .dataset("ensembles/averages")
+        .map(|d| d.shape().get(1).copied().unwrap_or(0))
+        .map_err(|e| corrupt(format!("ensembles/averages: {e}")))?;
+    let samples: u64 = read_attr(&f, "ensembles/averages", "samples")?;
+    let averages = ParticleAverages {
+        sums: rows_of(
+            read_block::<f64>(&f, "ensembles/averages", &[start, 0], &[rows, k])?,
+            k,
+        ),
+        samples,
+    };
+    if averages.sums.len() != rows {
+        return Err(corrupt("ensembles/averages has the wrong shape".into()));
+    }
+    let sc = scalars(
+        step, total, D as u64, n_d, single, &case_text, &series, samples,
+    );
     Ok((
         RestoredFlow {
             case,
@@ -334,6 +389,7 @@ fn read_local<const D: usize>(
             connectors,
             control,
             series,
+            averages,
         },
         stored,
         sc,
