@@ -316,7 +316,7 @@ fn transpose(a: &M3) -> M3 {
 
 /// M(κ), N(κ) of the linear Hookean schemes (derived from the update formulas in
 /// `src/models/dumbbells.rs`; K = κ − I/2λ, h = Δt, e = Δt/4λ):
-/// Euler M = I + hK, N = I; Heun M = I + hK + ½h²K², N = I + ½hK.
+/// Euler M = I + hK, N = I; Heun M = I + hK + ½h²K², N = I + ½hK; semi-implicit below.
 fn scheme_matrices(scheme: Scheme, kappa: &M3, dt: f64) -> (M3, M3) {
     let id = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
     let k = lin(kappa, &id, -0.5);
@@ -326,7 +326,21 @@ fn scheme_matrices(scheme: Scheme, kappa: &M3, dt: f64) -> (M3, M3) {
             lin(&lin(&id, &k, dt), &mul(&k, &k), 0.5 * dt * dt),
             lin(&id, &k, 0.5 * dt),
         ),
-        Scheme::SemiImplicit => unimplemented!("not used here"),
+        // Q' (1 + e) = Q + [½κ(Q + Q̃) − Q/4λ] h + ξ, Q̃ = Q + hKQ + ξ (λ = 1, e = h/4):
+        // M = (I + hκ + ½h²κK − eI)/(1 + e), N = (I + ½hκ)/(1 + e).
+        Scheme::SemiImplicit => {
+            let e = 0.25 * dt;
+            let m = lin(
+                &lin(&lin(&id, kappa, dt), &mul(kappa, &k), 0.5 * dt * dt),
+                &id,
+                -e,
+            );
+            let n = lin(&id, kappa, 0.5 * dt);
+            (
+                lin(&m, &m, 1.0 / (1.0 + e) - 1.0),
+                lin(&n, &n, 1.0 / (1.0 + e) - 1.0),
+            )
+        }
     }
 }
 
@@ -366,6 +380,18 @@ fn hookean_shear_reversal_follows_the_exact_moments_and_ucm_at_wi_1_and_5() {
         for i in 0..3 {
             for j in 0..3 {
                 assert!((c_lib[i][j] - path[r_steps as usize][i][j]).abs() < 1e-12);
+            }
+        }
+        // The propagator's matrices of the other two schemes agree with the library's too.
+        for scheme in [Scheme::EulerMaruyama, Scheme::SemiImplicit] {
+            let q = DumbbellParams { scheme, ..p };
+            let mine = discrete_moment_path(flow, &q, r_steps);
+            let lib = hookean_discrete_moment::<3>(&flow.kappa::<3>(0.0), &q, r_steps);
+            for i in 0..3 {
+                for j in 0..3 {
+                    let d = (lib[i][j] - mine[r_steps as usize][i][j]).abs();
+                    assert!(d < 1e-10, "{scheme:?}: c[{i}][{j}] differs by {d}");
+                }
             }
         }
         let mut e =
