@@ -387,20 +387,25 @@ pub fn format_of(path: &Path) -> Result<String, String> {
 }
 
 fn open(path: &Path) -> Result<hdf5::File, String> {
+    open_as(path, FORMAT, FORMAT_VERSION)
+}
+
+/// Opens a mesorheo HDF5 file and checks its `format` and `format_version` attributes.
+pub(crate) fn open_as(path: &Path, expected: &str, version: u64) -> Result<hdf5::File, String> {
     let f = hdf5::File::open(path)
         .map_err(|e| format!("{}: not a readable HDF5 file ({e})", path.display()))?;
     let format = read_attr_str(&f, "/", "format")
         .map_err(|_| format!("{}: not a mesorheo checkpoint", path.display()))?;
-    if format != FORMAT {
+    if format != expected {
         return Err(format!(
-            "{}: format is {format:?}, expected {FORMAT:?}",
+            "{}: format is {format:?}, expected {expected:?}",
             path.display()
         ));
     }
-    let version: u64 = read_attr(&f, "/", "format_version")?;
-    if version != FORMAT_VERSION {
+    let found: u64 = read_attr(&f, "/", "format_version")?;
+    if found != version {
         return Err(format!(
-            "{}: checkpoint format version {version}, this mesorheo reads version {FORMAT_VERSION}",
+            "{}: {expected} format version {found}, this mesorheo reads version {version}",
             path.display()
         ));
     }

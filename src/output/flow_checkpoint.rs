@@ -249,25 +249,7 @@ pub fn read_case(path: &Path) -> Result<FlowCase, String> {
 }
 
 fn open(path: &Path) -> Result<hdf5::File, String> {
-    let f = hdf5::File::open(path)
-        .map_err(|e| format!("{}: not a readable HDF5 file ({e})", path.display()))?;
-    let format = read_attr_str(&f, "/", "format")
-        .map_err(|_| format!("{}: not a mesorheo checkpoint", path.display()))?;
-    if format != FORMAT {
-        return Err(format!(
-            "{}: format is {format:?}, expected {FORMAT:?}",
-            path.display()
-        ));
-    }
-    let version: u64 = read_attr(&f, "/", "format_version")?;
-    if version != FORMAT_VERSION {
-        return Err(format!(
-            "{}: flow checkpoint format version {version}, this mesorheo reads version \
-             {FORMAT_VERSION}",
-            path.display()
-        ));
-    }
-    Ok(f)
+    super::checkpoint::open_as(path, FORMAT, FORMAT_VERSION)
 }
 
 fn rows_of<T: Copy>(flat: Vec<T>, width: usize) -> Vec<Vec<T>> {
