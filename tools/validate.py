@@ -104,7 +104,7 @@ def viscometric():
     ok = True
     seed = 100
     for dim in (2, 3):
-        for wi, dt, n, nd, extra in ((0.1, 0.01, 2000, 1000, ["polymer.variance_reduction=true"]),
+        for wi, dt, n, nd, extra in ((0.1, 0.01, 3000, 1000, ["polymer.variance_reduction=true"]),
                                      (1.0, 0.01, 600, 1000, []),
                                      (10.0, 0.005, 1000, 1000, [])):
             steps = int(round(32 / dt))
