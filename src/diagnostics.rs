@@ -107,6 +107,91 @@ pub fn block_average(series: &[f64], blocks: usize) -> Estimate {
     }
 }
 
+/// Integrated autocorrelation time of a series, in samples:
+///
+/// ```text
+/// τ_int = ½ + Σ_{t=1}^{M} ρ(t),   ρ(t) = C(t) / C(0),   C(t) = ⟨(x_k − x̄)(x_{k+t} − x̄)⟩
+/// ```
+///
+/// with Sokal's self-consistent window, the smallest M ≥ 5 τ_int(M) (A. Sokal, *Monte Carlo
+/// methods in statistical mechanics*, 1996, §3). The variance of the mean of n samples is then
+/// 2 τ_int C(0) / n: for white noise τ_int = ½, for an AR(1) series with coefficient ρ,
+/// τ_int = ½ (1 + ρ)/(1 − ρ). The window is capped at min(n/4, 2000) samples; if it does not
+/// close by then, the value returned is a lower bound (the series is too short to tell).
+/// NaN for fewer than 8 samples or a constant series.
+pub fn integrated_autocorrelation_time(series: &[f64]) -> f64 {
+    let n = series.len();
+    if n < 8 {
+        return f64::NAN;
+    }
+    let mean = series.iter().sum::<f64>() / n as f64;
+    let dev: Vec<f64> = series.iter().map(|x| x - mean).collect();
+    let c0 = dev.iter().map(|x| x * x).sum::<f64>() / n as f64;
+    if c0 <= 0.0 || !c0.is_finite() {
+        return f64::NAN;
+    }
+    let cap = (n / 4).clamp(1, 2000);
+    let mut tau = 0.5;
+    for t in 1..=cap {
+        let ct = dev[..n - t]
+            .iter()
+            .zip(&dev[t..])
+            .map(|(a, b)| a * b)
+            .sum::<f64>()
+            / n as f64;
+        tau += ct / c0;
+        if t as f64 >= 5.0 * tau {
+            break;
+        }
+    }
+    tau.max(0.5)
+}
+
+/// Blocks shorter than this many integrated autocorrelation times give block errors that are
+/// too small: with blocks of L samples the variance of the block means is low by a fraction
+/// of about 2 τ_int / L (the correlation across block boundaries is lost), so L ≥ 10 τ_int
+/// keeps the standard error within ~10 % (Flyvbjerg & Petersen, J. Chem. Phys. 91, 461 (1989)).
+pub const BLOCK_CORRELATION_TIMES: f64 = 10.0;
+
+/// Warnings for the scalar series (but the conserved momentum) whose blocks (of `len / blocks` samples) are shorter than
+/// [`BLOCK_CORRELATION_TIMES`] integrated autocorrelation times; each names the observable,
+/// τ_int, the block length, the error a τ_int estimate gives, and what to change.
+pub fn block_warnings(scalars: &BTreeMap<String, Vec<f64>>, blocks: usize) -> Vec<String> {
+    let mut out = Vec::new();
+    for (name, series) in scalars {
+        // Total momentum is conserved: its series is round-off (~10⁻¹³), not a fluctuating
+        // observable whose error bar means anything.
+        if name.starts_with("momentum") {
+            continue;
+        }
+        let n = series.len();
+        let nb = blocks.min(n);
+        if nb < 2 {
+            continue;
+        }
+        let block_len = (n / nb) as f64;
+        let tau = integrated_autocorrelation_time(series);
+        if !tau.is_finite() || block_len >= BLOCK_CORRELATION_TIMES * tau {
+            continue;
+        }
+        let mean = series.iter().sum::<f64>() / n as f64;
+        let var = series.iter().map(|x| (x - mean) * (x - mean)).sum::<f64>() / n as f64;
+        let tau_stderr = (2.0 * tau * var / n as f64).sqrt();
+        let usable = ((n as f64 / (BLOCK_CORRELATION_TIMES * tau)).floor() as usize).max(1);
+        let fix = if usable >= 2 {
+            format!("set [diagnostics] blocks ≤ {usable} or run longer")
+        } else {
+            "run longer (the series spans fewer than 2 blocks of 10 τ_int)".to_owned()
+        };
+        out.push(format!(
+            "{name}: blocks of {block_len:.0} samples are shorter than {BLOCK_CORRELATION_TIMES} \
+             correlation times (τ_int = {tau:.1} samples), so its block error bar is too small; \
+             the τ_int estimate gives ± {tau_stderr:.3e}; {fix}"
+        ));
+    }
+    out
+}
+
 /// Time series collected during a run.
 #[derive(Clone, Debug, Default)]
 pub struct Series {
@@ -163,5 +248,62 @@ mod tests {
             e.stderr,
             expected
         );
+    }
+
+    /// AR(1) series x_{k+1} = ρ x_k + √(1 − ρ²) ξ_k (unit variance), from the keyed stream.
+    fn ar1(rho: f64, n: usize, seed: u64) -> Vec<f64> {
+        let mut h = crate::rng::HashStream::from_prefix(seed, 1, 2);
+        let mut x = h.normal();
+        (0..n)
+            .map(|_| {
+                x = rho * x + (1.0 - rho * rho).sqrt() * h.normal();
+                x
+            })
+            .collect()
+    }
+
+    #[test]
+    fn autocorrelation_time_of_ar1_and_white_noise() {
+        // τ_int = ½ (1 + ρ)/(1 − ρ) = 9.5 for ρ = 0.9; its estimate from n = 10⁵ samples has a
+        // relative error of about √(2(2M + 1)/n) ≈ 6 % with M ≈ 5 τ (Sokal, Eq. 3.19).
+        for seed in [1, 2, 3] {
+            let tau = integrated_autocorrelation_time(&ar1(0.9, 100_000, seed));
+            assert!((tau / 9.5 - 1.0).abs() < 0.2, "seed {seed}: τ_int = {tau}");
+            let white = integrated_autocorrelation_time(&ar1(0.0, 100_000, seed));
+            assert!(
+                (white - 0.5).abs() < 0.1,
+                "seed {seed}: white τ_int = {white}"
+            );
+        }
+        assert!(integrated_autocorrelation_time(&[1.0; 100]).is_nan());
+        assert!(integrated_autocorrelation_time(&[1.0, 2.0]).is_nan());
+    }
+
+    #[test]
+    fn short_blocks_of_a_correlated_series_are_flagged() {
+        let mut scalars = BTreeMap::new();
+        scalars.insert("viscosity".to_owned(), ar1(0.9, 20_000, 7));
+        scalars.insert("temperature".to_owned(), ar1(0.0, 20_000, 8));
+        // 1000 blocks of 20 samples: too short for τ_int ≈ 9.5 (needs ≥ 95), and the block
+        // error is indeed too small. Exact σ of the mean: √((1 + ρ)/(1 − ρ)/n) = 0.0308. Blocks
+        // of L = 20 keep a fraction 1 − 2ρ(1 − ρ^L)/(L(1 − ρ)(1 + ρ)) = 0.58 of that variance,
+        // so their error is ~0.76 σ (±2 % from 1000 blocks); 20 blocks are unbiased (±16 %).
+        let w = block_warnings(&scalars, 1000);
+        assert_eq!(w.len(), 1, "{w:?}");
+        assert!(
+            w[0].starts_with("viscosity:") && w[0].contains("blocks ≤"),
+            "{}",
+            w[0]
+        );
+        let exact = (19.0f64 / 20_000.0).sqrt();
+        let short = block_average(&scalars["viscosity"], 1000).stderr;
+        let long = block_average(&scalars["viscosity"], 20).stderr;
+        assert!(short < 0.85 * exact, "short blocks {short}, exact {exact}");
+        assert!(
+            (long / exact - 1.0).abs() < 0.5,
+            "long blocks {long}, exact {exact}"
+        );
+        // 20 blocks of 1000 samples: fine for both.
+        assert!(block_warnings(&scalars, 20).is_empty());
     }
 }

@@ -456,6 +456,10 @@ fn drive<const D: usize>(
     }
     let blocks = case.diagnostics.blocks;
     let observables = sim.series.estimates(blocks);
+    let warnings = crate::diagnostics::block_warnings(&sim.series.scalars, blocks);
+    for w in &warnings {
+        tracing::warn!("{w}");
+    }
     let ly = case.domain.lengths[1];
     let profile: Vec<ProfilePoint> = sim
         .series
@@ -501,6 +505,7 @@ fn drive<const D: usize>(
         observables,
         velocity_profile: profile,
         validation,
+        warnings,
         state_digest,
         phase_seconds: sim.times.clone(),
     })

@@ -630,6 +630,8 @@ fn drive<const D: usize>(
         observables,
         velocity_profile: Vec::new(),
         validation,
+        // The error bars come from the spread of independent particles' averages: no blocks.
+        warnings: Vec::new(),
         state_digest: format!("{:016x}", e.digest()),
         phase_seconds: times,
     })

@@ -78,6 +78,9 @@ pub struct Summary {
     pub velocity_profile: Vec<ProfilePoint>,
     /// Reference checks.
     pub validation: Vec<Validation>,
+    /// Caveats on the results (e.g. block error bars of correlated series that are too small).
+    #[serde(skip_serializing_if = "Vec::is_empty", default)]
+    pub warnings: Vec<String>,
     /// Hash of the final state in global-id order.
     pub state_digest: String,
     /// Rank 0's wall time per phase of the loop, seconds.
@@ -168,6 +171,9 @@ pub fn render(summary: &Summary) -> String {
             v.value,
             v.tolerance
         ));
+    }
+    for w in &summary.warnings {
+        s.push_str(&format!("  warning: {w}\n"));
     }
     if !summary.completed {
         s.push_str(&format!(
