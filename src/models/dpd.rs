@@ -49,6 +49,8 @@ pub struct Dpd {
     pub noise: Noise,
     /// σ / √Δt, precomputed.
     sigma_over_sqrt_dt: f64,
+    /// 1 / r_c, precomputed (w = 1 − r · (1/r_c): a multiply instead of a divide per pair).
+    inv_cutoff: f64,
     seed: u64,
 }
 
@@ -64,6 +66,7 @@ impl Dpd {
             weight_exponent: cfg.weight_exponent,
             noise: cfg.noise,
             sigma_over_sqrt_dt: sigma / dt.sqrt(),
+            inv_cutoff: 1.0 / cfg.cutoff,
             seed,
         }
     }
@@ -123,7 +126,7 @@ impl<const D: usize> PairKernel<D> for Dpd {
             e[d] = r_vec[d] * inv_r;
             ev += e[d] * v_rel[d];
         }
-        let w = 1.0 - r / self.cutoff;
+        let w = 1.0 - r * self.inv_cutoff;
         let w_r = if self.weight_exponent == 2.0 {
             w
         } else {

@@ -182,11 +182,13 @@ pub fn compute_forces<const D: usize, K: PairKernel<D>>(
                             bad.get_or_insert((gid[i], gid[j], w * f));
                             continue;
                         }
+                        // r ⊗ F ∝ e ⊗ e is symmetric: the upper triangle, mirrored below.
                         for (part, &p) in t.parts.iter().enumerate() {
                             let s = w * p;
                             for a in 0..D {
-                                for b in 0..D {
-                                    virial[part * 9 + a * 3 + b].add(s * t.e[a] * t.e[b]);
+                                let sa = s * t.e[a];
+                                for b in a..D {
+                                    virial[part * 9 + a * 3 + b].add(sa * t.e[b]);
                                 }
                             }
                         }
@@ -231,7 +233,7 @@ pub fn compute_forces<const D: usize, K: PairKernel<D>>(
             let mut w = vec![FixedSum::ZERO; D * D];
             for a in 0..D {
                 for b in 0..D {
-                    w[a * D + b] = total[p * 9 + a * 3 + b];
+                    w[a * D + b] = total[p * 9 + a.min(b) * 3 + a.max(b)];
                 }
             }
             w
