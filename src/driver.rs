@@ -144,7 +144,15 @@ pub fn restart_case(
                 restart_particles(&path, comm, options, threads)
             };
             match attempt {
-                Ok(summary) => return Ok(summary),
+                Ok(mut summary) => {
+                    // The run continued from an older checkpoint than asked for: say why.
+                    summary.warnings.extend(
+                        refused
+                            .iter()
+                            .map(|e| format!("checkpoint refused, an older one used: {e}")),
+                    );
+                    return Ok(summary);
+                }
                 Err(Restart::Failed(e)) => return Err(e),
                 Err(Restart::Refused(e)) => {
                     if comm.rank() == 0 {

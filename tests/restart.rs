@@ -317,7 +317,22 @@ fn a_corrupt_or_truncated_checkpoint_is_refused_and_the_previous_one_used() {
         assert!(newest.with_extension("h5.corrupt").exists());
         assert_eq!(
             rest.restarted_from.as_deref(),
-            Some(cks.join(checkpoint::file_name(100)).to_str().unwrap())
+            Some(cks.join(checkpoint::file_name(100)).to_str().unwrap()),
+            "{damage}: {:?}",
+            rest.warnings
+        );
+        // The summary says which checkpoint was refused and why, and nothing else was.
+        let refusals: Vec<&String> = rest
+            .warnings
+            .iter()
+            .filter(|w| w.starts_with("checkpoint refused"))
+            .collect();
+        assert!(
+            refusals.len() == 1
+                && refusals[0].contains(&checkpoint::file_name(150))
+                && refusals[0].contains(expect),
+            "{damage}: {:?}",
+            rest.warnings
         );
         assert_eq!(rest.state_digest, whole, "{damage}");
     }
