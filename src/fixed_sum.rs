@@ -36,6 +36,24 @@ fn round_to_i64(v: f64) -> (i64, f64) {
     (as_int, shifted - MAGIC)
 }
 
+/// A term split into its two fixed-point words (see the module documentation).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Split {
+    high: i64,
+    low: i64,
+}
+
+impl Split {
+    /// The two words of `x` (|x| < 2^26; see [`FixedSum::representable`]).
+    #[inline(always)]
+    pub fn of(x: f64) -> Self {
+        let y = x * HIGH_SHIFT;
+        let (high, hf) = round_to_i64(y);
+        let (low, _) = round_to_i64((y - hf) * LOW_SHIFT);
+        Self { high, low }
+    }
+}
+
 /// A fixed-point accumulator.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct FixedSum {
@@ -59,11 +77,23 @@ impl FixedSum {
     /// Adds `x` (|x| < 2^26; see [`Self::representable`]).
     #[inline(always)]
     pub fn add(&mut self, x: f64) {
-        let y = x * HIGH_SHIFT;
-        let (h, hf) = round_to_i64(y);
-        let (l, _) = round_to_i64((y - hf) * LOW_SHIFT);
-        self.high = self.high.wrapping_add(h);
-        self.low = self.low.wrapping_add(l);
+        self.add_split(Split::of(x));
+    }
+
+    /// Adds a term split once with [`Split::of`].
+    #[inline(always)]
+    pub fn add_split(&mut self, s: Split) {
+        self.high = self.high.wrapping_add(s.high);
+        self.low = self.low.wrapping_add(s.low);
+    }
+
+    /// Subtracts a term split once with [`Split::of`]: the same bits as `add(-x)`, because the
+    /// rounding is symmetric (round(−y) = −round(y)), so a pair force split once serves both
+    /// ends of the pair.
+    #[inline(always)]
+    pub fn sub_split(&mut self, s: Split) {
+        self.high = self.high.wrapping_sub(s.high);
+        self.low = self.low.wrapping_sub(s.low);
     }
 
     /// Adds another accumulator.
@@ -191,6 +221,31 @@ mod tests {
         let before = big.value();
         big.normalize();
         assert_eq!(big.value(), before);
+    }
+
+    #[test]
+    fn subtracting_a_split_equals_adding_the_negative() {
+        let key = crate::rng::StreamKey::new(2, crate::rng::Purpose::Test, 9);
+        let (mut by_add, mut by_sub) = (FixedSum::ZERO, FixedSum::ZERO);
+        for i in 0..10_000u32 {
+            let (g, _) = key.gaussian2(0, i, 0);
+            // Include exact ties of the high-word rounding (multiples of 2^-25).
+            let x = if i % 7 == 0 {
+                f64::from(i as i32 - 5000) * 2f64.powi(-25)
+            } else {
+                g * 1e3
+            };
+            assert_eq!(Split::of(-x), {
+                let s = Split::of(x);
+                Split {
+                    high: -s.high,
+                    low: -s.low,
+                }
+            });
+            by_add.add(-x);
+            by_sub.sub_split(Split::of(x));
+        }
+        assert_eq!(by_add, by_sub);
     }
 
     #[test]

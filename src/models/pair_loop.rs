@@ -11,7 +11,7 @@
 //! An owned–ghost pair adds to the owned end only (the other end's rank adds its own half) and
 //! contributes ½ of its virial here.
 
-use crate::fixed_sum::FixedSum;
+use crate::fixed_sum::{FixedSum, Split};
 use crate::neighbour::NeighbourList;
 use crate::particles::Particles;
 use rayon::prelude::*;
@@ -170,10 +170,11 @@ pub fn compute_forces<const D: usize, K: PairKernel<D>>(
                     }
                     let owned_j = j < n_owned;
                     for d in 0..D {
-                        let fd = f * t.e[d];
-                        acc[i][d].add(fd);
+                        // Split once; the j end subtracts the same words (symmetric rounding).
+                        let fd = Split::of(f * t.e[d]);
+                        acc[i][d].add_split(fd);
                         if owned_j {
-                            acc[j][d].add(-fd);
+                            acc[j][d].sub_split(fd);
                         }
                     }
                     if want_virial {
