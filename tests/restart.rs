@@ -45,7 +45,9 @@ fn uninterrupted(text: &str) -> String {
 }
 
 fn attr_u64(path: &Path, name: &str) -> u64 {
-    let f = hdf5::File::open(path).expect("open checkpoint");
+    let f = mesorheo::output::h5_options()
+        .open(path)
+        .expect("open checkpoint");
     f.attr(name)
         .expect("attr")
         .read_scalar::<u64>()
@@ -71,7 +73,7 @@ fn restart_is_bitwise_in_2d_and_3d_and_on_other_rank_counts() {
             let ck = PathBuf::from(half.last_checkpoint.expect("checkpoint written"));
             assert_eq!(ck, out.join("checkpoints").join(checkpoint::file_name(60)));
             // The Lees–Edwards offset is non-zero at the checkpoint.
-            let f = hdf5::File::open(&ck).expect("open");
+            let f = mesorheo::output::h5_options().open(&ck).expect("open");
             let offset: f64 = f.attr("le_offset").unwrap().read_scalar().unwrap();
             assert!(offset.abs() > 0.1, "offset {offset}");
             let o = out.clone();
@@ -289,7 +291,7 @@ fn a_corrupt_or_truncated_checkpoint_is_refused_and_the_previous_one_used() {
             }
             _ => {
                 // A valid HDF5 file with one wrong number: only the checksum can tell.
-                let f = hdf5::File::open_rw(&newest).unwrap();
+                let f = mesorheo::output::h5_options().open_rw(&newest).unwrap();
                 let ds = f.dataset("particles/velocity").unwrap();
                 let mut v: Vec<f64> = ds.read_raw().unwrap();
                 v[7] += 1e-12;
@@ -336,6 +338,43 @@ fn a_corrupt_or_truncated_checkpoint_is_refused_and_the_previous_one_used() {
         );
         assert_eq!(rest.state_digest, whole, "{damage}");
     }
+}
+
+/// A lock on a checkpoint held through another open file description (what a child process
+/// forked while the file was being written inherits, since HDF5 opens files without
+/// close-on-exec) does not stop a restart from reading it: mesorheo opens its files without
+/// HDF5's advisory locks. This was the cause of a flaky fallback to an older checkpoint.
+#[test]
+fn a_checkpoint_locked_by_another_process_handle_is_still_read() {
+    let text = le_case(
+        2,
+        100,
+        "[output]\ncheckpoint_every = 50\ncheckpoint_at_end = false",
+    );
+    let whole = uninterrupted(&text);
+    let dir = tempfile::tempdir().expect("tempdir");
+    let out = dir.path().to_path_buf();
+    let loaded = case_from_str(&text, "locked");
+    let o = out.clone();
+    in_process(1, move |c| {
+        run_case(&loaded, c, &options(Some(&o), Some(50)))
+    })
+    .expect("run");
+    let ck = out.join("checkpoints").join(checkpoint::file_name(50));
+    let holder = std::fs::File::open(&ck).expect("open");
+    holder.lock().expect("exclusive flock");
+    let o = out.clone();
+    let n = ck.clone();
+    let rest = in_process(2, move |c| restart_case(&n, c, &options(Some(&o), None)))
+        .expect("restart from a checkpoint another handle has locked");
+    drop(holder);
+    assert_eq!(rest.restarted_from.as_deref(), ck.to_str());
+    assert!(
+        rest.warnings
+            .iter()
+            .all(|w| !w.starts_with("checkpoint refused"))
+    );
+    assert_eq!(rest.state_digest, whole);
 }
 
 fn binary(args: &[&str]) -> Command {

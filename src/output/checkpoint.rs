@@ -380,7 +380,8 @@ pub fn read_case(path: &Path) -> Result<Case, String> {
 
 /// The `format` attribute of a mesorheo HDF5 file (what kind of checkpoint it is).
 pub fn format_of(path: &Path) -> Result<String, String> {
-    let f = hdf5::File::open(path)
+    let f = super::h5_options()
+        .open(path)
         .map_err(|e| format!("{}: not a readable HDF5 file ({e})", path.display()))?;
     read_attr_str(&f, "/", "format")
         .map_err(|_| format!("{}: not a mesorheo checkpoint", path.display()))
@@ -392,7 +393,8 @@ fn open(path: &Path) -> Result<hdf5::File, String> {
 
 /// Opens a mesorheo HDF5 file and checks its `format` and `format_version` attributes.
 pub(crate) fn open_as(path: &Path, expected: &str, version: u64) -> Result<hdf5::File, String> {
-    let f = hdf5::File::open(path)
+    let f = super::h5_options()
+        .open(path)
         .map_err(|e| format!("{}: not a readable HDF5 file ({e})", path.display()))?;
     let format = read_attr_str(&f, "/", "format")
         .map_err(|_| format!("{}: not a mesorheo checkpoint", path.display()))?;

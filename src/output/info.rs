@@ -4,7 +4,8 @@ use hdf5::types::VarLenUnicode;
 
 /// A readable description of an HDF5 file written by mesorheo (or any HDF5 file).
 pub fn describe(path: &std::path::Path) -> Result<String, String> {
-    let f = hdf5::File::open(path)
+    let f = super::h5_options()
+        .open(path)
         .map_err(|e| format!("{}: not a readable HDF5 file ({e})", path.display()))?;
     let mut s = format!("{}\n", path.display());
     let root_attrs = f.attr_names().unwrap_or_default();

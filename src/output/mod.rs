@@ -8,6 +8,29 @@ pub mod shared_file;
 pub mod snapshot;
 
 use crate::comm::Comm;
+
+/// Options for every HDF5 file mesorheo opens: HDF5's advisory file locks (`flock`) off.
+///
+/// The locks protect nothing here and break things:
+/// - mesorheo never writes a published file in place. Checkpoints are written to `NAME.tmp`
+///   and renamed, and the ranks writing one file are coordinated by the collective protocol of
+///   [`shared_file::SharedFile`].
+/// - HDF5 opens files without close-on-exec. A process that forks while a file is open (a test
+///   harness or a workflow tool running mesorheo in-process) hands the writer's exclusive lock
+///   to the child. Until the child exits, a later read of the published file then fails with
+///   "unable to lock file, errno = 11". The restart test met exactly this.
+/// - On parallel file systems without `flock` (Lustre mounted without `-o flock`) every locked
+///   open fails. The usual workaround there is `HDF5_USE_FILE_LOCKING=FALSE`, which HDF5 still
+///   honours above this setting.
+///
+/// HDF5 refuses to open a file a second time in one process with other locking flags ("file
+/// locking flag values don't match"), so code that reads a mesorheo file while mesorheo may
+/// have it open in the same process (tests, tools) opens it through these options too.
+pub fn h5_options() -> hdf5::FileBuilder {
+    let mut builder = hdf5::File::with_options();
+    builder.with_fapl(|p| p.file_locking(false));
+    builder
+}
 use crate::domain::{id_block, redistribute, sort_by_id};
 use crate::particles::Particles;
 

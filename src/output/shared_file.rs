@@ -101,7 +101,7 @@ impl<'c> SharedFile<'c> {
     fn open_with(path: &Path, comm: &'c dyn Comm, create: bool) -> Result<Self, String> {
         #[cfg(feature = "mpi")]
         if let Some(raw) = comm.raw_mpi() {
-            let mut builder = hdf5::File::with_options();
+            let mut builder = super::h5_options();
             builder.with_fapl(|p| {
                 p.mpio(raw, None)
                     .all_coll_metadata_ops(true)
@@ -138,9 +138,9 @@ impl<'c> SharedFile<'c> {
         let mut error = None;
         let file = if comm.rank() == 0 {
             let f = if create {
-                hdf5::File::create(path)
+                super::h5_options().create(path)
             } else {
-                hdf5::File::open_rw(path)
+                super::h5_options().open_rw(path)
             };
             f.map_err(|e| error = Some(h5err(path, "cannot open for writing", e)))
                 .ok()
@@ -449,7 +449,8 @@ impl<'c> SharedFile<'c> {
     }
 
     fn write_pending(&mut self) -> Result<(), String> {
-        let f = hdf5::File::open_rw(&self.path)
+        let f = super::h5_options()
+            .open_rw(&self.path)
             .map_err(|e| h5err(&self.path, "cannot reopen for writing", e))?;
         for w in std::mem::take(&mut self.pending) {
             let (n, s, sh) = (&w.dataset, &w.start, &w.shape);

@@ -166,7 +166,8 @@ impl SnapshotWriter {
         let comm = sim.comm();
         // Every rank reads the frame steps (independent), then all truncate (collective).
         let frames = (|| -> Result<Vec<(u64, f64)>, String> {
-            let f = hdf5::File::open(&self.path)
+            let f = super::h5_options()
+                .open(&self.path)
                 .map_err(|e| format!("{}: cannot reopen: {e}", self.path.display()))?;
             // Frames every series holds completely (a crash between resizes leaves some longer).
             let mut len = usize::MAX;
@@ -226,7 +227,8 @@ impl SnapshotWriter {
     /// Whether some time series holds more than `len` frames (collective-safe: every rank reads
     /// the same file).
     fn has_longer_series(&self, len: usize) -> Result<bool, String> {
-        let f = hdf5::File::open(&self.path)
+        let f = super::h5_options()
+            .open(&self.path)
             .map_err(|e| format!("{}: cannot reopen: {e}", self.path.display()))?;
         for g in self.time_series() {
             for part in ["step", "time", "value"] {

@@ -84,7 +84,7 @@ pub fn h5_content(path: &Path) -> Vec<(String, Vec<usize>, Vec<u64>)> {
             }
         }
     }
-    let f = hdf5::File::open(path).expect("open");
+    let f = mesorheo::output::h5_options().open(path).expect("open");
     let mut out = Vec::new();
     walk(&f, "", &mut out);
     out
