@@ -153,9 +153,10 @@ pub fn integrated_autocorrelation_time(series: &[f64]) -> f64 {
 /// keeps the standard error within ~10 % (Flyvbjerg & Petersen, J. Chem. Phys. 91, 461 (1989)).
 pub const BLOCK_CORRELATION_TIMES: f64 = 10.0;
 
-/// Warnings for the scalar series (but the conserved momentum) whose blocks (of `len / blocks` samples) are shorter than
-/// [`BLOCK_CORRELATION_TIMES`] integrated autocorrelation times; each names the observable,
-/// τ_int, the block length, the error a τ_int estimate gives, and what to change.
+/// Warnings for the scalar series (except the conserved momentum) whose blocks, of
+/// `len / blocks` samples, are shorter than [`BLOCK_CORRELATION_TIMES`] integrated
+/// autocorrelation times. Each names the observable, τ_int, the block length, the error a τ_int
+/// estimate gives, and what to change.
 pub fn block_warnings(scalars: &BTreeMap<String, Vec<f64>>, blocks: usize) -> Vec<String> {
     let mut out = Vec::new();
     for (name, series) in scalars {
