@@ -106,6 +106,10 @@ pub fn restart_candidates(path: &Path) -> Vec<PathBuf> {
     }
 }
 
+/// How a summary warning about a checkpoint that a restart refused (and replaced by an older
+/// one) begins; the path and the reason follow.
+pub const CHECKPOINT_REFUSED: &str = "checkpoint refused, an older one used";
+
 /// Continues a run from a checkpoint (collective). A checkpoint that cannot be read or fails
 /// its checksum is reported and the previous one in the same directory is used instead.
 pub fn restart_case(
@@ -146,11 +150,9 @@ pub fn restart_case(
             match attempt {
                 Ok(mut summary) => {
                     // The run continued from an older checkpoint than asked for: say why.
-                    summary.warnings.extend(
-                        refused
-                            .iter()
-                            .map(|e| format!("checkpoint refused, an older one used: {e}")),
-                    );
+                    summary
+                        .warnings
+                        .extend(refused.iter().map(|e| format!("{CHECKPOINT_REFUSED}: {e}")));
                     return Ok(summary);
                 }
                 Err(Restart::Failed(e)) => return Err(e),

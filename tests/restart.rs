@@ -9,10 +9,11 @@
 mod common;
 use common::{case_from_str, small_dpd};
 use mesorheo::comm::Comm;
-use mesorheo::driver::{RunOptions, in_process, restart_case, run_case};
+use mesorheo::driver::{CHECKPOINT_REFUSED, RunOptions, in_process, restart_case, run_case};
 use mesorheo::output::checkpoint;
 use mesorheo::particles::Particles;
 use mesorheo::sim::{Simulation, StateModel};
+use mesorheo::summary::Summary;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -44,6 +45,26 @@ fn uninterrupted(text: &str) -> String {
         .state_digest
 }
 
+/// Runs `text` on `ranks` in-process ranks with output into `out`, stopping cleanly (with a
+/// checkpoint) at step `until`.
+fn run_until(text: &str, ranks: usize, out: &Path, until: u64) -> Summary {
+    let loaded = case_from_str(text, "first part");
+    let o = out.to_path_buf();
+    in_process(ranks, move |c| {
+        run_case(&loaded, c, &options(Some(&o), Some(until)))
+    })
+    .expect("first part of the run")
+}
+
+/// Restarts from `checkpoint` (a file or a directory) on `ranks` in-process ranks with output
+/// into `out`, to the end of the run.
+fn restart_into(checkpoint: &Path, ranks: usize, out: &Path) -> Result<Summary, String> {
+    let (ck, o) = (checkpoint.to_path_buf(), out.to_path_buf());
+    in_process(ranks, move |c| {
+        restart_case(&ck, c, &options(Some(&o), None))
+    })
+}
+
 fn attr_u64(path: &Path, name: &str) -> u64 {
     let f = mesorheo::output::h5_options()
         .open(path)
@@ -62,12 +83,7 @@ fn restart_is_bitwise_in_2d_and_3d_and_on_other_rank_counts() {
         for (first, second) in [(1, 1), (2, 1), (1, 2), (1, 3)] {
             let dir = tempfile::tempdir().expect("tempdir");
             let out = dir.path().to_path_buf();
-            let loaded = case_from_str(&text, "first half");
-            let o = out.clone();
-            let half = in_process(first, move |c| {
-                run_case(&loaded, c, &options(Some(&o), Some(60)))
-            })
-            .expect("first half");
+            let half = run_until(&text, first, &out, 60);
             assert!(!half.completed);
             assert_eq!(half.steps, 60);
             let ck = PathBuf::from(half.last_checkpoint.expect("checkpoint written"));
@@ -76,11 +92,7 @@ fn restart_is_bitwise_in_2d_and_3d_and_on_other_rank_counts() {
             let f = mesorheo::output::h5_options().open(&ck).expect("open");
             let offset: f64 = f.attr("le_offset").unwrap().read_scalar().unwrap();
             assert!(offset.abs() > 0.1, "offset {offset}");
-            let o = out.clone();
-            let rest = in_process(second, move |c| {
-                restart_case(&o.join("checkpoints"), c, &options(Some(&o), None))
-            })
-            .expect("second half");
+            let rest = restart_into(&out.join("checkpoints"), second, &out).expect("second half");
             assert!(rest.completed);
             assert_eq!(rest.steps, 120);
             assert_eq!(
@@ -103,19 +115,12 @@ fn restart_between_neighbour_list_builds_is_bitwise() {
     for stop in 41..=50u64 {
         let dir = tempfile::tempdir().expect("tempdir");
         let out = dir.path().to_path_buf();
-        let loaded = case_from_str(&text, "first");
-        let o = out.clone();
-        in_process(2, move |c| {
-            run_case(&loaded, c, &options(Some(&o), Some(stop)))
-        })
-        .expect("first");
+        run_until(&text, 2, &out, stop);
         let ck = out.join("checkpoints").join(checkpoint::file_name(stop));
         if attr_u64(&ck, "rebuild_step") != stop {
             between += 1;
         }
-        let o = out.clone();
-        let rest = in_process(1, move |c| restart_case(&ck, c, &options(Some(&o), None)))
-            .expect("restart");
+        let rest = restart_into(&ck, 1, &out).expect("restart");
         assert_eq!(rest.state_digest, whole, "checkpoint at step {stop}");
     }
     assert!(
@@ -271,12 +276,7 @@ fn a_corrupt_or_truncated_checkpoint_is_refused_and_the_previous_one_used() {
     for damage in ["truncate", "flip"] {
         let dir = tempfile::tempdir().expect("tempdir");
         let out = dir.path().to_path_buf();
-        let loaded = case_from_str(&text, "ck");
-        let o = out.clone();
-        in_process(1, move |c| {
-            run_case(&loaded, c, &options(Some(&o), Some(150)))
-        })
-        .expect("run");
+        run_until(&text, 1, &out, 150);
         let cks = out.join("checkpoints");
         let newest = cks.join(checkpoint::file_name(150));
         assert!(cks.join(checkpoint::file_name(100)).exists());
@@ -311,10 +311,7 @@ fn a_corrupt_or_truncated_checkpoint_is_refused_and_the_previous_one_used() {
         let expect = if damage == "flip" { "checksum" } else { "HDF5" };
         assert!(err.contains(expect), "{damage}: {err}");
         // …and the restart falls back to step 100 and still ends in the uninterrupted state.
-        let o = out.clone();
-        let n = newest.clone();
-        let rest = in_process(2, move |c| restart_case(&n, c, &options(Some(&o), None)))
-            .expect("restart from the previous checkpoint");
+        let rest = restart_into(&newest, 2, &out).expect("restart from the previous checkpoint");
         // The damaged file is kept for inspection under another name, out of the way.
         assert!(newest.with_extension("h5.corrupt").exists());
         assert_eq!(
@@ -327,7 +324,7 @@ fn a_corrupt_or_truncated_checkpoint_is_refused_and_the_previous_one_used() {
         let refusals: Vec<&String> = rest
             .warnings
             .iter()
-            .filter(|w| w.starts_with("checkpoint refused"))
+            .filter(|w| w.starts_with(CHECKPOINT_REFUSED))
             .collect();
         assert!(
             refusals.len() == 1
@@ -354,25 +351,18 @@ fn a_checkpoint_locked_by_another_process_handle_is_still_read() {
     let whole = uninterrupted(&text);
     let dir = tempfile::tempdir().expect("tempdir");
     let out = dir.path().to_path_buf();
-    let loaded = case_from_str(&text, "locked");
-    let o = out.clone();
-    in_process(1, move |c| {
-        run_case(&loaded, c, &options(Some(&o), Some(50)))
-    })
-    .expect("run");
+    run_until(&text, 1, &out, 50);
     let ck = out.join("checkpoints").join(checkpoint::file_name(50));
     let holder = std::fs::File::open(&ck).expect("open");
     holder.lock().expect("exclusive flock");
-    let o = out.clone();
-    let n = ck.clone();
-    let rest = in_process(2, move |c| restart_case(&n, c, &options(Some(&o), None)))
-        .expect("restart from a checkpoint another handle has locked");
+    let rest =
+        restart_into(&ck, 2, &out).expect("restart from a checkpoint another handle has locked");
     drop(holder);
     assert_eq!(rest.restarted_from.as_deref(), ck.to_str());
     assert!(
         rest.warnings
             .iter()
-            .all(|w| !w.starts_with("checkpoint refused"))
+            .all(|w| !w.starts_with(CHECKPOINT_REFUSED))
     );
     assert_eq!(rest.state_digest, whole);
 }
@@ -518,11 +508,7 @@ fn restart_with_more_steps_extends_the_run_and_remembers_it() {
     assert!(!part.completed);
     assert_eq!(part.steps, 120);
     // … and the next plain restart still knows the run now ends at 150.
-    let o = out.clone();
-    let rest = in_process(1, move |c| {
-        restart_case(&o.join("checkpoints"), c, &options(Some(&o), None))
-    })
-    .expect("finish");
+    let rest = restart_into(&out.join("checkpoints"), 1, &out).expect("finish");
     assert!(rest.completed);
     assert_eq!(rest.steps, 150);
     assert_eq!(rest.state_digest, longer);
