@@ -53,8 +53,18 @@ fn dpd(c: &mut Criterion) {
     let radius = sim.list.radius;
     let mut group = c.benchmark_group("dpd_32k");
     group.sample_size(10);
-    group.bench_function("neighbour list build (32k + ghosts)", |b| {
-        b.iter(|| black_box(NeighbourList::build(&sim.particles, radius).len()))
+    group.bench_function("neighbour list build (32k + ghosts, 1 thread)", |b| {
+        let one = rayon::ThreadPoolBuilder::new()
+            .num_threads(1)
+            .build()
+            .expect("a one-thread pool");
+        b.iter(|| one.install(|| black_box(NeighbourList::build(&sim.particles, radius).len())))
+    });
+    group.bench_function("pair forces (1 thread)", |b| {
+        b.iter(|| sim.recompute_forces(false).expect("forces"))
+    });
+    group.bench_function("pair forces with virial (1 thread)", |b| {
+        b.iter(|| sim.recompute_forces(true).expect("forces"))
     });
     group.bench_function("one time step (1 thread)", |b| {
         b.iter(|| sim.advance().expect("step"))

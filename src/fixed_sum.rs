@@ -44,6 +44,9 @@ pub struct Split {
 }
 
 impl Split {
+    /// The words of zero.
+    pub const ZERO: Self = Self { high: 0, low: 0 };
+
     /// The two words of `x` (|x| < 2^26; see [`FixedSum::representable`]).
     #[inline(always)]
     pub fn of(x: f64) -> Self {

@@ -28,5 +28,6 @@ pub mod output;
 pub mod particles;
 pub mod rng;
 pub mod sim;
+pub mod simd;
 pub mod stability;
 pub mod summary;

@@ -13,6 +13,7 @@
 //! within r_c.
 
 use crate::particles::Particles;
+use crate::simd::Isa;
 use rayon::prelude::*;
 
 /// The Verlet pair list of this rank.
@@ -178,6 +179,11 @@ impl<const D: usize> NeighbourList<D> {
     /// 5^D stencil (rows whose last non-zero offset is positive, plus the later particles of
     /// its own row) and the ghosts of the whole stencil; ghost–ghost pairs are never examined.
     pub fn build(particles: &Particles<D>, radius: f64) -> Self {
+        Self::build_on(Isa::current(), particles, radius)
+    }
+
+    /// [`Self::build`] with the instruction set given: the same list on every one.
+    pub fn build_on(isa: Isa, particles: &Particles<D>, radius: f64) -> Self {
         let n_owned = particles.n_owned;
         let pos = &particles.pos;
         // A hair wider than r_list / 2, so that rounding in the binning can never put a pair
@@ -186,7 +192,6 @@ impl<const D: usize> NeighbourList<D> {
         let owned = geom.bin(&pos[..n_owned], 0);
         let ghosts = geom.bin(&pos[n_owned..], n_owned as u32);
         let r2 = radius * radius;
-        let nx = geom.ncell[0];
         // Row offsets over the axes 1..D, each in −2..=2.
         let mut rows: Vec<([isize; D], bool)> = Vec::new();
         for s in 0..5usize.pow(D as u32 - 1) {
@@ -200,66 +205,26 @@ impl<const D: usize> NeighbourList<D> {
             rows.push((o, forward));
         }
         let total_cells = geom.total();
+        let scan = Scan {
+            geom: &geom,
+            owned: &owned,
+            ghosts: &ghosts,
+            rows: &rows,
+            r2,
+        };
+        let avx2 = isa.has_avx2();
         const CHUNK: usize = 256;
         let chunks: Vec<Vec<[u32; 2]>> = (0..total_cells.div_ceil(CHUNK))
             .into_par_iter()
             .map(|chunk| {
-                let mut pairs: Vec<[u32; 2]> = Vec::new();
-                // Slices (begin, end) of the owned and of the ghost list to scan.
-                let mut o_rows: Vec<(usize, usize)> = Vec::with_capacity(rows.len());
-                let mut g_rows: Vec<(usize, usize)> = Vec::with_capacity(rows.len());
                 let cells = chunk * CHUNK..((chunk + 1) * CHUNK).min(total_cells);
-                for c in cells {
-                    let (a, b) = (owned.start[c], owned.start[c + 1]);
-                    if a == b {
-                        continue;
-                    }
-                    let coords = geom.unflat(c);
-                    let mut lo = coords;
-                    let mut hi = coords;
-                    lo[0] = coords[0].saturating_sub(2);
-                    hi[0] = (coords[0] + 2).min(nx - 1);
-                    o_rows.clear();
-                    g_rows.clear();
-                    let own_end = owned.start[geom.flat(&hi) + 1];
-                    'rows: for (o, forward) in &rows {
-                        for d in 1..D {
-                            let x = coords[d] as isize + o[d];
-                            if x < 0 || x >= geom.ncell[d] as isize {
-                                continue 'rows;
-                            }
-                            lo[d] = x as usize;
-                            hi[d] = x as usize;
-                        }
-                        let (f0, f1) = (geom.flat(&lo), geom.flat(&hi) + 1);
-                        if *forward && owned.start[f0] < owned.start[f1] {
-                            o_rows.push((owned.start[f0], owned.start[f1]));
-                        }
-                        if ghosts.start[f0] < ghosts.start[f1] {
-                            g_rows.push((ghosts.start[f0], ghosts.start[f1]));
-                        }
-                    }
-                    for ia in a..b {
-                        let i = owned.sorted[ia];
-                        let pi: [f64; D] = std::array::from_fn(|d| owned.pos[d][ia]);
-                        let pi = &pi;
-                        let count = (own_end - ia - 1)
-                            + o_rows.iter().map(|r| r.1 - r.0).sum::<usize>()
-                            + g_rows.iter().map(|r| r.1 - r.0).sum::<usize>();
-                        let mut len = pairs.len();
-                        pairs.resize(len + count, [0, 0]);
-                        let out = &mut pairs[..];
-                        len = candidates(pi, i, &owned, ia + 1, own_end, r2, out, len);
-                        for &(s, e) in &o_rows {
-                            len = candidates(pi, i, &owned, s, e, r2, out, len);
-                        }
-                        for &(s, e) in &g_rows {
-                            len = candidates(pi, i, &ghosts, s, e, r2, out, len);
-                        }
-                        pairs.truncate(len);
-                    }
+                #[cfg(target_arch = "x86_64")]
+                if avx2 {
+                    // SAFETY: an `Isa` has AVX2 only when the CPU reports it (`Isa::avx2`),
+                    // the one requirement of this target-feature function.
+                    return unsafe { scan_cells_avx2(&scan, cells) };
                 }
-                pairs
+                scan_cells(&scan, cells)
             })
             .collect();
         // Concatenated in chunk order, the copies in parallel.
@@ -303,6 +268,91 @@ impl<const D: usize> NeighbourList<D> {
     pub fn is_empty(&self) -> bool {
         self.pairs.is_empty()
     }
+}
+
+/// What the scan of the cells needs: the grid, the two binned lists, the stencil rows and r_list².
+struct Scan<'a, const D: usize> {
+    geom: &'a GridGeometry<D>,
+    owned: &'a Binned<D>,
+    ghosts: &'a Binned<D>,
+    /// Row offsets over the axes 1..D and whether the row is in the forward half.
+    rows: &'a [([isize; D], bool)],
+    r2: f64,
+}
+
+/// [`scan_cells`] compiled for AVX2 (no FMA: the same operations, so the same list).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn scan_cells_avx2<const D: usize>(scan: &Scan<D>, cells: std::ops::Range<usize>) -> Vec<[u32; 2]> {
+    scan_cells(scan, cells)
+}
+
+/// The pairs whose owned end lies in one of `cells` (see [`NeighbourList::build`]).
+#[inline(always)]
+fn scan_cells<const D: usize>(scan: &Scan<D>, cells: std::ops::Range<usize>) -> Vec<[u32; 2]> {
+    let Scan {
+        geom,
+        owned,
+        ghosts,
+        rows,
+        r2,
+    } = *scan;
+    let nx = geom.ncell[0];
+    let mut pairs: Vec<[u32; 2]> = Vec::new();
+    // Slices (begin, end) of the owned and of the ghost list to scan.
+    let mut o_rows: Vec<(usize, usize)> = Vec::with_capacity(rows.len());
+    let mut g_rows: Vec<(usize, usize)> = Vec::with_capacity(rows.len());
+    for c in cells {
+        let (a, b) = (owned.start[c], owned.start[c + 1]);
+        if a == b {
+            continue;
+        }
+        let coords = geom.unflat(c);
+        let mut lo = coords;
+        let mut hi = coords;
+        lo[0] = coords[0].saturating_sub(2);
+        hi[0] = (coords[0] + 2).min(nx - 1);
+        o_rows.clear();
+        g_rows.clear();
+        let own_end = owned.start[geom.flat(&hi) + 1];
+        'rows: for (o, forward) in rows {
+            for d in 1..D {
+                let x = coords[d] as isize + o[d];
+                if x < 0 || x >= geom.ncell[d] as isize {
+                    continue 'rows;
+                }
+                lo[d] = x as usize;
+                hi[d] = x as usize;
+            }
+            let (f0, f1) = (geom.flat(&lo), geom.flat(&hi) + 1);
+            if *forward && owned.start[f0] < owned.start[f1] {
+                o_rows.push((owned.start[f0], owned.start[f1]));
+            }
+            if ghosts.start[f0] < ghosts.start[f1] {
+                g_rows.push((ghosts.start[f0], ghosts.start[f1]));
+            }
+        }
+        for ia in a..b {
+            let i = owned.sorted[ia];
+            let pi: [f64; D] = std::array::from_fn(|d| owned.pos[d][ia]);
+            let pi = &pi;
+            let count = (own_end - ia - 1)
+                + o_rows.iter().map(|r| r.1 - r.0).sum::<usize>()
+                + g_rows.iter().map(|r| r.1 - r.0).sum::<usize>();
+            let mut len = pairs.len();
+            pairs.resize(len + count, [0, 0]);
+            let out = &mut pairs[..];
+            len = candidates(pi, i, owned, ia + 1, own_end, r2, out, len);
+            for &(s, e) in &o_rows {
+                len = candidates(pi, i, owned, s, e, r2, out, len);
+            }
+            for &(s, e) in &g_rows {
+                len = candidates(pi, i, ghosts, s, e, r2, out, len);
+            }
+            pairs.truncate(len);
+        }
+    }
+    pairs
 }
 
 /// Writes the pairs `[i, j]` of particle `i` (at `pi`) with the particles `s..e` of `cells`

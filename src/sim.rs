@@ -362,6 +362,12 @@ impl<'c, const D: usize> Simulation<'c, D> {
         Ok(())
     }
 
+    /// Evaluates the forces (and the virial when asked) again at the current step, leaving the
+    /// state as it was: what the pair-force benchmark times.
+    pub fn recompute_forces(&mut self, want_virial: bool) -> Result<(), String> {
+        self.compute_forces(want_virial)
+    }
+
     /// Forces (and the virial when asked) at the current step; collective, so a blown-up pair
     /// on any rank stops every rank with the same error.
     fn compute_forces(&mut self, want_virial: bool) -> Result<(), String> {

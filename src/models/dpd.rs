@@ -15,7 +15,7 @@
 //! With s = 2 this is standard DPD; s = 1/2 is the thesis's "modified" weight.
 
 use crate::config::DpdCfg;
-use crate::models::pair_loop::{PairKernel, PairTerms};
+use crate::models::pair_loop::{BATCH, BlockTerms, PairBlock, PairKernel, PairTerms};
 use crate::rng::{HashStream, Purpose};
 use serde::{Deserialize, Serialize};
 
@@ -101,6 +101,57 @@ impl<const D: usize> PairKernel<D> for Dpd {
     /// The hash-stream prefix of (seed, purpose, step).
     fn step_key(&self, step: u64) -> u64 {
         HashStream::prefix(self.seed, Purpose::DpdPair, step)
+    }
+
+    /// The block form of [`PairKernel::eval_keyed`], the same operations in the same order per
+    /// pair (so the same bits), arranged in passes over arrays that the compiler vectorises:
+    /// geometry and weights, then the noise (scalar: a hash and the ziggurat), then the forces.
+    /// Always inlined, so that it is compiled for the caller's instruction set.
+    #[inline(always)]
+    fn eval_block(&self, block: &PairBlock<D>, step_key: u64, out: &mut BlockTerms<D>) {
+        let n = block.len;
+        let c2 = self.cutoff * self.cutoff;
+        let mut w_r = [0.0; BATCH];
+        let mut ev = [0.0; BATCH];
+        for k in 0..n {
+            let mut r2 = 0.0;
+            for d in 0..D {
+                r2 += block.r[d][k] * block.r[d][k];
+            }
+            out.valid[k] = !(r2 >= c2 || r2 == 0.0);
+            let r = r2.sqrt();
+            let inv_r = 1.0 / r;
+            let mut dot = 0.0;
+            for d in 0..D {
+                let e = block.r[d][k] * inv_r;
+                out.e[d][k] = e;
+                dot += e * block.v[d][k];
+            }
+            ev[k] = dot;
+            out.r[k] = r;
+            let w = 1.0 - r * self.inv_cutoff;
+            out.parts[0][k] = self.a * w;
+            w_r[k] = w;
+        }
+        if self.weight_exponent != 2.0 {
+            for w in &mut w_r[..n] {
+                *w = w.powf(0.5 * self.weight_exponent);
+            }
+        }
+        let mut theta = [0.0; BATCH];
+        for (t, &(a, b)) in theta[..n].iter_mut().zip(&block.ids[..n]) {
+            let (lo, hi) = if a < b { (a, b) } else { (b, a) };
+            let mut stream = HashStream::from_prefix(step_key, lo, hi);
+            *t = match self.noise {
+                Noise::Gaussian => stream.normal(),
+                Noise::Uniform => SQRT_3 * (2.0 * stream.uniform() - 1.0),
+            };
+        }
+        for k in 0..n {
+            let w_d = w_r[k] * w_r[k];
+            out.parts[1][k] = -self.gamma * w_d * ev[k];
+            out.parts[2][k] = self.sigma_over_sqrt_dt * w_r[k] * theta[k];
+        }
     }
 
     #[inline]
