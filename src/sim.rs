@@ -25,6 +25,7 @@ use crate::models::pair_loop::{PairWorkspace, Virial, compute_forces};
 use crate::neighbour::{NeighbourList, spatial_order};
 use crate::particles::Particles;
 use crate::rng::{Purpose, StreamKey};
+use crate::simd::Isa;
 use rayon::prelude::*;
 use std::time::{Duration, Instant};
 
@@ -382,6 +383,7 @@ impl<'c, const D: usize> Simulation<'c, D> {
         );
         let virial = self.pool.install(|| {
             compute_forces(
+                Isa::current(),
                 dpd,
                 particles,
                 list,

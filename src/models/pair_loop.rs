@@ -315,30 +315,9 @@ fn evaluate_chunk<const D: usize, K: PairKernel<D>>(
 
 /// Evaluates all listed pairs and writes the force on every owned particle into `force`;
 /// returns the virial when asked, or an error if a pair force is not finite (a blown-up run).
-pub fn compute_forces<const D: usize, K: PairKernel<D>>(
-    kernel: &K,
-    particles: &Particles<D>,
-    list: &NeighbourList<D>,
-    step: u64,
-    workspace: &mut PairWorkspace<D>,
-    force: &mut [[f64; D]],
-    want_virial: bool,
-) -> Result<Option<Virial>, String> {
-    compute_forces_on(
-        Isa::current(),
-        kernel,
-        particles,
-        list,
-        step,
-        workspace,
-        force,
-        want_virial,
-    )
-}
-
-/// [`compute_forces`] with the instruction set given: the same bits on every one.
+/// `isa` (normally [`Isa::current`]) picks the compiled version; every one gives the same bits.
 #[allow(clippy::too_many_arguments)]
-pub fn compute_forces_on<const D: usize, K: PairKernel<D>>(
+pub fn compute_forces<const D: usize, K: PairKernel<D>>(
     isa: Isa,
     kernel: &K,
     particles: &Particles<D>,
@@ -471,7 +450,7 @@ mod tests {
             let list = NeighbourList::build_on(isa, &p, 1.5);
             let mut force = vec![[0.0; D]; p.n_owned];
             let mut ws = PairWorkspace::default();
-            let virial = compute_forces_on(isa, &dpd, &p, &list, 3, &mut ws, &mut force, true)
+            let virial = compute_forces(isa, &dpd, &p, &list, 3, &mut ws, &mut force, true)
                 .expect("finite forces")
                 .expect("virial asked for");
             (list.pairs, force, virial)
