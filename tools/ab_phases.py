@@ -21,7 +21,7 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 
 def run(binary, case, out):
-    subprocess.run([binary, "run", case, "--out", out, "--threads", "1", "-q"],
+    subprocess.run([os.path.abspath(binary), "run", case, "--out", out, "--threads", "1", "-q"],
                    check=True, capture_output=True)
     with open(os.path.join(out, "summary.json")) as f:
         s = json.load(f)
