@@ -34,14 +34,7 @@ pub fn report(case: &Case, ranks: usize) -> String {
         s.push_str(&t);
         s.push('\n');
     };
-    line(format!(
-        "case: {}",
-        if case.title.is_empty() {
-            "(untitled)"
-        } else {
-            &case.title
-        }
-    ));
+    line(title_line(&case.title));
     line(format!(
         "particles: {n} ({}; lattice cells {:?}), number density {density:.4} (asked {})",
         format!("{:?}", case.particles.lattice).to_lowercase(),
@@ -153,14 +146,7 @@ pub fn flow_report(case: &crate::config::FlowCase, ranks: usize) -> (String, Res
         s.push_str(&t);
         s.push('\n');
     };
-    line(format!(
-        "case: {}",
-        if case.title.is_empty() {
-            "(untitled)"
-        } else {
-            &case.title
-        }
-    ));
+    line(title_line(&case.title));
     line(format!(
         "homogeneous flow: {:?}, rate {} ({}D); Weissenberg number Wi = rate × λ = {:.4}",
         case.flow.kind,
@@ -231,4 +217,14 @@ pub fn flow_report(case: &crate::config::FlowCase, ranks: usize) -> (String, Res
         _ => Ok(()),
     };
     (s, verdict)
+}
+
+/// The first line of every `check` report: the case's title.
+fn title_line(title: &str) -> String {
+    let title = if title.is_empty() {
+        "(untitled)"
+    } else {
+        title
+    };
+    format!("case: {title}")
 }

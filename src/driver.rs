@@ -237,14 +237,7 @@ fn restore_and_drive<const D: usize>(
         r.series,
     )
     .map_err(Restart::Failed)?;
-    if comm.rank() == 0 {
-        tracing::info!(
-            "restarted from {} at step {} on {} rank(s)",
-            path.display(),
-            r.step,
-            comm.size()
-        );
-    }
+    log_restart(comm, path, r.step);
     drive(sim, loaded, Some(path), comm, options, threads).map_err(Restart::Failed)
 }
 
@@ -576,4 +569,15 @@ pub fn run_in_process(
             },
         )
     })
+}
+
+/// Rank 0's log line after a restart has read its checkpoint.
+pub(crate) fn log_restart(comm: &dyn Comm, path: &Path, step: u64) {
+    if comm.rank() == 0 {
+        tracing::info!(
+            "restarted from {} at step {step} on {} rank(s)",
+            path.display(),
+            comm.size()
+        );
+    }
 }

@@ -186,14 +186,7 @@ fn restore<const D: usize>(
         r.control,
     )
     .map_err(Restart::Failed)?;
-    if comm.rank() == 0 {
-        tracing::info!(
-            "restarted from {} at step {} on {} rank(s)",
-            path.display(),
-            r.step,
-            comm.size()
-        );
-    }
+    crate::driver::log_restart(comm, path, r.step);
     drive(
         e,
         case,

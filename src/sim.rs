@@ -52,6 +52,19 @@ pub struct PhaseTimes {
     pub rebuilds: u64,
 }
 
+/// This rank's `threads` rayon workers (0: all cores it may use). Collective: a rank that
+/// cannot start its threads stops every rank, so none waits for it in a later collective.
+pub fn worker_pool(comm: &dyn Comm, threads: usize) -> Result<rayon::ThreadPool, String> {
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build();
+    let mut failed = [if pool.is_err() { 1.0 } else { 0.0 }];
+    comm.allreduce_max(&mut failed);
+    match pool {
+        Err(e) => Err(format!("cannot start {threads} worker threads: {e}")),
+        Ok(_) if failed[0] > 0.0 => Err("another rank could not start its worker threads".into()),
+        Ok(p) => Ok(p),
+    }
+}
+
 /// A running simulation on one rank.
 pub struct Simulation<'c, const D: usize> {
     /// The case.
@@ -230,17 +243,7 @@ impl<'c, const D: usize> Simulation<'c, D> {
         let IntegratorCfg::GrootWarren(gw) = &case.integrator;
         let FluidCfg::Dpd(d) = &case.fluid;
         let dpd = Dpd::new(d, gw.dt, case.seed);
-        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build();
-        // Collective: a rank that cannot start its threads stops every rank.
-        let mut failed = [if pool.is_err() { 1.0 } else { 0.0 }];
-        comm.allreduce_max(&mut failed);
-        let pool = match pool {
-            Err(e) => return Err(format!("cannot start {threads} worker threads: {e}")),
-            Ok(_) if failed[0] > 0.0 => {
-                return Err("another rank could not start its worker threads".into());
-            }
-            Ok(p) => p,
-        };
+        let pool = worker_pool(comm, threads)?;
         Ok(Simulation {
             case: case.clone(),
             comm,

@@ -130,7 +130,9 @@ def viscometric():
                 dev = (m - exact) / e if e > 0 else (0.0 if abs(m - exact) < 1e-12 else float("inf"))
                 ok &= abs(dev) <= 3
                 three_sigma_ok &= 3 * e <= 0.01 * scale
-                row += [f"{m / scale:.4f} ± {e / scale:.4f}", f"{dev:+.1f}"]
+                # Ψ₂ is ≈ 0 with error bars far below 10⁻⁴: scientific notation shows them.
+                fmt = ".2e" if exact == 0.0 else ".4f"
+                row += [f"{m / scale:{fmt}} ± {e / scale:{fmt}}", f"{dev:+.1f}"]
             ok &= three_sigma_ok
             row += ["yes" if three_sigma_ok else "**no**", f"{s['wall_seconds']:.0f}"]
             print("| " + " | ".join(row) + " |")

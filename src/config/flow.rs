@@ -22,7 +22,7 @@
 //! ```
 
 use super::spans::{Segment, SpanIndex};
-use super::{CaseError, Metric, OutputCfg, ReferenceCfg, RunCfg};
+use super::{CaseError, OutputCfg, ReferenceCfg, RunCfg};
 use crate::models::dumbbells::{DumbbellParams, Scheme, Spring};
 use crate::models::homogeneous_flow::Flow;
 use serde::{Deserialize, Serialize};
@@ -501,31 +501,7 @@ pub fn validate(case: &FlowCase, ix: &SpanIndex) -> Result<(), CaseError> {
         let at = |key: &str| vec![k("reference"), Segment::Index(i), k(key)];
         match rf {
             ReferenceCfg::Value(v) => {
-                if !scalars.iter().any(|s| s == &v.observable) {
-                    return Err(ix.error(
-                        &at("observable"),
-                        format!(
-                            "found \"{}\", which this scene does not measure; measured here: {}",
-                            v.observable,
-                            scalars.join(", ")
-                        ),
-                    ));
-                }
-                if !(v.tolerance.is_finite() && v.tolerance > 0.0) {
-                    return Err(ix.error(
-                        &at("tolerance"),
-                        format!("found {}; must be > 0", v.tolerance),
-                    ));
-                }
-                if !v.value.is_finite() || (v.metric == Metric::RelativeError && v.value == 0.0) {
-                    return Err(ix.error(
-                        &at("value"),
-                        format!(
-                            "found {}; must be finite (and ≠ 0 for a relative error)",
-                            v.value
-                        ),
-                    ));
-                }
+                super::validate::validate_value_reference(v, i, &scalars, "scene", ix)?;
             }
             ReferenceCfg::LinearShearProfile(_) => {
                 return Err(ix.error(

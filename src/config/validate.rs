@@ -343,35 +343,7 @@ pub fn validate(case: &Case, ix: &SpanIndex) -> Result<(), CaseError> {
         let at = |key: &str| vec![k("reference"), Segment::Index(i), k(key)];
         match rf {
             ReferenceCfg::Value(v) => {
-                if !scalars.iter().any(|s| s == &v.observable) {
-                    let valid = if scalars.is_empty() {
-                        "none — add the observable to diagnostics.observables".to_owned()
-                    } else {
-                        scalars.join(", ")
-                    };
-                    return Err(ix.error(
-                        &at("observable"),
-                        format!(
-                            "found \"{}\", which this case does not measure; measured here: {valid}",
-                            v.observable
-                        ),
-                    ));
-                }
-                if !(v.tolerance.is_finite() && v.tolerance > 0.0) {
-                    return Err(ix.error(
-                        &at("tolerance"),
-                        format!("found {}; must be > 0", v.tolerance),
-                    ));
-                }
-                if !v.value.is_finite() || (v.metric == Metric::RelativeError && v.value == 0.0) {
-                    return Err(ix.error(
-                        &at("value"),
-                        format!(
-                            "found {}; must be finite (and ≠ 0 for a relative error)",
-                            v.value
-                        ),
-                    ));
-                }
+                validate_value_reference(v, i, &scalars, "case", ix)?;
             }
             ReferenceCfg::LinearShearProfile(pr) => {
                 if shear == 0.0 || !case.wants(Observable::VelocityProfile) {
@@ -446,6 +418,49 @@ pub(super) fn validate_run(r: &RunCfg, blocks: usize, ix: &SpanIndex) -> Result<
                 blocks
             ),
         );
+    }
+    Ok(())
+}
+
+/// Checks a `kind = "value"` reference (entry `i` of `[[reference]]`): its observable is one of
+/// the `scalars` this `what` ("case", "scene") measures, its tolerance is > 0 and its value
+/// finite (and ≠ 0 for a relative error).
+pub(super) fn validate_value_reference(
+    v: &ValueReference,
+    i: usize,
+    scalars: &[String],
+    what: &str,
+    ix: &SpanIndex,
+) -> Result<(), CaseError> {
+    let at = |key: &str| vec![k("reference"), Segment::Index(i), k(key)];
+    if !scalars.iter().any(|s| s == &v.observable) {
+        let valid = if scalars.is_empty() {
+            "none — add the observable to diagnostics.observables".to_owned()
+        } else {
+            scalars.join(", ")
+        };
+        return Err(ix.error(
+            &at("observable"),
+            format!(
+                "found \"{}\", which this {what} does not measure; measured here: {valid}",
+                v.observable
+            ),
+        ));
+    }
+    if !(v.tolerance.is_finite() && v.tolerance > 0.0) {
+        return Err(ix.error(
+            &at("tolerance"),
+            format!("found {}; must be > 0", v.tolerance),
+        ));
+    }
+    if !v.value.is_finite() || (v.metric == Metric::RelativeError && v.value == 0.0) {
+        return Err(ix.error(
+            &at("value"),
+            format!(
+                "found {}; must be finite (and ≠ 0 for a relative error)",
+                v.value
+            ),
+        ));
     }
     Ok(())
 }

@@ -194,10 +194,7 @@ impl<'c, const D: usize> HomogeneousEnsembles<'c, D> {
         seed: u64,
     ) -> Result<Self, String> {
         params.check()?;
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .map_err(|e| format!("cannot start {threads} threads: {e}"))?;
+        let pool = crate::sim::worker_pool(comm, threads)?;
         let gids: Vec<u64> = id_block(total, comm.size(), comm.rank()).collect();
         let spring = params.spring;
         let q = pool.install(|| {
@@ -252,10 +249,7 @@ impl<'c, const D: usize> HomogeneousEnsembles<'c, D> {
                 gids.len()
             ));
         }
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .map_err(|e| format!("cannot start {threads} threads: {e}"))?;
+        let pool = crate::sim::worker_pool(comm, threads)?;
         let (q, q_single) = match q {
             Connectors::Double(q) => (q, None),
             Connectors::Single(q) => (vec![Vec::new(); gids.len()], Some(q)),
