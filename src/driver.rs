@@ -572,6 +572,7 @@ pub fn run_in_process(
 }
 
 /// Rank 0's log line after a restart has read its checkpoint.
+#[cfg(feature = "hdf5")]
 pub(crate) fn log_restart(comm: &dyn Comm, path: &Path, step: u64) {
     if comm.rank() == 0 {
         tracing::info!(
