@@ -103,9 +103,9 @@ impl<const D: usize> PairKernel<D> for Dpd {
         HashStream::prefix(self.seed, Purpose::DpdPair, step)
     }
 
-    /// The block form of [`PairKernel::eval_keyed`], the same operations in the same order per
-    /// pair (so the same bits), arranged in passes over arrays that the compiler vectorises:
-    /// geometry and weights, then the noise (scalar: a hash and the ziggurat), then the forces.
+    /// The DPD pair force of the module documentation for a block of pairs, in passes over
+    /// arrays that the compiler vectorises: geometry and weights, then the noise (scalar: a hash
+    /// and the ziggurat), then the forces. A pair with r ≥ r_c or r = 0 is not valid.
     /// Always inlined, so that it is compiled for the caller's instruction set.
     #[inline(always)]
     fn eval_block(&self, block: &PairBlock<D>, step_key: u64, out: &mut BlockTerms<D>) {
@@ -154,6 +154,7 @@ impl<const D: usize> PairKernel<D> for Dpd {
         }
     }
 
+    /// A one-pair [`PairKernel::eval_block`] (used off the hot path).
     #[inline]
     fn eval_keyed(
         &self,
@@ -162,46 +163,20 @@ impl<const D: usize> PairKernel<D> for Dpd {
         gids: (u64, u64),
         step_key: u64,
     ) -> Option<PairTerms<D>> {
-        let mut r2 = 0.0;
-        for x in r_vec {
-            r2 += x * x;
-        }
-        if r2 >= self.cutoff * self.cutoff || r2 == 0.0 {
-            return None;
-        }
-        let r = r2.sqrt();
-        let inv_r = 1.0 / r;
-        let mut e = [0.0; D];
-        let mut ev = 0.0;
+        // One pair as a block: the formula lives in `eval_block` only.
+        let mut block = PairBlock::<D>::default();
+        block.len = 1;
         for d in 0..D {
-            e[d] = r_vec[d] * inv_r;
-            ev += e[d] * v_rel[d];
+            block.r[d][0] = r_vec[d];
+            block.v[d][0] = v_rel[d];
         }
-        let w = 1.0 - r * self.inv_cutoff;
-        let w_r = if self.weight_exponent == 2.0 {
-            w
-        } else {
-            w.powf(0.5 * self.weight_exponent)
-        };
-        let w_d = w_r * w_r;
-        let (lo, hi) = if gids.0 < gids.1 {
-            (gids.0, gids.1)
-        } else {
-            (gids.1, gids.0)
-        };
-        let mut stream = HashStream::from_prefix(step_key, lo, hi);
-        let theta = match self.noise {
-            Noise::Gaussian => stream.normal(),
-            Noise::Uniform => SQRT_3 * (2.0 * stream.uniform() - 1.0),
-        };
-        Some(PairTerms {
-            e,
-            r,
-            parts: [
-                self.a * w,
-                -self.gamma * w_d * ev,
-                self.sigma_over_sqrt_dt * w_r * theta,
-            ],
+        block.ids[0] = gids;
+        let mut out = BlockTerms::<D>::default();
+        self.eval_block(&block, step_key, &mut out);
+        out.valid[0].then(|| PairTerms {
+            e: std::array::from_fn(|d| out.e[d][0]),
+            r: out.r[0],
+            parts: [out.parts[0][0], out.parts[1][0], out.parts[2][0]],
         })
     }
 }
