@@ -164,8 +164,10 @@ impl<const D: usize> PairKernel<D> for Dpd {
         step_key: u64,
     ) -> Option<PairTerms<D>> {
         // One pair as a block: the formula lives in `eval_block` only.
-        let mut block = PairBlock::<D>::default();
-        block.len = 1;
+        let mut block = PairBlock::<D> {
+            len: 1,
+            ..Default::default()
+        };
         for d in 0..D {
             block.r[d][0] = r_vec[d];
             block.v[d][0] = v_rel[d];
