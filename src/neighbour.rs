@@ -44,13 +44,18 @@ struct GridGeometry<const D: usize> {
     ncell: [usize; D],
 }
 
+/// Padding entries after the binned arrays: one vector of the AVX2 row scan less one.
+const PAD: usize = LANES - 1;
+/// Candidates per step of the AVX2 row scan (four doubles).
+const LANES: usize = 4;
+
 /// One set of particles binned into the cells of a [`GridGeometry`].
 struct Binned<const D: usize> {
     /// `start[c]..start[c+1]` indexes `sorted` and `pos` for cell c.
     start: Vec<usize>,
-    /// Particle indices sorted by cell (stable within a cell).
+    /// Particle indices sorted by cell (stable within a cell), then [`PAD`] entries 0.
     sorted: Vec<u32>,
-    /// Positions in the order of `sorted`, one array per axis.
+    /// Positions in the order of `sorted`, one array per axis, then [`PAD`] NaNs.
     pos: [Vec<f64>; D],
 }
 
@@ -150,8 +155,14 @@ impl<const D: usize> GridGeometry<D> {
             start[c + 1] += start[c];
         }
         let mut fill = start.clone();
-        let mut sorted = vec![0u32; pos.len()];
-        let mut spos: [Vec<f64>; D] = std::array::from_fn(|_| vec![0.0; pos.len()]);
+        // PAD entries past the end (index 0, position NaN: never within any radius), so the
+        // vectorised row scan may read whole vectors at the end of the arrays.
+        let mut sorted = vec![0u32; pos.len() + PAD];
+        let mut spos: [Vec<f64>; D] = std::array::from_fn(|_| {
+            let mut v = vec![0.0; pos.len() + PAD];
+            v[pos.len()..].fill(f64::NAN);
+            v
+        });
         for (i, &c) in cells.iter().enumerate() {
             let k = fill[c as usize];
             sorted[k] = first + i as u32;
@@ -224,7 +235,7 @@ impl<const D: usize> NeighbourList<D> {
                     // the one requirement of this target-feature function.
                     return unsafe { scan_cells_avx2(&scan, cells) };
                 }
-                scan_cells(&scan, cells)
+                scan_cells::<D, false>(&scan, cells)
             })
             .collect();
         // Concatenated in chunk order, the copies in parallel.
@@ -284,12 +295,17 @@ struct Scan<'a, const D: usize> {
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
 fn scan_cells_avx2<const D: usize>(scan: &Scan<D>, cells: std::ops::Range<usize>) -> Vec<[u32; 2]> {
-    scan_cells(scan, cells)
+    scan_cells::<D, true>(scan, cells)
 }
 
-/// The pairs whose owned end lies in one of `cells` (see [`NeighbourList::build`]).
+/// The pairs whose owned end lies in one of `cells` (see [`NeighbourList::build`]). With `AVX2`
+/// the rows are scanned by [`candidates_avx2`]: the same list, in the same order. Only
+/// [`scan_cells_avx2`] instantiates `AVX2 = true`.
 #[inline(always)]
-fn scan_cells<const D: usize>(scan: &Scan<D>, cells: std::ops::Range<usize>) -> Vec<[u32; 2]> {
+fn scan_cells<const D: usize, const AVX2: bool>(
+    scan: &Scan<D>,
+    cells: std::ops::Range<usize>,
+) -> Vec<[u32; 2]> {
     let Scan {
         geom,
         owned,
@@ -340,14 +356,21 @@ fn scan_cells<const D: usize>(scan: &Scan<D>, cells: std::ops::Range<usize>) -> 
                 + o_rows.iter().map(|r| r.1 - r.0).sum::<usize>()
                 + g_rows.iter().map(|r| r.1 - r.0).sum::<usize>();
             let mut len = pairs.len();
-            pairs.resize(len + count, [0, 0]);
+            // Room for every candidate, and for the whole last vector of the AVX2 scan.
+            pairs.resize(len + count + LANES, [0, 0]);
             let out = &mut pairs[..];
-            len = candidates(pi, i, owned, ia + 1, own_end, r2, out, len);
-            for &(s, e) in &o_rows {
-                len = candidates(pi, i, owned, s, e, r2, out, len);
-            }
-            for &(s, e) in &g_rows {
-                len = candidates(pi, i, ghosts, s, e, r2, out, len);
+            let rows = std::iter::once((owned, ia + 1, own_end))
+                .chain(o_rows.iter().map(|&(s, e)| (owned, s, e)))
+                .chain(g_rows.iter().map(|&(s, e)| (ghosts, s, e)));
+            for (list, s, e) in rows {
+                #[cfg(target_arch = "x86_64")]
+                if AVX2 {
+                    // SAFETY: `AVX2` is true only in `scan_cells_avx2`, which runs only when
+                    // the CPU has AVX2 (the one requirement of `candidates_avx2`).
+                    len = unsafe { candidates_avx2(pi, i, list, s, e, r2, out, len) };
+                    continue;
+                }
+                len = candidates(pi, i, list, s, e, r2, out, len);
             }
             pairs.truncate(len);
         }
@@ -385,7 +408,92 @@ fn candidates<const D: usize>(
     len
 }
 
+/// For every 4-bit mask m, the 32-bit lane indices that move the 64-bit lanes set in m (in
+/// order) to the front of a vector: the compress of [`candidates_avx2`].
+#[cfg(target_arch = "x86_64")]
+const COMPRESS: [[i32; 8]; 16] = {
+    let mut table = [[0i32; 8]; 16];
+    let mut m = 0;
+    while m < 16 {
+        let mut next = 0;
+        let mut lane: i32 = 0;
+        while lane < 4 {
+            if m & (1 << lane) != 0 {
+                table[m][2 * next] = 2 * lane;
+                table[m][2 * next + 1] = 2 * lane + 1;
+                next += 1;
+            }
+            lane += 1;
+        }
+        m += 1;
+    }
+    table
+};
+
+/// [`candidates`] four candidates at a time with AVX2: the same distances (the same IEEE
+/// operations in the same order, no FMA), the same pairs in the same order. The pairs within
+/// range are packed to the front of a vector by a lane permutation ([`COMPRESS`]) and the whole
+/// vector is stored at `out[len..]`; only the packed ones count. Reads up to 3 entries past
+/// `e` (the [`PAD`] of the binned arrays guarantees they exist; they are masked out).
+///
+/// # Safety
+/// The CPU must have AVX2.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[allow(clippy::too_many_arguments)]
+unsafe fn candidates_avx2<const D: usize>(
+    pi: &[f64; D],
+    i: u32,
+    cells: &Binned<D>,
+    s: usize,
+    e: usize,
+    r2: f64,
+    out: &mut [[u32; 2]],
+    len0: usize,
+) -> usize {
+    use std::arch::x86_64::*;
+    let n = e - s;
+    let mut len = len0;
+    // The bounds every raw access below relies on.
+    assert!(e + PAD <= cells.sorted.len() && len0 + n.next_multiple_of(LANES) <= out.len());
+    for d in 0..D {
+        assert!(cells.pos[d].len() == cells.sorted.len());
+    }
+    let limit = _mm256_set1_pd(r2);
+    let centre: [__m256d; D] = std::array::from_fn(|d| _mm256_set1_pd(pi[d]));
+    let owner = _mm256_set1_epi64x(i64::from(i));
+    let lane = _mm256_setr_epi64x(0, 1, 2, 3);
+    let mut k = 0;
+    while k < n {
+        // SAFETY (all raw accesses of this loop): k < n, so s + k + 3 < e + PAD ≤ the length
+        // of every binned array; at most k of this row's candidates were kept so far, so with
+        // len₀ the length at the row's start, len + 4 ≤ len₀ + k + 4 ≤ len₀ +
+        // n.next_multiple_of(4) ≤ out.len() (both bounds asserted above).
+        let mut d2 = _mm256_setzero_pd();
+        for d in 0..D {
+            let xj = unsafe { _mm256_loadu_pd(cells.pos[d].as_ptr().add(s + k)) };
+            let x = _mm256_sub_pd(centre[d], xj);
+            d2 = _mm256_add_pd(d2, _mm256_mul_pd(x, x));
+        }
+        // d2 < r2 (false for NaN, as in the scalar test), in the row only.
+        let inside = _mm256_cmp_pd::<_CMP_LT_OQ>(d2, limit);
+        let in_row = _mm256_cmpgt_epi64(_mm256_set1_epi64x((n - k) as i64), lane);
+        let mask = _mm256_movemask_pd(_mm256_and_pd(inside, _mm256_castsi256_pd(in_row))) as usize;
+        let js = unsafe { _mm_loadu_si128(cells.sorted.as_ptr().add(s + k).cast()) };
+        // [i, j] as one little-endian u64: i in the low half, j in the high half.
+        let pairs = _mm256_or_si256(_mm256_slli_epi64::<32>(_mm256_cvtepu32_epi64(js)), owner);
+        let order = unsafe { _mm256_loadu_si256(COMPRESS[mask].as_ptr().cast()) };
+        let packed = _mm256_permutevar8x32_epi32(pairs, order);
+        unsafe { _mm256_storeu_si256(out.as_mut_ptr().add(len).cast(), packed) };
+        len += mask.count_ones() as usize;
+        k += LANES;
+    }
+    len
+}
+
 /// A spatial order of the owned particles (by cell of a grid `width` wide) for cache locality.
 pub fn spatial_order<const D: usize>(pos: &[[f64; D]], width: f64) -> Vec<u32> {
-    GridGeometry::new(pos, width).bin(pos, 0).sorted
+    let mut order = GridGeometry::new(pos, width).bin(pos, 0).sorted;
+    order.truncate(pos.len());
+    order
 }
