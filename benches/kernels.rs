@@ -51,6 +51,7 @@ fn dpd(c: &mut Criterion) {
     let comm = SerialComm::new();
     let mut sim = Simulation::<3>::new(&case, &comm, 1).expect("setup");
     let radius = sim.list.radius;
+    let cutoff = case.cutoff();
     let mut group = c.benchmark_group("dpd_32k");
     group.sample_size(10);
     group.bench_function("neighbour list build (32k + ghosts, 1 thread)", |b| {
@@ -58,7 +59,9 @@ fn dpd(c: &mut Criterion) {
             .num_threads(1)
             .build()
             .expect("a one-thread pool");
-        b.iter(|| one.install(|| black_box(NeighbourList::build(&sim.particles, radius).len())))
+        b.iter(|| {
+            one.install(|| black_box(NeighbourList::build(&sim.particles, radius, cutoff).len()))
+        })
     });
     group.bench_function("pair forces (1 thread)", |b| {
         b.iter(|| sim.recompute_forces(false).expect("forces"))

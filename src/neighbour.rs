@@ -8,6 +8,11 @@
 //! the force only to its own particle. The order of the list does not matter for the result:
 //! forces are accumulated exactly ([`crate::fixed_sum`]).
 //!
+//! Each listed pair also records whether it lay within the interaction cutoff r_c at the build
+//! positions ([`NEAR_AT_BUILD`], a bit of j): the force evaluation right after a build keeps
+//! those pairs without computing their distances again (the same r² by the same operations, so
+//! the same pairs as its own distance filter would keep).
+//!
 //! Rebuild criterion (checked by the caller): 2 max|Δx| + |Δs| > skin, where Δs is the drift of
 //! the Lees–Edwards offset since the build: no pair outside r_list at build time can have come
 //! within r_c.
@@ -16,15 +21,23 @@ use crate::particles::Particles;
 use crate::simd::Isa;
 use rayon::prelude::*;
 
+/// The bit of j in a listed pair `[i, j]` that says the pair lay within the cutoff at the
+/// build positions; the particle index is `j & !NEAR_AT_BUILD`.
+pub const NEAR_AT_BUILD: u32 = 1 << 31;
+
 /// The Verlet pair list of this rank.
 #[derive(Clone, Debug, Default)]
 pub struct NeighbourList<const D: usize> {
-    /// Pairs `[i, j]`, i owned, j owned or ghost.
-    pub pairs: Vec<[u32; 2]>,
+    /// Pairs `[i, j]`, i owned, j owned or ghost, j carrying the [`NEAR_AT_BUILD`] bit.
+    pub(crate) flagged: Vec<[u32; 2]>,
     /// Owned positions at build time (for the displacement criterion).
     pub build_pos: Vec<[f64; D]>,
     /// List radius r_c + skin.
     pub radius: f64,
+    /// Whether the positions are still those of the build, so that the [`NEAR_AT_BUILD`] bits
+    /// tell the pairs within the cutoff. Set by the build; whoever moves the particles clears
+    /// it.
+    pub at_build_positions: bool,
 }
 
 #[inline(always)]
@@ -189,14 +202,25 @@ impl<const D: usize> NeighbourList<D> {
     /// positions. An owned particle meets the owned particles of the forward half of the
     /// 5^D stencil (rows whose last non-zero offset is positive, plus the later particles of
     /// its own row) and the ghosts of the whole stencil; ghost–ghost pairs are never examined.
-    pub fn build(particles: &Particles<D>, radius: f64) -> Self {
-        Self::build_on(Isa::current(), particles, radius)
+    ///
+    /// The pairs within `cutoff` (≤ `radius`) are marked [`NEAR_AT_BUILD`].
+    pub fn build(particles: &Particles<D>, radius: f64, cutoff: f64) -> Self {
+        Self::build_on(Isa::current(), particles, radius, cutoff)
     }
 
     /// [`Self::build`] with the instruction set given: the same list on every one.
-    pub fn build_on(isa: Isa, particles: &Particles<D>, radius: f64) -> Self {
+    pub fn build_on(isa: Isa, particles: &Particles<D>, radius: f64, cutoff: f64) -> Self {
         let n_owned = particles.n_owned;
         let pos = &particles.pos;
+        assert!(
+            cutoff <= radius,
+            "cutoff {cutoff} beyond the list radius {radius}"
+        );
+        assert!(
+            pos.len() < NEAR_AT_BUILD as usize,
+            "{} particles (owned and ghosts) on one rank: at most 2^31 − 1 are supported",
+            pos.len()
+        );
         // A hair wider than r_list / 2, so that rounding in the binning can never put a pair
         // within r_list three cells apart.
         let geom = GridGeometry::new(pos, 0.5 * radius * (1.0 + 1e-9));
@@ -222,6 +246,7 @@ impl<const D: usize> NeighbourList<D> {
             ghosts: &ghosts,
             rows: &rows,
             r2,
+            near2: cutoff * cutoff,
         };
         let avx2 = isa.has_avx2();
         const CHUNK: usize = 256;
@@ -253,10 +278,21 @@ impl<const D: usize> NeighbourList<D> {
             .zip(chunks.par_iter())
             .for_each(|(dst, src)| dst.copy_from_slice(src));
         NeighbourList {
-            pairs,
+            flagged: pairs,
             build_pos: pos[..n_owned].to_vec(),
             radius,
+            at_build_positions: true,
         }
+    }
+
+    /// The pairs `[i, j]`, i owned, j owned or ghost.
+    pub fn pairs(&self) -> impl ExactSizeIterator<Item = [u32; 2]> + '_ {
+        self.flagged.iter().map(|&[i, j]| [i, j & !NEAR_AT_BUILD])
+    }
+
+    /// The pairs with their [`NEAR_AT_BUILD`] bits.
+    pub fn flagged_pairs(&self) -> &[[u32; 2]] {
+        &self.flagged
     }
 
     /// Largest displacement of an owned particle since the build (local to this rank).
@@ -272,16 +308,17 @@ impl<const D: usize> NeighbourList<D> {
 
     /// Number of listed pairs.
     pub fn len(&self) -> usize {
-        self.pairs.len()
+        self.flagged.len()
     }
 
     /// Whether no pair is listed.
     pub fn is_empty(&self) -> bool {
-        self.pairs.is_empty()
+        self.flagged.is_empty()
     }
 }
 
-/// What the scan of the cells needs: the grid, the two binned lists, the stencil rows and r_list².
+/// What the scan of the cells needs: the grid, the two binned lists, the stencil rows, r_list²
+/// and r_c².
 struct Scan<'a, const D: usize> {
     geom: &'a GridGeometry<D>,
     owned: &'a Binned<D>,
@@ -289,6 +326,7 @@ struct Scan<'a, const D: usize> {
     /// Row offsets over the axes 1..D and whether the row is in the forward half.
     rows: &'a [([isize; D], bool)],
     r2: f64,
+    near2: f64,
 }
 
 /// [`scan_cells`] compiled for AVX2 (no FMA: the same operations, so the same list).
@@ -312,6 +350,7 @@ fn scan_cells<const D: usize, const AVX2: bool>(
         ghosts,
         rows,
         r2,
+        near2,
     } = *scan;
     let nx = geom.ncell[0];
     let mut pairs: Vec<[u32; 2]> = Vec::new();
@@ -367,10 +406,10 @@ fn scan_cells<const D: usize, const AVX2: bool>(
                 if AVX2 {
                     // SAFETY: `AVX2` is true only in `scan_cells_avx2`, which runs only when
                     // the CPU has AVX2 (the one requirement of `candidates_avx2`).
-                    len = unsafe { candidates_avx2(pi, i, list, s, e, r2, out, len) };
+                    len = unsafe { candidates_avx2(pi, i, list, s..e, [r2, near2], out, len) };
                     continue;
                 }
-                len = candidates(pi, i, list, s, e, r2, out, len);
+                len = candidates(pi, i, list, s..e, [r2, near2], out, len);
             }
             pairs.truncate(len);
         }
@@ -378,23 +417,21 @@ fn scan_cells<const D: usize, const AVX2: bool>(
     pairs
 }
 
-/// Writes the pairs `[i, j]` of particle `i` (at `pi`) with the particles `s..e` of `cells`
-/// within √r2 into `out[len..]` and returns the new length. Branch-free in the distance test;
-/// `out` must have room for every candidate.
+/// Writes the pairs `[i, j]` of particle `i` (at `pi`) with the particles `range` of `cells`
+/// within √r2 into `out[len..]`, marked [`NEAR_AT_BUILD`] when within √near2, and returns the
+/// new length. Branch-free in the distance tests; `out` must have room for every candidate.
 #[inline(always)]
-#[allow(clippy::too_many_arguments)]
 fn candidates<const D: usize>(
     pi: &[f64; D],
     i: u32,
     cells: &Binned<D>,
-    s: usize,
-    e: usize,
-    r2: f64,
+    range: std::ops::Range<usize>,
+    [r2, near2]: [f64; 2],
     out: &mut [[u32; 2]],
     mut len: usize,
 ) -> usize {
-    let js = &cells.sorted[s..e];
-    let xs: [&[f64]; D] = std::array::from_fn(|d| &cells.pos[d][s..e]);
+    let js = &cells.sorted[range.clone()];
+    let xs: [&[f64]; D] = std::array::from_fn(|d| &cells.pos[d][range.clone()]);
     for (k, &j) in js.iter().enumerate() {
         // dist2 of pi and pj, the same operations in the same order.
         let mut d2 = 0.0;
@@ -402,7 +439,7 @@ fn candidates<const D: usize>(
             let x = pi[d] - xs[d][k];
             d2 += x * x;
         }
-        out[len] = [i, j];
+        out[len] = [i, j | (u32::from(d2 < near2) << 31)];
         len += usize::from(d2 < r2);
     }
     len
@@ -431,7 +468,7 @@ const COMPRESS: [[i32; 8]; 16] = {
 };
 
 /// [`candidates`] four candidates at a time with AVX2: the same distances (the same IEEE
-/// operations in the same order, no FMA), the same pairs in the same order. The pairs within
+/// operations in the same order, no FMA), the same pairs and marks in the same order. The pairs within
 /// range are packed to the front of a vector by a lane permutation ([`COMPRESS`]) and the whole
 /// vector is stored at `out[len..]`; only the packed ones count. Reads up to 3 entries past
 /// `e` (the [`PAD`] of the binned arrays guarantees they exist; they are masked out).
@@ -440,18 +477,17 @@ const COMPRESS: [[i32; 8]; 16] = {
 /// The CPU must have AVX2.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-#[allow(clippy::too_many_arguments)]
 unsafe fn candidates_avx2<const D: usize>(
     pi: &[f64; D],
     i: u32,
     cells: &Binned<D>,
-    s: usize,
-    e: usize,
-    r2: f64,
+    range: std::ops::Range<usize>,
+    [r2, near2]: [f64; 2],
     out: &mut [[u32; 2]],
     len0: usize,
 ) -> usize {
     use std::arch::x86_64::*;
+    let (s, e) = (range.start, range.end);
     let n = e - s;
     let mut len = len0;
     // The bounds every raw access below relies on.
@@ -460,6 +496,9 @@ unsafe fn candidates_avx2<const D: usize>(
         assert!(cells.pos[d].len() == cells.sorted.len());
     }
     let limit = _mm256_set1_pd(r2);
+    let near_limit = _mm256_set1_pd(near2);
+    // NEAR_AT_BUILD in the j half of a pair.
+    let near_bit = _mm256_set1_epi64x(i64::from(NEAR_AT_BUILD) << 32);
     let centre: [__m256d; D] = std::array::from_fn(|d| _mm256_set1_pd(pi[d]));
     let owner = _mm256_set1_epi64x(i64::from(i));
     let lane = _mm256_setr_epi64x(0, 1, 2, 3);
@@ -480,8 +519,11 @@ unsafe fn candidates_avx2<const D: usize>(
         let in_row = _mm256_cmpgt_epi64(_mm256_set1_epi64x((n - k) as i64), lane);
         let mask = _mm256_movemask_pd(_mm256_and_pd(inside, _mm256_castsi256_pd(in_row))) as usize;
         let js = unsafe { _mm_loadu_si128(cells.sorted.as_ptr().add(s + k).cast()) };
-        // [i, j] as one little-endian u64: i in the low half, j in the high half.
+        // [i, j] as one little-endian u64: i in the low half, j in the high half, with its
+        // NEAR_AT_BUILD bit where d2 < near2.
+        let near = _mm256_castpd_si256(_mm256_cmp_pd::<_CMP_LT_OQ>(d2, near_limit));
         let pairs = _mm256_or_si256(_mm256_slli_epi64::<32>(_mm256_cvtepu32_epi64(js)), owner);
+        let pairs = _mm256_or_si256(pairs, _mm256_and_si256(near, near_bit));
         let order = unsafe { _mm256_loadu_si256(COMPRESS[mask].as_ptr().cast()) };
         let packed = _mm256_permutevar8x32_epi32(pairs, order);
         unsafe { _mm256_storeu_si256(out.as_mut_ptr().add(len).cast(), packed) };

@@ -180,6 +180,8 @@ impl<'c, const D: usize> Simulation<'c, D> {
             p.pos[i].copy_from_slice(&current.data[i * D..(i + 1) * D]);
         }
         current.data.clear();
+        // The list was built at the build positions, not at the current ones.
+        sim.list.at_build_positions = false;
         sim.step = step;
         sim.halo.forward(
             &mut sim.particles,
@@ -351,7 +353,10 @@ impl<'c, const D: usize> Simulation<'c, D> {
         );
         let t1 = Instant::now();
         let particles = &self.particles;
-        self.list = self.pool.install(|| NeighbourList::build(particles, range));
+        let cutoff = self.dpd.cutoff;
+        self.list = self
+            .pool
+            .install(|| NeighbourList::build(particles, range, cutoff));
         tracing::debug!(
             owned = self.particles.n_owned,
             ghosts = self.particles.len() - self.particles.n_owned,
@@ -437,6 +442,8 @@ impl<'c, const D: usize> Simulation<'c, D> {
         let t0 = Instant::now();
         let (dt, lambda, inv_m) = (self.dt, self.lambda, 1.0 / self.mass);
         let n = self.particles.n_owned;
+        // The positions move: the list's marks of the pairs within the cutoff no longer hold.
+        self.list.at_build_positions = false;
         {
             let p = &mut self.particles;
             self.pool.install(|| {

@@ -16,7 +16,7 @@ type PairKey = (u64, u64, i64, i64, i64);
 fn listed<const D: usize>(sim: &Simulation<D>) -> Vec<(PairKey, Vec<f64>, Vec<f64>)> {
     let p = &sim.particles;
     let mut out = Vec::new();
-    for &[i, j] in &sim.list.pairs {
+    for [i, j] in sim.list.pairs() {
         let (i, j) = (i as usize, j as usize);
         let (mut r, mut v) = (vec![0.0; D], vec![0.0; D]);
         for d in 0..D {

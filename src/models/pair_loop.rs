@@ -12,7 +12,7 @@
 //! contributes ½ of its virial here.
 
 use crate::fixed_sum::{FixedSum, Split};
-use crate::neighbour::NeighbourList;
+use crate::neighbour::{NEAR_AT_BUILD, NeighbourList};
 use crate::particles::Particles;
 use crate::simd::Isa;
 use rayon::prelude::*;
@@ -179,7 +179,11 @@ pub struct PairWorkspace<const D: usize> {
 struct ChunkInput<'a, const D: usize, K> {
     kernel: &'a K,
     particles: &'a Particles<D>,
+    /// Listed pairs, j with its [`NEAR_AT_BUILD`] bit.
     pairs: &'a [[u32; 2]],
+    /// The positions are those of the list's build: its marks tell the pairs within the
+    /// cutoff.
+    at_build_positions: bool,
     step_key: u64,
     want_virial: bool,
 }
@@ -206,6 +210,7 @@ fn evaluate_chunk<const D: usize, K: PairKernel<D>>(
         kernel,
         particles,
         pairs,
+        at_build_positions,
         step_key,
         want_virial,
     } = *chunk;
@@ -222,22 +227,18 @@ fn evaluate_chunk<const D: usize, K: PairKernel<D>>(
     let mut terms = BlockTerms::<D>::default();
     let mut splits = [[Split::ZERO; BATCH]; D];
     for block in pairs.chunks(BLOCK) {
-        // Branch-free pre-pass: keep the pairs the kernel may accept (r² below the
-        // cutoff², by the kernel's own formula; also zero and NaN, which it rejects
-        // itself), so the listed pairs beyond the cutoff cost no mispredicted branch.
-        let mut n_near = 0;
-        for &[i, j] in block {
-            let r = separation(&pos[i as usize], &pos[j as usize]);
-            let mut r2 = 0.0;
-            for x in r {
-                r2 += x * x;
+        let n_near = if at_build_positions {
+            // The build marked the pairs within the cutoff at these very positions, by the
+            // same r² formula as `near_pairs`: no distances to compute.
+            let mut n_near = 0;
+            for &[i, j] in block {
+                near[n_near] = [i, j & !NEAR_AT_BUILD];
+                n_near += (j >> 31) as usize;
             }
-            near[n_near] = [i, j];
-            // Not `r2 < rc2`: a NaN must reach the kernel, which reports it.
-            #[allow(clippy::neg_cmp_op_on_partial_ord)]
-            let keep = !(r2 >= rc2);
-            n_near += usize::from(keep);
-        }
+            n_near
+        } else {
+            near_pairs(pos, block, rc2, &mut near)
+        };
         for batch in near[..n_near].chunks(BATCH) {
             inputs.len = batch.len();
             for (k, &[i, j]) in batch.iter().enumerate() {
@@ -313,6 +314,35 @@ fn evaluate_chunk<const D: usize, K: PairKernel<D>>(
     (virial, bad)
 }
 
+/// The distance pre-pass of [`evaluate_chunk`]: writes the pairs of `block` the kernel may
+/// accept (r² below the cutoff², by the kernel's own formula; also zero and NaN, which it
+/// rejects itself) to the front of `near`, without their [`NEAR_AT_BUILD`] marks, and returns
+/// their number. Branch-free, so the listed pairs beyond the cutoff cost no mispredicted
+/// branch.
+#[inline(always)]
+fn near_pairs<const D: usize>(
+    pos: &[[f64; D]],
+    block: &[[u32; 2]],
+    rc2: f64,
+    near: &mut [[u32; 2]],
+) -> usize {
+    let mut n_near = 0;
+    for &[i, j] in block {
+        let j = j & !NEAR_AT_BUILD;
+        let r = separation(&pos[i as usize], &pos[j as usize]);
+        let mut r2 = 0.0;
+        for x in r {
+            r2 += x * x;
+        }
+        near[n_near] = [i, j];
+        // Not `r2 < rc2`: a NaN must reach the kernel, which reports it.
+        #[allow(clippy::neg_cmp_op_on_partial_ord)]
+        let keep = !(r2 >= rc2);
+        n_near += usize::from(keep);
+    }
+    n_near
+}
+
 /// Evaluates all listed pairs and writes the force on every owned particle into `force`;
 /// returns the virial when asked, or an error if a pair force is not finite (a blown-up run).
 /// `isa` (normally [`Isa::current`]) picks the compiled version; every one gives the same bits.
@@ -329,7 +359,9 @@ pub fn compute_forces<const D: usize, K: PairKernel<D>>(
 ) -> Result<Option<Virial>, String> {
     let n_owned = particles.n_owned;
     let chunks = rayon::current_num_threads().max(1);
-    let per_chunk = list.pairs.len().div_ceil(chunks).max(1);
+    let pairs = list.flagged_pairs();
+    let at_build_positions = list.at_build_positions;
+    let per_chunk = pairs.len().div_ceil(chunks).max(1);
     workspace.buffers.resize_with(chunks, Vec::new);
     let step_key = kernel.step_key(step);
     let avx2 = isa.has_avx2();
@@ -337,7 +369,7 @@ pub fn compute_forces<const D: usize, K: PairKernel<D>>(
         .buffers
         .par_iter_mut()
         .zip(
-            list.pairs
+            pairs
                 .par_chunks(per_chunk)
                 .chain(rayon::iter::repeat_n(&[][..], chunks)),
         )
@@ -346,6 +378,7 @@ pub fn compute_forces<const D: usize, K: PairKernel<D>>(
                 kernel,
                 particles,
                 pairs,
+                at_build_positions,
                 step_key,
                 want_virial,
             };
@@ -389,6 +422,8 @@ pub fn compute_forces<const D: usize, K: PairKernel<D>>(
                 t.merge(&x);
             }
         }
+        // One representation of each value, whatever the split into chunks.
+        total.iter_mut().for_each(FixedSum::normalize);
         let part = |p: usize| -> Vec<FixedSum> {
             let mut w = vec![FixedSum::ZERO; D * D];
             for a in 0..D {
@@ -447,13 +482,30 @@ mod tests {
         };
         let dpd = Dpd::new(&cfg, 0.04, 5);
         let run = |isa: Isa| {
-            let list = NeighbourList::build_on(isa, &p, 1.5);
-            let mut force = vec![[0.0; D]; p.n_owned];
-            let mut ws = PairWorkspace::default();
-            let virial = compute_forces(isa, &dpd, &p, &list, 3, &mut ws, &mut force, true)
-                .expect("finite forces")
-                .expect("virial asked for");
-            (list.pairs, force, virial)
+            let mut list = NeighbourList::build_on(isa, &p, 1.5, 1.0);
+            let forces = |list: &NeighbourList<D>| {
+                let mut force = vec![[0.0; D]; p.n_owned];
+                let mut ws = PairWorkspace::default();
+                let virial = compute_forces(isa, &dpd, &p, list, 3, &mut ws, &mut force, true)
+                    .expect("finite forces")
+                    .expect("virial asked for");
+                (force, virial)
+            };
+            // With the build's marks (no distances) and without them (the pre-pass): the
+            // same bits.
+            let (force, virial) = forces(&list);
+            list.at_build_positions = false;
+            assert_eq!((force.clone(), virial.clone()), forces(&list));
+            // The marks are exactly the pairs the distance pre-pass keeps.
+            let marked: Vec<[u32; 2]> = (list.flagged_pairs().iter())
+                .filter(|p| p[1] >= NEAR_AT_BUILD)
+                .map(|&[i, j]| [i, j & !NEAR_AT_BUILD])
+                .collect();
+            let mut kept = vec![[0; 2]; list.len()];
+            let n_kept = near_pairs(&p.pos, list.flagged_pairs(), 1.0, &mut kept);
+            assert!(marked == kept[..n_kept], "marks differ from the pre-pass");
+            assert!(marked.len() * 5 > list.len());
+            (list.flagged_pairs().to_vec(), force, virial)
         };
         let (pairs_a, force_a, virial_a) = run(avx2);
         let (pairs_p, force_p, virial_p) = run(Isa::PORTABLE);
