@@ -106,6 +106,21 @@ impl FixedSum {
         self.low = self.low.wrapping_add(other.low);
     }
 
+    /// The exact sum of `xs` (each |x| < 2^26, at most 2^11 of them, so that the low words
+    /// cannot wrap): the words of every term summed as integers, which the compiler
+    /// vectorises; the same value as adding the terms one by one, in any order.
+    #[inline(always)]
+    pub fn sum_of(xs: &[f64]) -> Self {
+        debug_assert!(xs.len() <= 1 << 11);
+        let (mut high, mut low) = (0i64, 0i64);
+        for &x in xs {
+            let s = Split::of(x);
+            high = high.wrapping_add(s.high);
+            low = low.wrapping_add(s.low);
+        }
+        Self { high, low }
+    }
+
     /// Moves the carry of the low word into the high word, leaving low in [0, 2^52): call it
     /// every few thousand terms in long accumulations (each term adds |l| ≤ 2^51 to the low
     /// word, which would wrap after ~2^12 worst-case or ~2^26 random terms).

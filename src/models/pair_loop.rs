@@ -221,7 +221,6 @@ fn evaluate_chunk<const D: usize, K: PairKernel<D>>(
     acc.resize(n_owned, [FixedSum::ZERO; D]);
     let mut virial = [FixedSum::ZERO; 27];
     let mut bad: Option<BadPair> = None;
-    let mut evaluated = 0usize;
     let mut near = [[0u32; 2]; BLOCK];
     let mut inputs = PairBlock::<D>::default();
     let mut terms = BlockTerms::<D>::default();
@@ -264,10 +263,6 @@ fn evaluate_chunk<const D: usize, K: PairKernel<D>>(
                 if !terms.valid[k] {
                     continue;
                 }
-                evaluated += 1;
-                if want_virial && evaluated.is_multiple_of(2048) {
-                    virial.iter_mut().for_each(FixedSum::normalize);
-                }
                 let (i, j) = (i as usize, j as usize);
                 let f = total[k];
                 if !FixedSum::representable(f) {
@@ -285,33 +280,67 @@ fn evaluate_chunk<const D: usize, K: PairKernel<D>>(
                         acc[j][d].sub_split(fd);
                     }
                 }
-                if want_virial {
-                    let w = if owned_j {
-                        terms.r[k]
-                    } else {
-                        0.5 * terms.r[k]
-                    };
-                    let parts = [terms.parts[0][k], terms.parts[1][k], terms.parts[2][k]];
-                    if !parts.iter().all(|&p| FixedSum::representable(w * p)) {
-                        bad.get_or_insert((gid[i], gid[j], w * f));
-                        continue;
-                    }
-                    let e: [f64; D] = std::array::from_fn(|d| terms.e[d][k]);
-                    // r ⊗ F ∝ e ⊗ e is symmetric: the upper triangle, mirrored below.
-                    for (part, &p) in parts.iter().enumerate() {
-                        let s = w * p;
-                        for a in 0..D {
-                            let sa = s * e[a];
-                            for b in a..D {
-                                virial[part * 9 + a * 3 + b].add(sa * e[b]);
-                            }
-                        }
-                    }
-                }
+            }
+            if want_virial {
+                add_block_virial(batch, n_owned, gid, &terms, &total, &mut virial, &mut bad);
             }
         }
     }
     (virial, bad)
+}
+
+/// Adds the virial r_ij ⊗ F_ij per part of a batch of evaluated pairs to `virial`, in passes
+/// over the batch that the compiler vectorises: the weights s_p = w f_p (w = r, or r/2 for an
+/// owned–ghost pair, whose other half is added on the other side), then for every part and
+/// component a ≤ b (r ⊗ F ∝ e ⊗ e is symmetric: the upper triangle, mirrored by the caller)
+/// the terms (s_p e_a) e_b summed exactly ([`FixedSum::sum_of`]): the same value as adding the
+/// terms pair by pair. A pair that is not valid, or whose force or weights cannot be
+/// accumulated, adds nothing (the latter is reported in `bad`).
+#[inline(always)]
+fn add_block_virial<const D: usize>(
+    batch: &[[u32; 2]],
+    n_owned: usize,
+    gid: &[u64],
+    terms: &BlockTerms<D>,
+    total: &[f64; BATCH],
+    virial: &mut ChunkVirial,
+    bad: &mut Option<BadPair>,
+) {
+    let n = batch.len();
+    let mut weight = [[0.0; BATCH]; 3];
+    let mut keep = [false; BATCH];
+    for (k, &[i, j]) in batch.iter().enumerate() {
+        let w = if (j as usize) < n_owned {
+            terms.r[k]
+        } else {
+            0.5 * terms.r[k]
+        };
+        let mut representable = true;
+        for p in 0..3 {
+            weight[p][k] = w * terms.parts[p][k];
+            representable &= FixedSum::representable(weight[p][k]);
+        }
+        // A force that is not representable was reported by the force scatter.
+        keep[k] = terms.valid[k] && FixedSum::representable(total[k]) && representable;
+        if terms.valid[k] && FixedSum::representable(total[k]) && !representable {
+            let (i, j) = (i as usize, j as usize);
+            bad.get_or_insert((gid[i], gid[j], w * total[k]));
+        }
+    }
+    let mut terms_ab = [0.0; BATCH];
+    for (p, weight) in weight.iter().enumerate() {
+        for a in 0..D {
+            for b in a..D {
+                for k in 0..n {
+                    let x = weight[k] * terms.e[a][k] * terms.e[b][k];
+                    terms_ab[k] = if keep[k] { x } else { 0.0 };
+                }
+                let sum = &mut virial[p * 9 + a * 3 + b];
+                sum.merge(&FixedSum::sum_of(&terms_ab[..n]));
+                sum.normalize();
+            }
+        }
+    }
 }
 
 /// The distance pre-pass of [`evaluate_chunk`]: writes the pairs of `block` the kernel may
