@@ -21,7 +21,7 @@ use crate::domain::{HaloPlan, Slab, send_leavers, wrap_owned};
 use crate::fixed_sum::FixedSum;
 use crate::geometry::{GRADIENT, SimBox};
 use crate::models::dpd::Dpd;
-use crate::models::pair_loop::{PairWorkspace, Virial, compute_forces};
+use crate::models::pair_loop::{PairWorkspace, Virial, VirialScope, compute_forces};
 use crate::neighbour::{NeighbourList, spatial_order};
 use crate::particles::Particles;
 use crate::rng::{Purpose, StreamKey};
@@ -82,6 +82,8 @@ pub struct Simulation<'c, const D: usize> {
     workspace: PairWorkspace<D>,
     /// Virial of the last force evaluation that computed one, and its step.
     virial: Option<(u64, Virial)>,
+    /// The virial components the case's observables need.
+    virial_scope: VirialScope,
     /// Current step.
     pub step: u64,
     dt: f64,
@@ -125,7 +127,7 @@ impl<'c, const D: usize> Simulation<'c, D> {
         let (particles, total) = initial_particles(case, &sim_box, &slab);
         let mut sim = Self::assemble(case, comm, threads, sim_box, slab, particles, total)?;
         sim.rebuild()?;
-        sim.compute_forces(true)?;
+        sim.compute_forces(sim.virial_scope)?;
         Ok(sim)
     }
 
@@ -257,6 +259,7 @@ impl<'c, const D: usize> Simulation<'c, D> {
             dpd,
             workspace: PairWorkspace::default(),
             virial: None,
+            virial_scope: virial_scope(&case.diagnostics.observables),
             step: 0,
             dt: gw.dt,
             lambda: gw.lambda,
@@ -322,7 +325,7 @@ impl<'c, const D: usize> Simulation<'c, D> {
     pub fn jump_to_step(&mut self, step: u64) -> Result<(), String> {
         self.step = step;
         self.rebuild()?;
-        self.compute_forces(false)?;
+        self.compute_forces(VirialScope::Off)?;
         Ok(())
     }
 
@@ -374,12 +377,17 @@ impl<'c, const D: usize> Simulation<'c, D> {
     /// Evaluates the forces (and the virial when asked) again at the current step, leaving the
     /// state as it was: what the pair-force benchmark times.
     pub fn recompute_forces(&mut self, want_virial: bool) -> Result<(), String> {
-        self.compute_forces(want_virial)
+        let scope = if want_virial {
+            VirialScope::Full
+        } else {
+            VirialScope::Off
+        };
+        self.compute_forces(scope)
     }
 
     /// Forces (and the virial when asked) at the current step; collective, so a blown-up pair
     /// on any rank stops every rank with the same error.
-    fn compute_forces(&mut self, want_virial: bool) -> Result<(), String> {
+    fn compute_forces(&mut self, virial_scope: VirialScope) -> Result<(), String> {
         let t0 = Instant::now();
         let mut force = std::mem::take(&mut self.particles.force);
         let (dpd, particles, list, step, workspace) = (
@@ -398,7 +406,7 @@ impl<'c, const D: usize> Simulation<'c, D> {
                 step,
                 workspace,
                 &mut force,
-                want_virial,
+                virial_scope,
             )
         });
         self.particles.force = force;
@@ -422,6 +430,10 @@ impl<'c, const D: usize> Simulation<'c, D> {
 
     /// Virial of the current forces (recomputed if the last evaluation did not keep it).
     fn current_virial(&mut self) -> Virial {
+        let zero = || std::array::from_fn(|_| vec![FixedSum::ZERO; D * D]);
+        if self.virial_scope == VirialScope::Off {
+            return zero();
+        }
         if let Some((step, v)) = &self.virial
             && *step == self.step
         {
@@ -429,12 +441,9 @@ impl<'c, const D: usize> Simulation<'c, D> {
         }
         let saved = self.particles.force.clone();
         // The same forces were computed successfully by the step itself.
-        let _ = self.compute_forces(true);
+        let _ = self.compute_forces(self.virial_scope);
         self.particles.force = saved;
-        self.virial
-            .as_ref()
-            .map(|(_, v)| v.clone())
-            .unwrap_or_default()
+        self.virial.as_ref().map_or_else(zero, |(_, v)| v.clone())
     }
 
     /// Advances one time step.
@@ -507,8 +516,12 @@ impl<'c, const D: usize> Simulation<'c, D> {
             );
             self.times.halo += t1.elapsed().as_secs_f64();
         }
-        let want_virial = self.is_sample_step();
-        self.compute_forces(want_virial)?;
+        let scope = if self.is_sample_step() {
+            self.virial_scope
+        } else {
+            VirialScope::Off
+        };
+        self.compute_forces(scope)?;
 
         let t2 = Instant::now();
         let n = self.particles.n_owned; // migration may have changed it
@@ -789,6 +802,29 @@ pub struct Measurement {
     pub scalars: Vec<(String, f64)>,
     /// Binned u_x(y).
     pub profile: Option<Vec<f64>>,
+}
+
+/// The virial components the observables need: all for the stress tensor and the viscosity
+/// (off-diagonal), the diagonal for the pressure and the normal stress differences, none for
+/// the others.
+fn virial_scope(observables: &[Observable]) -> VirialScope {
+    let needs = |o: &Observable| match o {
+        Observable::Stress | Observable::Viscosity => VirialScope::Full,
+        Observable::Pressure
+        | Observable::FirstNormalStressDifference
+        | Observable::SecondNormalStressDifference => VirialScope::Diagonal,
+        Observable::Temperature | Observable::Momentum | Observable::VelocityProfile => {
+            VirialScope::Off
+        }
+    };
+    let scopes: Vec<VirialScope> = observables.iter().map(needs).collect();
+    if scopes.contains(&VirialScope::Full) {
+        VirialScope::Full
+    } else if scopes.contains(&VirialScope::Diagonal) {
+        VirialScope::Diagonal
+    } else {
+        VirialScope::Off
+    }
 }
 
 /// splitmix64-style mixing of a word sequence.

@@ -126,3 +126,24 @@ fn walls_keep_particles_inside_and_are_decomposition_invariant() {
         assert_eq!(d, &seen[0].1, "walls: {r} ranks differ from 1");
     }
 }
+
+#[test]
+fn pressure_is_the_same_bits_whether_or_not_the_full_stress_tensor_is_sampled() {
+    // A pressure-only case accumulates the diagonal of the virial only; the diagonal sums are
+    // exact, so the pressure must equal, to the last bit, the one of a case that samples every
+    // component (and the state is untouched either way).
+    let run = |observables: &str| {
+        let extra = format!("[diagnostics]\nobservables = [{observables}]\nblocks = 4\n");
+        let loaded = case_from_str(&small_dpd(3, 6.0, 0.3, 60, &extra), "scope");
+        let s = run_in_process(&loaded, 2, 1, None).expect("run");
+        let all = serde_json::to_value(&s.observables).expect("json");
+        (s.state_digest, all["pressure"].to_string(), all)
+    };
+    let (digest_p, pressure_p, _) = run("\"pressure\"");
+    let (digest_s, pressure_s, all) = run("\"pressure\", \"stress\", \"viscosity\"");
+    assert_eq!(digest_p, digest_s);
+    assert_eq!(pressure_p, pressure_s);
+    assert!(pressure_p.contains("mean"), "{pressure_p}");
+    // The full run does have off-diagonal components.
+    assert!(all["viscosity"]["mean"].as_f64().is_some_and(|v| v != 0.0), "{all}");
+}

@@ -158,6 +158,18 @@ pub fn separation<const D: usize>(a: &[f64; D], b: &[f64; D]) -> [f64; D] {
     r
 }
 
+/// Which components of the virial a force evaluation accumulates (each costs an exact sum per
+/// pair, so a run asks only for what its observables need).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum VirialScope {
+    /// No virial.
+    Off,
+    /// The diagonal components only (pressure, normal stress differences); the others are 0.
+    Diagonal,
+    /// Every component.
+    Full,
+}
+
 /// Virial Σ r_ij ⊗ F_ij per part [conservative, dissipative, random], flattened D×D, as exact
 /// accumulators (so the sum over ranks is exact too).
 pub type Virial = [Vec<FixedSum>; 3];
@@ -185,7 +197,7 @@ struct ChunkInput<'a, const D: usize, K> {
     /// cutoff.
     at_build_positions: bool,
     step_key: u64,
-    want_virial: bool,
+    virial: VirialScope,
 }
 
 /// [`evaluate_chunk`] compiled for AVX2 (4 doubles per vector instruction, no FMA: the same
@@ -212,7 +224,7 @@ fn evaluate_chunk<const D: usize, K: PairKernel<D>>(
         pairs,
         at_build_positions,
         step_key,
-        want_virial,
+        virial: scope,
     } = *chunk;
     let n_owned = particles.n_owned;
     let (pos, vel, gid) = (&particles.pos, &particles.vel, &particles.gid);
@@ -281,8 +293,10 @@ fn evaluate_chunk<const D: usize, K: PairKernel<D>>(
                     }
                 }
             }
-            if want_virial {
-                add_block_virial(batch, n_owned, gid, &terms, &total, &mut virial, &mut bad);
+            if scope != VirialScope::Off {
+                let diagonal = scope == VirialScope::Diagonal;
+                let (sums, bad) = (&mut virial, &mut bad);
+                add_block_virial(batch, n_owned, gid, diagonal, &terms, &total, sums, bad);
             }
         }
     }
@@ -294,13 +308,15 @@ fn evaluate_chunk<const D: usize, K: PairKernel<D>>(
 /// owned–ghost pair, whose other half is added on the other side), then for every part and
 /// component a ≤ b (r ⊗ F ∝ e ⊗ e is symmetric: the upper triangle, mirrored by the caller)
 /// the terms (s_p e_a) e_b summed exactly ([`FixedSum::sum_of`]): the same value as adding the
-/// terms pair by pair. A pair that is not valid, or whose force or weights cannot be
-/// accumulated, adds nothing (the latter is reported in `bad`).
+/// terms pair by pair; with `diagonal` only a = b. A pair that is not valid, or whose force or
+/// weights cannot be accumulated, adds nothing (the latter is reported in `bad`).
 #[inline(always)]
+#[allow(clippy::too_many_arguments)]
 fn add_block_virial<const D: usize>(
     batch: &[[u32; 2]],
     n_owned: usize,
     gid: &[u64],
+    diagonal: bool,
     terms: &BlockTerms<D>,
     total: &[f64; BATCH],
     virial: &mut ChunkVirial,
@@ -330,7 +346,8 @@ fn add_block_virial<const D: usize>(
     let mut terms_ab = [0.0; BATCH];
     for (p, weight) in weight.iter().enumerate() {
         for a in 0..D {
-            for b in a..D {
+            let last = if diagonal { a } else { D - 1 };
+            for b in a..=last {
                 for k in 0..n {
                     let x = weight[k] * terms.e[a][k] * terms.e[b][k];
                     terms_ab[k] = if keep[k] { x } else { 0.0 };
@@ -373,7 +390,7 @@ fn near_pairs<const D: usize>(
 }
 
 /// Evaluates all listed pairs and writes the force on every owned particle into `force`;
-/// returns the virial when asked, or an error if a pair force is not finite (a blown-up run).
+/// returns the virial components `virial` asks for (else `None`), or an error if a pair force is not finite (a blown-up run).
 /// `isa` (normally [`Isa::current`]) picks the compiled version; every one gives the same bits.
 #[allow(clippy::too_many_arguments)]
 pub fn compute_forces<const D: usize, K: PairKernel<D>>(
@@ -384,7 +401,7 @@ pub fn compute_forces<const D: usize, K: PairKernel<D>>(
     step: u64,
     workspace: &mut PairWorkspace<D>,
     force: &mut [[f64; D]],
-    want_virial: bool,
+    virial: VirialScope,
 ) -> Result<Option<Virial>, String> {
     let n_owned = particles.n_owned;
     let chunks = rayon::current_num_threads().max(1);
@@ -409,7 +426,7 @@ pub fn compute_forces<const D: usize, K: PairKernel<D>>(
                 pairs,
                 at_build_positions,
                 step_key,
-                want_virial,
+                virial,
             };
             #[cfg(target_arch = "x86_64")]
             if avx2 {
@@ -442,7 +459,7 @@ pub fn compute_forces<const D: usize, K: PairKernel<D>>(
                 f[d] = s.value();
             }
         });
-    Ok(want_virial.then(|| {
+    Ok((virial != VirialScope::Off).then(|| {
         let mut total = [FixedSum::ZERO; 27];
         for v in virials {
             for (t, x) in total.iter_mut().zip(v) {
@@ -515,7 +532,8 @@ mod tests {
             let forces = |list: &NeighbourList<D>| {
                 let mut force = vec![[0.0; D]; p.n_owned];
                 let mut ws = PairWorkspace::default();
-                let virial = compute_forces(isa, &dpd, &p, list, 3, &mut ws, &mut force, true)
+                let scope = VirialScope::Full;
+                let virial = compute_forces(isa, &dpd, &p, list, 3, &mut ws, &mut force, scope)
                     .expect("finite forces")
                     .expect("virial asked for");
                 (force, virial)
