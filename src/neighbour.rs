@@ -156,17 +156,35 @@ impl<const D: usize> GridGeometry<D> {
             .collect()
     }
 
-    /// Counting sort of `pos` (indices offset by `first`) into the cells.
-    fn bin(&self, pos: &[[f64; D]], first: u32) -> Binned<D> {
+    /// Cell starts (`start[c]..start[c+1]` for cell c) of the flat cell indices `cells`.
+    fn starts(&self, cells: &[u32]) -> Vec<usize> {
         let total = self.total();
-        let cells = self.cells(pos);
         let mut start = vec![0usize; total + 1];
-        for &c in &cells {
+        for &c in cells {
             start[c as usize + 1] += 1;
         }
         for c in 0..total {
             start[c + 1] += start[c];
         }
+        start
+    }
+
+    /// The indices of `pos` sorted by cell (a stable counting sort).
+    fn order(&self, pos: &[[f64; D]]) -> Vec<u32> {
+        let cells = self.cells(pos);
+        let mut fill = self.starts(&cells);
+        let mut sorted = vec![0u32; pos.len()];
+        for (i, &c) in cells.iter().enumerate() {
+            sorted[fill[c as usize]] = i as u32;
+            fill[c as usize] += 1;
+        }
+        sorted
+    }
+
+    /// Counting sort of `pos` (indices offset by `first`) into the cells.
+    fn bin(&self, pos: &[[f64; D]], first: u32) -> Binned<D> {
+        let cells = self.cells(pos);
+        let start = self.starts(&cells);
         let mut fill = start.clone();
         // PAD entries past the end (index 0, position NaN: never within any radius), so the
         // vectorised row scan may read whole vectors at the end of the arrays.
@@ -387,13 +405,13 @@ fn scan_cells<const D: usize, const AVX2: bool>(
                 g_rows.push((ghosts.start[f0], ghosts.start[f1]));
             }
         }
+        // Candidates in the other rows, the same for every particle of the cell.
+        let in_rows: usize = o_rows.iter().chain(&g_rows).map(|r| r.1 - r.0).sum();
         for ia in a..b {
             let i = owned.sorted[ia];
             let pi: [f64; D] = std::array::from_fn(|d| owned.pos[d][ia]);
             let pi = &pi;
-            let count = (own_end - ia - 1)
-                + o_rows.iter().map(|r| r.1 - r.0).sum::<usize>()
-                + g_rows.iter().map(|r| r.1 - r.0).sum::<usize>();
+            let count = (own_end - ia - 1) + in_rows;
             let mut len = pairs.len();
             // Room for every candidate, and for the whole last vector of the AVX2 scan.
             pairs.resize(len + count + LANES, [0, 0]);
@@ -535,7 +553,5 @@ unsafe fn candidates_avx2<const D: usize>(
 
 /// A spatial order of the owned particles (by cell of a grid `width` wide) for cache locality.
 pub fn spatial_order<const D: usize>(pos: &[[f64; D]], width: f64) -> Vec<u32> {
-    let mut order = GridGeometry::new(pos, width).bin(pos, 0).sorted;
-    order.truncate(pos.len());
-    order
+    GridGeometry::new(pos, width).order(pos)
 }

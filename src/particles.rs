@@ -269,6 +269,10 @@ impl<const D: usize> Particles<D> {
     /// have been dropped.
     pub fn retain_owned(&mut self, keep: &[bool]) {
         debug_assert_eq!(self.n_owned, self.len());
+        if keep.iter().all(|&k| k) {
+            // The common case between rebuilds: nobody left.
+            return;
+        }
         fn filter<T: Clone>(v: &mut Vec<T>, keep: &[bool], width: usize) {
             let mut w = 0;
             for (i, &k) in keep.iter().enumerate() {
