@@ -221,7 +221,7 @@ pub const KEYS: &[KeyDoc] = &[
         "diagnostics.observables",
         "array of observable names",
         "[\"temperature\", \"pressure\"]",
-        "What to average: \"temperature\", \"pressure\", \"stress\" (full tensor by contribution), \"viscosity\", \"first_normal_stress_difference\", \"second_normal_stress_difference\", \"momentum\", \"velocity_profile\". The shear ones need box.shear_rate ≠ 0.",
+        "What to average: \"temperature\", \"pressure\", \"stress\" (full tensor by contribution), \"viscosity\", \"first_normal_stress_difference\", \"second_normal_stress_difference\", \"momentum\", \"velocity_profile\". The shear ones need box.shear_rate ≠ 0. Only what is listed is computed: the pair virial is skipped without \"pressure\", \"stress\" or the stress differences, and only its diagonal is accumulated without \"stress\" or \"viscosity\".",
     ),
     key(
         "diagnostics.profile_bins",
