@@ -243,11 +243,21 @@ impl<'c, const D: usize> HomogeneousEnsembles<'c, D> {
             Connectors::Double(q) => q.len(),
             Connectors::Single(q) => q.len(),
         };
-        if rows != gids.len() || control.as_ref().is_some_and(|c| c.len() != gids.len()) {
-            return Err(format!(
-                "restored {rows} ensembles for an id block of {} particles",
-                gids.len()
-            ));
+        let mismatch =
+            rows != gids.len() || control.as_ref().is_some_and(|c| c.len() != gids.len());
+        // Decided together, so that every rank returns the error or none does: the pool start
+        // below is collective, and a rank left waiting there would hang the run.
+        let mut any = [if mismatch { 1.0 } else { 0.0 }];
+        comm.allreduce_max(&mut any);
+        if any[0] > 0.0 {
+            return Err(if mismatch {
+                format!(
+                    "restored {rows} ensembles for an id block of {} particles",
+                    gids.len()
+                )
+            } else {
+                "another rank restored a wrong number of ensembles for its id block".to_owned()
+            });
         }
         let pool = crate::sim::worker_pool(comm, threads)?;
         let (q, q_single) = match q {
@@ -464,5 +474,50 @@ impl<'c, const D: usize> HomogeneousEnsembles<'c, D> {
         }
         self.comm.allreduce_u64(&mut acc, crate::comm::U64Op::Sum);
         acc[0]
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::comm::local_universe;
+    use crate::models::dumbbells::Scheme;
+
+    #[test]
+    fn a_state_with_the_wrong_row_count_on_one_rank_fails_on_every_rank_without_a_hang() {
+        let params = DumbbellParams {
+            spring: Spring::Hookean,
+            scheme: Scheme::Heun,
+            lambda: 1.0,
+            dt: 0.01,
+        };
+        let results: Vec<Result<usize, String>> = std::thread::scope(|scope| {
+            let handles: Vec<_> = local_universe(2)
+                .into_iter()
+                .map(|comm| {
+                    scope.spawn(move || {
+                        // 10 particles: ids 0–4 on rank 0, 5–9 on rank 1; rank 1 restores 4.
+                        let rows = if comm.rank() == 1 { 4 } else { 5 };
+                        let q = Connectors::Double(vec![vec![0.0; 3]; rows]);
+                        HomogeneousEnsembles::<3>::from_state(
+                            &comm,
+                            1,
+                            10,
+                            1,
+                            params,
+                            Flow::Rest,
+                            1,
+                            0,
+                            q,
+                            None,
+                        )
+                        .map(|e| e.gids.len())
+                    })
+                })
+                .collect();
+            handles.into_iter().map(|h| h.join().expect("rank thread")).collect()
+        });
+        assert!(results[0].as_ref().is_err_and(|e| e.contains("another rank")));
+        assert!(results[1].as_ref().is_err_and(|e| e.contains("restored 4 ensembles")));
     }
 }
