@@ -145,5 +145,8 @@ fn pressure_is_the_same_bits_whether_or_not_the_full_stress_tensor_is_sampled() 
     assert_eq!(pressure_p, pressure_s);
     assert!(pressure_p.contains("mean"), "{pressure_p}");
     // The full run does have off-diagonal components.
-    assert!(all["viscosity"]["mean"].as_f64().is_some_and(|v| v != 0.0), "{all}");
+    assert!(
+        all["viscosity"]["mean"].as_f64().is_some_and(|v| v != 0.0),
+        "{all}"
+    );
 }

@@ -515,9 +515,20 @@ mod tests {
                     })
                 })
                 .collect();
-            handles.into_iter().map(|h| h.join().expect("rank thread")).collect()
+            handles
+                .into_iter()
+                .map(|h| h.join().expect("rank thread"))
+                .collect()
         });
-        assert!(results[0].as_ref().is_err_and(|e| e.contains("another rank")));
-        assert!(results[1].as_ref().is_err_and(|e| e.contains("restored 4 ensembles")));
+        assert!(
+            results[0]
+                .as_ref()
+                .is_err_and(|e| e.contains("another rank"))
+        );
+        assert!(
+            results[1]
+                .as_ref()
+                .is_err_and(|e| e.contains("restored 4 ensembles"))
+        );
     }
 }
