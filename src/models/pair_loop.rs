@@ -337,8 +337,9 @@ fn add_block_virial<const D: usize>(
             representable &= FixedSum::representable(weight[p][k]);
         }
         // A force that is not representable was reported by the force scatter.
-        keep[k] = terms.valid[k] && FixedSum::representable(total[k]) && representable;
-        if terms.valid[k] && FixedSum::representable(total[k]) && !representable {
+        let accumulated = terms.valid[k] && FixedSum::representable(total[k]);
+        keep[k] = accumulated && representable;
+        if accumulated && !representable {
             let (i, j) = (i as usize, j as usize);
             bad.get_or_insert((gid[i], gid[j], w * total[k]));
         }
@@ -390,7 +391,8 @@ fn near_pairs<const D: usize>(
 }
 
 /// Evaluates all listed pairs and writes the force on every owned particle into `force`;
-/// returns the virial components `virial` asks for (else `None`), or an error if a pair force is not finite (a blown-up run).
+/// returns the virial components `virial` asks for (else `None`), or an error if a pair force
+/// is not finite (a blown-up run).
 /// `isa` (normally [`Isa::current`]) picks the compiled version; every one gives the same bits.
 #[allow(clippy::too_many_arguments)]
 pub fn compute_forces<const D: usize, K: PairKernel<D>>(
