@@ -1,7 +1,8 @@
 //! `mesorheo check`: validates a case and prints what it will cost and whether Δt is safe.
 
 use crate::config::{Case, FluidCfg};
-use crate::stability::{ball_volume, dpd_limits};
+use crate::models::dpd::DpdCfg;
+use crate::stability::{ball_volume, cfl_limit, dpd_limits};
 
 /// Bytes per owned particle (core fields) and per neighbour entry / pair.
 const BYTES_CORE: f64 = 8.0 + 4.0 * 8.0 * 3.0 + 4.0 * 3.0;
@@ -15,20 +16,19 @@ pub fn max_ranks(case: &Case) -> usize {
 
 /// The report `check` prints.
 pub fn report(case: &Case, ranks: usize) -> String {
-    let FluidCfg::Dpd(d) = &case.fluid;
     let dim = case.dimension;
     let (cells, n) = case.lattice_counts();
     let volume: f64 = case.domain.lengths.iter().product();
     let density = n as f64 / volume;
-    let lim = dpd_limits(case);
     let dt = case.integrator.dt();
     let skin = case.neighbour.skin;
-    let range = d.cutoff + skin;
+    let cutoff = case.cutoff();
+    let range = cutoff + skin;
+    let neighbours = density * ball_volume(dim, cutoff);
     let list_neighbours = density * ball_volume(dim, range);
     let axis = case.decomposition.axis.index();
     let l_axis = case.domain.lengths[axis];
     let max_ranks = (l_axis / range).floor().max(1.0) as usize;
-    let m = case.particles.mass;
     let mut s = String::new();
     let mut line = |t: String| {
         s.push_str(&t);
@@ -43,8 +43,67 @@ pub fn report(case: &Case, ranks: usize) -> String {
     ));
     line(format!(
         "neighbours per particle: {:.1} within r_c, {:.1} within r_c + skin (list)",
-        lim.neighbours, list_neighbours
+        neighbours, list_neighbours
     ));
+    match &case.fluid {
+        FluidCfg::Dpd(d) => dpd_report(case, d, density, &mut line),
+        FluidCfg::SummationGas(g) => {
+            let cfl = cfl_limit(g.smoothing_length, g.sound_speed);
+            line(format!(
+                "summation gas (the engine's two-pass test model): Lucy kernel h = {}, sound \
+                 speed c = {}, p = c² ρ",
+                g.smoothing_length, g.sound_speed
+            ));
+            line(format!(
+                "time step Δt = {dt}: acoustic limit 0.25 h/c = {cfl:.4e} [{}]",
+                if dt < cfl { "ok" } else { "VIOLATED" }
+            ));
+        }
+    }
+    let slab = l_axis / ranks as f64;
+    line(format!(
+        "decomposition: slabs along {}, {ranks} rank(s) → width {slab:.3} (needs ≥ {range}); at most {max_ranks} ranks [{}]",
+        ["x", "y", "z"][axis],
+        if ranks <= max_ranks {
+            "ok"
+        } else {
+            "TOO MANY RANKS"
+        }
+    ));
+    let owned = n as f64 / ranks as f64;
+    let ghosts = if ranks == 1 {
+        // self-images on every periodic face
+        n as f64 * (2.0 * range * case.domain.lengths.iter().map(|l| 1.0 / l).sum::<f64>())
+    } else {
+        owned * 2.0 * range / slab
+    };
+    let bytes_entry = 8.0;
+    let bytes_pair = 8.0 + (dim as f64 + 4.0) * 8.0;
+    let mem = owned * BYTES_CORE
+        + ghosts * (8.0 + 2.0 * 8.0 * dim as f64)
+        + owned * list_neighbours * (bytes_entry + 0.5 * bytes_pair);
+    line(format!(
+        "memory per rank ≈ {:.1} MiB ({:.0} owned + {:.0} ghost particles)",
+        mem / 1048576.0,
+        owned,
+        ghosts
+    ));
+    let pair_evals = n as f64 * neighbours / 2.0;
+    line(format!(
+        "cost: {} steps × {n} particles = {:.3e} particle-steps, {:.3e} pair evaluations per step",
+        case.run.steps,
+        case.run.steps as f64 * n as f64,
+        pair_evals
+    ));
+    s
+}
+
+/// The DPD lines of the report: parameters, kinetic-theory estimates, time-step limits.
+fn dpd_report(case: &Case, d: &DpdCfg, density: f64, line: &mut impl FnMut(String)) {
+    let dim = case.dimension;
+    let m = case.particles.mass;
+    let dt = case.integrator.dt();
+    let lim = dpd_limits(case, d);
     let alpha = d.gamma * d.gamma * d.cutoff / (m * d.a.max(f64::MIN_POSITIVE));
     line(format!(
         "DPD: a = {}, γ = {}, k_BT = {}, r_c = {}, s = {}, σ = {:.4}, α = γ² r_c/(m a) = {:.3}",
@@ -90,42 +149,6 @@ pub fn report(case: &Case, ranks: usize) -> String {
             "expect k_BT errors > few %"
         }
     ));
-    let slab = l_axis / ranks as f64;
-    line(format!(
-        "decomposition: slabs along {}, {ranks} rank(s) → width {slab:.3} (needs ≥ {range}); at most {max_ranks} ranks [{}]",
-        ["x", "y", "z"][axis],
-        if ranks <= max_ranks {
-            "ok"
-        } else {
-            "TOO MANY RANKS"
-        }
-    ));
-    let owned = n as f64 / ranks as f64;
-    let ghosts = if ranks == 1 {
-        // self-images on every periodic face
-        n as f64 * (2.0 * range * case.domain.lengths.iter().map(|l| 1.0 / l).sum::<f64>())
-    } else {
-        owned * 2.0 * range / slab
-    };
-    let bytes_entry = 8.0;
-    let bytes_pair = 8.0 + (dim as f64 + 4.0) * 8.0;
-    let mem = owned * BYTES_CORE
-        + ghosts * (8.0 + 2.0 * 8.0 * dim as f64)
-        + owned * list_neighbours * (bytes_entry + 0.5 * bytes_pair);
-    line(format!(
-        "memory per rank ≈ {:.1} MiB ({:.0} owned + {:.0} ghost particles)",
-        mem / 1048576.0,
-        owned,
-        ghosts
-    ));
-    let pair_evals = n as f64 * lim.neighbours / 2.0;
-    line(format!(
-        "cost: {} steps × {n} particles = {:.3e} particle-steps, {:.3e} pair evaluations per step",
-        case.run.steps,
-        case.run.steps as f64 * n as f64,
-        pair_evals
-    ));
-    s
 }
 
 /// The report `check` prints for a homogeneous-flow scene, and whether it fits this machine

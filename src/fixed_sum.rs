@@ -165,6 +165,78 @@ impl FixedSum {
     }
 }
 
+/// The power-of-two scale 2^e under which one accumulated quantity is summed: a term x enters a
+/// [`FixedSum`] as x · 2^−e (exact: a power-of-two product), and the value comes back × 2^e.
+/// So the quantity may take terms up to |x| < 2^(26+e) and is resolved to 2^(e−77) per term.
+/// A model states the scale of each quantity it accumulates ([`Scale::covering`] its largest
+/// plausible term): SPH densities, pressures, Maxwell stresses and MSPH moments span very
+/// different ranges, and one fixed scale would either overflow or lose their small terms.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Scale {
+    exponent: i32,
+    down: f64,
+    up: f64,
+}
+
+impl Default for Scale {
+    fn default() -> Self {
+        Self::UNIT
+    }
+}
+
+impl Scale {
+    /// The scale of the DPD forces and virials: terms below 2^26, resolution 2^−77.
+    pub const UNIT: Self = Self {
+        exponent: 0,
+        down: 1.0,
+        up: 1.0,
+    };
+
+    /// The scale 2^e with e the smallest exponent ≥ −60 for which a term of magnitude
+    /// `max_term` is representable with a factor 2 to spare (|x| < 2^(25+e)).
+    pub fn covering(max_term: f64) -> Self {
+        let need = if max_term.is_finite() && max_term > 0.0 {
+            (max_term.log2().floor() as i32 + 1) - 25
+        } else {
+            0
+        };
+        Self::of_exponent(need.clamp(-60, 900))
+    }
+
+    /// The scale 2^`exponent`.
+    pub fn of_exponent(exponent: i32) -> Self {
+        Self {
+            exponent,
+            down: 2f64.powi(-exponent),
+            up: 2f64.powi(exponent),
+        }
+    }
+
+    /// The exponent e.
+    pub fn exponent(&self) -> i32 {
+        self.exponent
+    }
+
+    /// The largest magnitude a term may have under this scale (exclusive).
+    pub fn max_term(&self) -> f64 {
+        FixedSum::MAX_TERM * self.up
+    }
+
+    /// The words of `x` under this scale, or `None` if x is not finite or |x| ≥
+    /// [`Self::max_term`] (the caller reports it: a term is never wrapped).
+    #[inline(always)]
+    pub fn split(&self, x: f64) -> Option<Split> {
+        let y = x * self.down;
+        FixedSum::representable(y).then(|| Split::of(y))
+    }
+
+    /// The value of `sum` (accumulated under this scale), rounded once.
+    #[inline]
+    pub fn value(&self, sum: &FixedSum) -> f64 {
+        sum.value() * self.up
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -276,5 +348,39 @@ mod tests {
         let mut neg = FixedSum::ZERO;
         neg.add(-2.75);
         assert_eq!(neg.value(), -2.75);
+    }
+
+    #[test]
+    fn a_scale_covers_its_range_keeps_order_independence_and_refuses_beyond() {
+        for (max, big) in [(1e-6, 9e-7), (1.0, 0.9), (3e9, 2.9e9), (1e30, 7e29)] {
+            let scale = Scale::covering(max);
+            assert!(
+                scale.max_term() > max && scale.max_term() <= 4.0 * max,
+                "{max}"
+            );
+            let terms = [big, -0.5 * big, 1e-3 * big, -big, 0.25 * big];
+            let (mut fwd, mut back) = (FixedSum::ZERO, FixedSum::ZERO);
+            terms
+                .iter()
+                .for_each(|&x| fwd.add_split(scale.split(x).expect("in range")));
+            terms
+                .iter()
+                .rev()
+                .for_each(|&x| back.add_split(scale.split(x).expect("in range")));
+            assert_eq!(fwd, back);
+            let want = -0.249 * big;
+            assert!(
+                (scale.value(&fwd) - want).abs() <= 1e-15 * want.abs(),
+                "{max}"
+            );
+            assert!(scale.split(2.0 * scale.max_term()).is_none());
+            assert!(scale.split(f64::NAN).is_none());
+        }
+        // The unit scale is the plain FixedSum.
+        let mut a = FixedSum::ZERO;
+        a.add(1.25);
+        let mut b = FixedSum::ZERO;
+        b.add_split(Scale::UNIT.split(1.25).expect("in range"));
+        assert_eq!(a, b);
     }
 }

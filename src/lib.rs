@@ -21,6 +21,7 @@ pub mod driver;
 pub mod fixed_sum;
 pub mod flow_driver;
 pub mod geometry;
+pub mod integrators;
 pub mod models;
 pub mod neighbour;
 #[cfg(feature = "hdf5")]

@@ -3,7 +3,42 @@
 //! Core fields are stored as arrays of `[f64; D]`. Models register extra per-particle fields:
 //! fixed-width ones ([`ExtraField`], e.g. a stress tensor, D² numbers) and variable-length ones
 //! ([`VarField`], e.g. an ensemble of N_d connector vectors). Both migrate with their particle
-//! and enter the state digest; fixed-width fields can also be sent to ghosts on request.
+//! and enter the state digest unless their [`FieldFlags`] say otherwise (a field derived anew
+//! every step, such as an SPH density, does neither); fixed-width fields are sent to ghosts
+//! when a model's pass asks for them ([`crate::domain::HaloPlan::refresh_fields`]).
+
+/// How the engine treats a registered fixed-width field.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct FieldFlags {
+    /// Travels with its particle when the particle changes rank.
+    pub migrates: bool,
+    /// Written to checkpoints (and expected back from them).
+    pub checkpointed: bool,
+    /// Enters the state digest.
+    pub digested: bool,
+    /// Transforms like a velocity (width D): its ghost copies get the Lees–Edwards velocity
+    /// shift ±γ̇L_y, like the ghosts' velocities. Nothing else does.
+    pub velocity_like: bool,
+}
+
+impl FieldFlags {
+    /// Per-particle state (a stress tensor, a conformation vector): migrates, is checkpointed
+    /// and enters the digest.
+    pub const STATE: Self = Self {
+        migrates: true,
+        checkpointed: true,
+        digested: true,
+        velocity_like: false,
+    };
+    /// Derived anew from the positions and velocities every step (a summation density, a
+    /// velocity gradient): none of that.
+    pub const DERIVED: Self = Self {
+        migrates: false,
+        checkpointed: false,
+        digested: false,
+        velocity_like: false,
+    };
+}
 
 /// A fixed-width per-particle field, `width` numbers per particle (owned and ghosts).
 #[derive(Clone, Debug, PartialEq)]
@@ -12,6 +47,8 @@ pub struct ExtraField {
     pub name: String,
     /// Numbers per particle.
     pub width: usize,
+    /// How the engine treats it.
+    pub flags: FieldFlags,
     /// `width × len` numbers.
     pub data: Vec<f64>,
 }
@@ -68,6 +105,7 @@ impl<const D: usize> Particles<D> {
                 .map(|f| ExtraField {
                     name: f.name.clone(),
                     width: f.width,
+                    flags: f.flags,
                     data: Vec::new(),
                 })
                 .collect(),
@@ -105,14 +143,40 @@ impl<const D: usize> Particles<D> {
         self.extra.iter().position(|f| f.name == name)
     }
 
-    /// Registers a fixed-width field initialised to zero; returns its index.
+    /// Registers a fixed-width state field ([`FieldFlags::STATE`]) initialised to zero;
+    /// returns its index.
     pub fn register_extra(&mut self, name: &str, width: usize) -> usize {
+        self.register_field(name, width, FieldFlags::STATE)
+            .expect("a new field")
+    }
+
+    /// Registers a fixed-width field initialised to zero, or, if a field of that name exists
+    /// already (brought by a checkpoint), gives it `flags`; returns its index. An existing
+    /// field of another width is an error.
+    pub fn register_field(
+        &mut self,
+        name: &str,
+        width: usize,
+        flags: FieldFlags,
+    ) -> Result<usize, String> {
+        if let Some(k) = self.extra_index(name) {
+            let f = &mut self.extra[k];
+            if f.width != width {
+                return Err(format!(
+                    "the field {name} has {} numbers per particle, {width} expected",
+                    f.width
+                ));
+            }
+            f.flags = flags;
+            return Ok(k);
+        }
         self.extra.push(ExtraField {
             name: name.to_owned(),
             width,
+            flags,
             data: vec![0.0; width * self.len()],
         });
-        self.extra.len() - 1
+        Ok(self.extra.len() - 1)
     }
 
     /// Registers a variable-length field (empty arrays); returns its index.
@@ -153,36 +217,28 @@ impl<const D: usize> Particles<D> {
         }
     }
 
-    /// Appends a ghost.
-    pub fn push_ghost(&mut self, gid: u64, pos: [f64; D], vel: [f64; D], extra: &[f64]) {
+    /// Appends a ghost; its registered fields start at zero (a pass that reads them asks the
+    /// halo to refresh them first).
+    pub fn push_ghost(&mut self, gid: u64, pos: [f64; D], vel: [f64; D]) {
         self.gid.push(gid);
         self.pos.push(pos);
         self.vel.push(vel);
-        let mut offset = 0;
         for f in &mut self.extra {
-            f.data.extend_from_slice(&extra[offset..offset + f.width]);
-            offset += f.width;
-        }
-    }
-
-    /// Total width of the fixed-width extra fields.
-    pub fn extra_width(&self) -> usize {
-        self.extra.iter().map(|f| f.width).sum()
-    }
-
-    /// Appends particle `i`'s extra fields to `out`.
-    pub fn extra_of(&self, i: usize, out: &mut Vec<f64>) {
-        for f in &self.extra {
-            out.extend_from_slice(&f.data[i * f.width..(i + 1) * f.width]);
+            f.data.extend(std::iter::repeat_n(0.0, f.width));
         }
     }
 
     /// Number of words [`Self::pack_owned`] writes before the variable-length payload.
     fn fixed_record_len(&self) -> usize {
-        1 + 4 * D + D + self.extra_width() + self.var.len()
+        let migrating: usize = (self.extra.iter())
+            .filter(|f| f.flags.migrates)
+            .map(|f| f.width)
+            .sum();
+        1 + 4 * D + D + migrating + self.var.len()
     }
 
-    /// Serialises owned particle `i` with everything that must travel when it migrates.
+    /// Serialises owned particle `i` with everything that must travel when it migrates (the
+    /// fields whose [`FieldFlags::migrates`] is set).
     pub fn pack_owned(&self, i: usize, out: &mut Vec<f64>) {
         out.push(f64::from_bits(self.gid[i]));
         out.extend_from_slice(&self.pos[i]);
@@ -190,7 +246,9 @@ impl<const D: usize> Particles<D> {
         out.extend_from_slice(&self.force[i]);
         out.extend_from_slice(&self.vel_half[i]);
         out.extend(self.image[i].iter().map(|&k| f64::from(k)));
-        self.extra_of(i, out);
+        for f in self.extra.iter().filter(|f| f.flags.migrates) {
+            out.extend_from_slice(&f.data[i * f.width..(i + 1) * f.width]);
+        }
         for f in &self.var {
             out.push(f.data[i].len() as f64);
         }
@@ -223,8 +281,13 @@ impl<const D: usize> Particles<D> {
             self.image.push(img);
             let mut off = 1 + 5 * D;
             for f in &mut self.extra {
-                f.data.extend_from_slice(&rec[off..off + f.width]);
-                off += f.width;
+                if f.flags.migrates {
+                    f.data.extend_from_slice(&rec[off..off + f.width]);
+                    off += f.width;
+                } else {
+                    // Derived anew before it is next read.
+                    f.data.extend(std::iter::repeat_n(0.0, f.width));
+                }
             }
             let lens: Vec<usize> = rec[off..off + self.var.len()]
                 .iter()

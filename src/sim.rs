@@ -1,18 +1,19 @@
-//! The time-stepping driver: initial state, the step, sampling and the state digest.
+//! The step loop of one rank: initial state, the step, sampling and the state digest.
 //!
-//! Groot–Warren modified velocity Verlet (Groot & Warren 1997, Eq. 23; spec
-//! `dpd-physical-parameters.md` §1.5):
+//! One step (the same for every model; the models and the integrator are components chosen by
+//! the case, [`build_fluid`] and [`build_integrator`]):
 //!
 //! ```text
-//! r(t+Δt) = r + Δt v + ½ Δt² f(t)/m
-//! ṽ       = v + λ Δt f(t)/m                   (velocity the new forces see)
-//! f(t+Δt) = F(r(t+Δt), ṽ)
-//! v(t+Δt) = v + ½ Δt (f(t) + f(t+Δt))/m       (stored as v_half = v + ½Δt f(t)/m, then + ½Δt f(t+Δt)/m)
+//! integrator.before_forces        positions to t + Δt, velocities the new forces see
+//! walls reflect; step += 1; every model's update_state (its per-particle state)
+//! rebuild (migration, halo, lists) if 2 max|Δx| + |Δs| > skin, else refresh the ghosts
+//! forces := 0; for each model, for each pass: refresh the ghost fields it names, run it
+//! integrator.after_forces         complete the velocities
 //! ```
 //!
-//! λ = ½ is plain velocity Verlet. Neighbour lists are rebuilt, and particles migrated, when
-//! 2 max|Δx| + |Δs| exceeds the skin (Δs: Lees–Edwards offset drift since the last build);
-//! otherwise only the ghosts are refreshed.
+//! Neighbour lists are rebuilt, and particles migrated, when 2 max|Δx| + |Δs| exceeds the skin
+//! (Δs: Lees–Edwards offset drift since the last build); otherwise only the ghosts' positions
+//! and velocities are refreshed.
 
 use crate::comm::{Comm, U64Op};
 use crate::config::{Case, FluidCfg, IntegratorCfg, Lattice, Observable, VelocityProfile};
@@ -20,13 +21,16 @@ use crate::diagnostics::{STRESS_PARTS, Series, tensor_components};
 use crate::domain::{HaloPlan, Slab, send_leavers, wrap_owned};
 use crate::fixed_sum::FixedSum;
 use crate::geometry::{GRADIENT, SimBox};
-use crate::models::dpd::Dpd;
-use crate::models::pair_loop::{PairWorkspace, Virial, VirialScope, compute_forces};
+use crate::integrators::{GrootWarren, Integrator};
+use crate::models::dpd::DpdModel;
+use crate::models::gather::FullList;
+use crate::models::interface::{FieldKind, ParticleModel, PassContext};
+use crate::models::pair_loop::{Virial, VirialScope};
+use crate::models::summation_gas::SummationGas;
 use crate::neighbour::{NeighbourList, spatial_order};
 use crate::particles::Particles;
 use crate::rng::{Purpose, StreamKey};
 use crate::simd::Isa;
-use rayon::prelude::*;
 use std::time::{Duration, Instant};
 
 /// Wall time spent per phase of the step (this rank).
@@ -78,8 +82,22 @@ pub struct Simulation<'c, const D: usize> {
     halo: HaloPlan,
     /// Neighbour lists.
     pub list: NeighbourList<D>,
-    dpd: Dpd,
-    workspace: PairWorkspace<D>,
+    /// Every owned particle's neighbours, for models that gather (else empty).
+    full: FullList,
+    /// The models, in evaluation order (the fluid first).
+    models: Vec<Box<dyn ParticleModel<D>>>,
+    /// For every model and pass: the indices of the fields its ghosts need refreshed first.
+    pass_fields: Vec<Vec<Vec<usize>>>,
+    /// Names of the models' passes (for errors).
+    pass_names: Vec<Vec<&'static str>>,
+    /// The time integrator.
+    integrator: Box<dyn Integrator<D>>,
+    /// The largest interaction range of the models.
+    cutoff: f64,
+    /// Whether a model gathers over the full list.
+    wants_full_list: bool,
+    /// Whether this run continues from a checkpoint (models then find their state fields).
+    restarted: bool,
     /// Virial of the last force evaluation that computed one, and its step.
     virial: Option<(u64, Virial)>,
     /// The virial components the case's observables need.
@@ -87,7 +105,6 @@ pub struct Simulation<'c, const D: usize> {
     /// Current step.
     pub step: u64,
     dt: f64,
-    lambda: f64,
     mass: f64,
     skin: f64,
     /// Total particle count.
@@ -98,8 +115,6 @@ pub struct Simulation<'c, const D: usize> {
     pub times: PhaseTimes,
     /// This rank's worker threads.
     pool: rayon::ThreadPool,
-    /// Models with per-particle state of their own.
-    models: Vec<Box<dyn StateModel<D>>>,
     /// This rank was asked to stop (a signal); shared with the others in the next step.
     stop_requested_here: bool,
     /// Some rank asked to stop during the last step (the same on every rank).
@@ -109,14 +124,19 @@ pub struct Simulation<'c, const D: usize> {
 /// Name of the extra field that carries the neighbour-list build positions in checkpoints.
 pub const LIST_REFERENCE_FIELD: &str = "list_reference_position";
 
-/// A model with per-particle state of its own (a stress tensor, an ensemble of dumbbells…),
-/// stored in registered fields so that it migrates, is checkpointed and enters the digest.
-pub trait StateModel<const D: usize>: Send {
-    /// Registers and initialises the fields on a fresh run, or checks them after a restart
-    /// (the fields then already exist).
-    fn attach(&self, particles: &mut Particles<D>) -> Result<(), String>;
-    /// Advances the owned particles' state to `step` (called once per step, after the positions).
-    fn advance(&self, particles: &mut Particles<D>, step: u64);
+/// The fluid model the case names (the registration of every particle model).
+pub fn build_fluid<const D: usize>(case: &Case) -> Box<dyn ParticleModel<D>> {
+    match &case.fluid {
+        FluidCfg::Dpd(d) => Box::new(DpdModel::<D>::new(d, case.integrator.dt(), case.seed)),
+        FluidCfg::SummationGas(g) => Box::new(SummationGas::<D>::new(g, case.particles.mass)),
+    }
+}
+
+/// The integrator the case names.
+pub fn build_integrator<const D: usize>(case: &Case) -> Box<dyn Integrator<D>> {
+    match &case.integrator {
+        IntegratorCfg::GrootWarren(gw) => Box::new(GrootWarren::new(gw, case.particles.mass)),
+    }
 }
 
 impl<'c, const D: usize> Simulation<'c, D> {
@@ -125,7 +145,7 @@ impl<'c, const D: usize> Simulation<'c, D> {
     pub fn new(case: &Case, comm: &'c dyn Comm, threads: usize) -> Result<Self, String> {
         let (sim_box, slab) = Self::geometry(case, comm)?;
         let (particles, total) = initial_particles(case, &sim_box, &slab);
-        let mut sim = Self::assemble(case, comm, threads, sim_box, slab, particles, total)?;
+        let mut sim = Self::assemble(case, comm, threads, sim_box, slab, particles, total, false)?;
         sim.rebuild()?;
         sim.compute_forces(sim.virial_scope)?;
         Ok(sim)
@@ -157,7 +177,7 @@ impl<'c, const D: usize> Simulation<'c, D> {
         let field = particles
             .extra_index(LIST_REFERENCE_FIELD)
             .ok_or_else(|| format!("the checkpoint lacks the field {LIST_REFERENCE_FIELD}"))?;
-        if field + 1 != particles.extra.len() || particles.extra[field].width != D {
+        if particles.extra[field].width != D {
             return Err(format!(
                 "the checkpoint's {LIST_REFERENCE_FIELD} field is malformed"
             ));
@@ -173,11 +193,12 @@ impl<'c, const D: usize> Simulation<'c, D> {
         let particles = crate::domain::redistribute(&particles, comm, |i| {
             slab.owner_of(particles.pos[i][slab.axis])
         });
-        let mut sim = Self::assemble(case, comm, threads, sim_box, slab, particles, total)?;
+        let mut sim = Self::assemble(case, comm, threads, sim_box, slab, particles, total, true)?;
         sim.step = rebuild_step;
         sim.rebuild()?;
         let p = &mut sim.particles;
-        let mut current = p.extra.pop().expect("field checked above");
+        let field = p.extra_index(LIST_REFERENCE_FIELD).expect("checked above");
+        let mut current = p.extra.remove(field);
         for i in 0..p.n_owned {
             p.pos[i].copy_from_slice(&current.data[i * D..(i + 1) * D]);
         }
@@ -235,6 +256,7 @@ impl<'c, const D: usize> Simulation<'c, D> {
         Ok((sim_box, slab))
     }
 
+    #[allow(clippy::too_many_arguments)]
     fn assemble(
         case: &Case,
         comm: &'c dyn Comm,
@@ -243,12 +265,11 @@ impl<'c, const D: usize> Simulation<'c, D> {
         slab: Slab,
         particles: Particles<D>,
         total: u64,
+        restarted: bool,
     ) -> Result<Self, String> {
-        let IntegratorCfg::GrootWarren(gw) = &case.integrator;
-        let FluidCfg::Dpd(d) = &case.fluid;
-        let dpd = Dpd::new(d, gw.dt, case.seed);
+        let integrator = build_integrator::<D>(case);
         let pool = worker_pool(comm, threads)?;
-        Ok(Simulation {
+        let mut sim = Simulation {
             case: case.clone(),
             comm,
             sim_box,
@@ -256,38 +277,110 @@ impl<'c, const D: usize> Simulation<'c, D> {
             particles,
             halo: HaloPlan::default(),
             list: NeighbourList::default(),
-            dpd,
-            workspace: PairWorkspace::default(),
+            full: FullList::default(),
+            models: Vec::new(),
+            pass_fields: Vec::new(),
+            pass_names: Vec::new(),
+            dt: integrator.dt(),
+            integrator,
+            cutoff: 0.0,
+            wants_full_list: false,
+            restarted,
             virial: None,
             virial_scope: virial_scope(&case.diagnostics.observables),
             step: 0,
-            dt: gw.dt,
-            lambda: gw.lambda,
             mass: case.particles.mass,
             skin: case.neighbour.skin,
             total_particles: total,
             series: Series::default(),
             times: PhaseTimes::default(),
             pool,
-            models: Vec::new(),
             stop_requested_here: false,
             stop_agreed: false,
-        })
+        };
+        sim.attach(build_fluid::<D>(case))?;
+        Ok(sim)
     }
 
-    /// Attaches a model that carries per-particle state of its own: on a fresh run it registers
-    /// and initialises its fields, on a restarted one it checks that the checkpoint brought them.
-    pub fn attach(&mut self, model: Box<dyn StateModel<D>>) -> Result<(), String> {
-        model.attach(&mut self.particles)?;
+    /// Attaches a model: registers its fields (on a restart, checks that the checkpoint brought
+    /// the checkpointed ones), lets it initialise them, and resolves the ghost fields of its
+    /// passes. A model attached after the set-up computed the forces joins from the next step.
+    pub fn attach(&mut self, mut model: Box<dyn ParticleModel<D>>) -> Result<(), String> {
+        let p = &mut self.particles;
+        for spec in model.fields() {
+            let name = spec.name;
+            if self.restarted && spec.flags.checkpointed {
+                let present = match spec.kind {
+                    FieldKind::Ensemble => p.var.iter().any(|f| f.name == name),
+                    _ => p.extra_index(name).is_some(),
+                };
+                if !present {
+                    return Err(format!(
+                        "the checkpoint lacks the field `{name}` of the model {}",
+                        model.name()
+                    ));
+                }
+            }
+            match spec.kind {
+                FieldKind::Ensemble => {
+                    if !p.var.iter().any(|f| f.name == name) {
+                        p.register_var(name);
+                    }
+                }
+                kind => {
+                    let width = kind.width(D);
+                    if spec.flags.velocity_like && width != D {
+                        return Err(format!(
+                            "the velocity-like field `{name}` of the model {} must be a vector",
+                            model.name()
+                        ));
+                    }
+                    p.register_field(name, width, spec.flags)?;
+                }
+            }
+        }
+        model.attach(p, self.restarted)?;
+        let passes = model.passes();
+        let mut fields = Vec::with_capacity(passes.len());
+        for pass in &passes {
+            let mut indices = Vec::new();
+            for name in &pass.ghost_fields {
+                indices.push(p.extra_index(name).ok_or_else(|| {
+                    format!(
+                        "pass `{}` of the model {} needs the ghost field `{name}`, which no \
+                         model registers",
+                        pass.name,
+                        model.name()
+                    )
+                })?);
+            }
+            fields.push(indices);
+        }
+        self.pass_fields.push(fields);
+        self.pass_names
+            .push(passes.iter().map(|p| p.name).collect());
+        self.cutoff = self.cutoff.max(model.cutoff());
+        self.wants_full_list |= model.uses_full_list();
         self.models.push(model);
         Ok(())
     }
 
     /// Owned particles (no ghosts) with the list-build positions as the extra field
     /// [`LIST_REFERENCE_FIELD`]: everything a checkpoint must hold.
+    /// Fields derived anew every step ([`crate::particles::FieldFlags::checkpointed`] unset)
+    /// are left out.
     pub fn checkpoint_particles(&self) -> Particles<D> {
-        let mut p = self.particles.clone();
-        p.clear_ghosts();
+        let src = &self.particles;
+        let n = src.n_owned;
+        let mut p = src.owned_core();
+        for f in src.extra.iter().filter(|f| f.flags.checkpointed) {
+            p.extra.push(crate::particles::ExtraField {
+                data: f.data[..n * f.width].to_vec(),
+                name: f.name.clone(),
+                ..*f
+            });
+        }
+        p.var = src.var.clone();
         let k = p.register_extra(LIST_REFERENCE_FIELD, D);
         for (i, x) in self.list.build_pos.iter().enumerate() {
             p.extra[k].data[i * D..(i + 1) * D].copy_from_slice(x);
@@ -317,7 +410,7 @@ impl<'c, const D: usize> Simulation<'c, D> {
     }
 
     fn range(&self) -> f64 {
-        self.dpd.cutoff + self.skin
+        self.cutoff + self.skin
     }
 
     /// Jumps to `step` (as a restart would) and rebuilds halo and lists there; used by tests
@@ -352,14 +445,16 @@ impl<'c, const D: usize> Simulation<'c, D> {
             range,
             self.step,
             self.dt,
-            false,
         );
         let t1 = Instant::now();
         let particles = &self.particles;
-        let cutoff = self.dpd.cutoff;
+        let cutoff = self.cutoff;
         self.list = self
             .pool
             .install(|| NeighbourList::build(particles, range, cutoff));
+        if self.wants_full_list {
+            self.full = FullList::from_half(&self.list, self.particles.n_owned);
+        }
         tracing::debug!(
             owned = self.particles.n_owned,
             ghosts = self.particles.len() - self.particles.n_owned,
@@ -385,46 +480,53 @@ impl<'c, const D: usize> Simulation<'c, D> {
         self.compute_forces(scope)
     }
 
-    /// Forces (and the virial when asked) at the current step; collective, so a blown-up pair
-    /// on any rank stops every rank with the same error.
+    /// Forces (and the virial when asked) at the current step: every model's passes in order,
+    /// each after the ghost fields it names are refreshed. Collective: a pass that fails on
+    /// any rank (a blown-up pair) stops every rank after that pass, with the same error there.
     fn compute_forces(&mut self, virial_scope: VirialScope) -> Result<(), String> {
         let t0 = Instant::now();
-        let mut force = std::mem::take(&mut self.particles.force);
-        let (dpd, particles, list, step, workspace) = (
-            &self.dpd,
-            &self.particles,
-            &self.list,
-            self.step,
-            &mut self.workspace,
-        );
-        let virial = self.pool.install(|| {
-            compute_forces(
-                Isa::current(),
-                dpd,
-                particles,
-                list,
-                step,
-                workspace,
-                &mut force,
-                virial_scope,
-            )
-        });
-        self.particles.force = force;
-        self.times.forces += t0.elapsed().as_secs_f64();
-        let mut failed = [if virial.is_err() { 1.0 } else { 0.0 }];
-        self.comm.allreduce_max(&mut failed);
-        match virial {
-            Ok(Some(v)) => self.virial = Some((self.step, v)),
-            Ok(None) => {}
-            Err(e) => return Err(e),
+        let mut halo_seconds = 0.0;
+        self.particles.force.fill([0.0; D]);
+        let mut virial = None;
+        for (m, model) in self.models.iter_mut().enumerate() {
+            for (k, fields) in self.pass_fields[m].iter().enumerate() {
+                let t = Instant::now();
+                let (sim_box, slab) = (&self.sim_box, &self.slab);
+                self.halo
+                    .refresh_fields(&mut self.particles, fields, sim_box, slab, self.comm);
+                halo_seconds += t.elapsed().as_secs_f64();
+                let ctx = PassContext {
+                    particles: &mut self.particles,
+                    list: &self.list,
+                    full: &self.full,
+                    step: self.step,
+                    virial: virial_scope,
+                    isa: Isa::current(),
+                };
+                let result = self.pool.install(|| model.pass(k, ctx));
+                let mut failed = [if result.is_err() { 1.0 } else { 0.0 }];
+                self.comm.allreduce_max(&mut failed);
+                match result {
+                    Ok(out) => virial = out.virial.or(virial),
+                    Err(e) => return Err(e),
+                }
+                if failed[0] > 0.0 {
+                    return Err(format!(
+                        "the pass `{}` of the model {} failed on another rank at step {} (a \
+                         pair term not finite or out of range): the run is unstable (time step \
+                         too large?)",
+                        self.pass_names[m][k],
+                        model.name(),
+                        self.step
+                    ));
+                }
+            }
         }
-        if failed[0] > 0.0 {
-            return Err(format!(
-                "a pair force on another rank is not finite at step {}: the run is unstable \
-                 (time step too large?)",
-                self.step
-            ));
+        if let Some(v) = virial {
+            self.virial = Some((self.step, v));
         }
+        self.times.halo += halo_seconds;
+        self.times.forces += t0.elapsed().as_secs_f64() - halo_seconds;
         Ok(())
     }
 
@@ -449,32 +551,22 @@ impl<'c, const D: usize> Simulation<'c, D> {
     /// Advances one time step.
     pub fn advance(&mut self) -> Result<(), String> {
         let t0 = Instant::now();
-        let (dt, lambda, inv_m) = (self.dt, self.lambda, 1.0 / self.mass);
-        let n = self.particles.n_owned;
+        let dt = self.dt;
         // The positions move: the list's marks of the pairs within the cutoff no longer hold.
         self.list.at_build_positions = false;
         {
-            let p = &mut self.particles;
-            self.pool.install(|| {
-                p.pos[..n]
-                    .par_iter_mut()
-                    .zip(p.vel[..n].par_iter_mut())
-                    .zip(p.vel_half.par_iter_mut())
-                    .zip(p.force.par_iter())
-                    .for_each(|(((x, v), vh), f)| {
-                        for d in 0..D {
-                            let acc = f[d] * inv_m;
-                            x[d] += dt * v[d] + 0.5 * dt * dt * acc;
-                            vh[d] = v[d] + 0.5 * dt * acc;
-                            v[d] += lambda * dt * acc;
-                        }
-                    })
-            });
+            let (integrator, p) = (&self.integrator, &mut self.particles);
+            self.pool.install(|| integrator.before_forces(p));
         }
         self.reflect_at_walls();
         self.step += 1;
-        for model in &self.models {
-            model.advance(&mut self.particles, self.step);
+        {
+            let (models, p, step) = (&self.models, &mut self.particles, self.step);
+            self.pool.install(|| {
+                for model in models {
+                    model.update_state(p, step);
+                }
+            });
         }
         self.times.integrate += t0.elapsed().as_secs_f64();
 
@@ -524,19 +616,8 @@ impl<'c, const D: usize> Simulation<'c, D> {
         self.compute_forces(scope)?;
 
         let t2 = Instant::now();
-        let n = self.particles.n_owned; // migration may have changed it
-        let p = &mut self.particles;
-        self.pool.install(|| {
-            p.vel[..n]
-                .par_iter_mut()
-                .zip(p.vel_half.par_iter())
-                .zip(p.force.par_iter())
-                .for_each(|((v, vh), f)| {
-                    for d in 0..D {
-                        v[d] = vh[d] + 0.5 * dt * f[d] * inv_m;
-                    }
-                })
-        });
+        let (integrator, p) = (&self.integrator, &mut self.particles);
+        self.pool.install(|| integrator.after_forces(p));
         self.times.integrate += t2.elapsed().as_secs_f64();
         Ok(())
     }

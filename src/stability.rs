@@ -14,8 +14,12 @@
 //! its cage is unstable under velocity Verlet. Groot & Warren (1997) recommend Δt ≈ 0.04–0.06 at
 //! a = 25, γ = 4.5, ρ = 3 for k_BT within a few per cent: that accuracy limit is reported, not
 //! enforced (see the k_BT-vs-Δt curve in docs/validation.md).
+//!
+//! SPH (the summation gas): the acoustic CFL limit Δt < 0.25 h / c (Monaghan 1992; spec
+//! `sph-maxwell.md` §1).
 
-use crate::config::{Case, FluidCfg};
+use crate::config::Case;
+use crate::models::dpd::DpdCfg;
 
 /// Time-step limits of a DPD case.
 #[derive(Clone, Copy, Debug)]
@@ -39,9 +43,14 @@ pub fn ball_volume(dimension: usize, r: f64) -> f64 {
     }
 }
 
-/// Limits for the case's DPD fluid.
-pub fn dpd_limits(case: &Case) -> DpdLimits {
-    let FluidCfg::Dpd(d) = &case.fluid;
+/// The acoustic (CFL) limit 0.25 h / c of an SPH fluid with smoothing length h and sound
+/// speed c.
+pub fn cfl_limit(smoothing_length: f64, sound_speed: f64) -> f64 {
+    0.25 * smoothing_length / sound_speed
+}
+
+/// Limits for the DPD fluid `d` of `case`.
+pub fn dpd_limits(case: &Case, d: &DpdCfg) -> DpdLimits {
     let n = case.particles.density;
     let m = case.particles.mass;
     let s = d.weight_exponent;

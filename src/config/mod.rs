@@ -12,7 +12,9 @@ mod tagged;
 mod validate;
 
 use crate::geometry::Boundary;
-use crate::models::dpd::Noise;
+pub use crate::integrators::groot_warren::GrootWarrenCfg;
+pub use crate::models::dpd::DpdCfg;
+pub use crate::models::summation_gas::SummationGasCfg;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
@@ -247,31 +249,18 @@ fn one() -> f64 {
 pub enum FluidCfg {
     /// Dissipative particle dynamics.
     Dpd(DpdCfg),
+    /// The engine's two-pass test model: an isothermal SPH gas with summation density.
+    SummationGas(SummationGasCfg),
 }
 
-/// `[fluid] kind = "dpd"`
-#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct DpdCfg {
-    /// Conservative repulsion a.
-    pub a: f64,
-    /// Dissipation γ.
-    pub gamma: f64,
-    /// k_BT.
-    pub kt: f64,
-    /// Cutoff r_c.
-    #[serde(default = "one")]
-    pub cutoff: f64,
-    /// Exponent s of w_D = (1 − r/r_c)^s.
-    #[serde(default = "two")]
-    pub weight_exponent: f64,
-    /// Noise distribution.
-    #[serde(default)]
-    pub noise: Noise,
-}
-
-fn two() -> f64 {
-    2.0
+impl FluidCfg {
+    /// Interaction range of the fluid's pair forces.
+    pub fn cutoff(&self) -> f64 {
+        match self {
+            FluidCfg::Dpd(d) => d.cutoff,
+            FluidCfg::SummationGas(g) => g.smoothing_length,
+        }
+    }
 }
 
 /// `[integrator]`, selected by `kind`.
@@ -280,21 +269,6 @@ fn two() -> f64 {
 pub enum IntegratorCfg {
     /// Groot–Warren modified velocity Verlet.
     GrootWarren(GrootWarrenCfg),
-}
-
-/// `[integrator] kind = "groot_warren"`
-#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct GrootWarrenCfg {
-    /// Time step Δt.
-    pub dt: f64,
-    /// Velocity-prediction factor λ (0.5 = plain velocity Verlet).
-    #[serde(default = "half")]
-    pub lambda: f64,
-}
-
-fn half() -> f64 {
-    0.5
 }
 
 impl IntegratorCfg {
@@ -651,9 +625,7 @@ impl Case {
 
     /// Interaction cutoff of the fluid model.
     pub fn cutoff(&self) -> f64 {
-        match &self.fluid {
-            FluidCfg::Dpd(d) => d.cutoff,
-        }
+        self.fluid.cutoff()
     }
 
     /// Particles per lattice axis and the total, as the initialiser will create them

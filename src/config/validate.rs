@@ -155,35 +155,52 @@ pub fn validate(case: &Case, ix: &SpanIndex) -> Result<(), CaseError> {
         );
     }
     // [fluid]
-    let FluidCfg::Dpd(dpd) = &case.fluid;
     let fl = |key: &str| vec![k("fluid"), k(key)];
-    if !(dpd.a.is_finite() && dpd.a >= 0.0) {
-        return Err(ix.error(
-            &fl("a"),
-            format!("found {}; the repulsion a must be ≥ 0", dpd.a),
-        ));
-    }
-    if !(dpd.gamma.is_finite() && dpd.gamma > 0.0) {
-        return Err(ix.error(
-            &fl("gamma"),
-            format!("found {}; the dissipation γ must be > 0", dpd.gamma),
-        ));
-    }
-    if !(dpd.kt.is_finite() && dpd.kt > 0.0) {
-        return Err(ix.error(&fl("kt"), format!("found {}; k_BT must be > 0", dpd.kt)));
-    }
-    if !(dpd.cutoff.is_finite() && dpd.cutoff > 0.0) {
-        return Err(ix.error(&fl("cutoff"), format!("found {}; must be > 0", dpd.cutoff)));
-    }
-    if !(dpd.weight_exponent.is_finite() && dpd.weight_exponent > 0.0) {
-        return Err(ix.error(
-            &fl("weight_exponent"),
-            format!(
-                "found {}; the exponent s of w_D = (1 − r/r_c)^s must be > 0 (2 standard, 0.5 \
-                 modified)",
-                dpd.weight_exponent
-            ),
-        ));
+    match &case.fluid {
+        FluidCfg::Dpd(dpd) => {
+            if !(dpd.a.is_finite() && dpd.a >= 0.0) {
+                return Err(ix.error(
+                    &fl("a"),
+                    format!("found {}; the repulsion a must be ≥ 0", dpd.a),
+                ));
+            }
+            if !(dpd.gamma.is_finite() && dpd.gamma > 0.0) {
+                return Err(ix.error(
+                    &fl("gamma"),
+                    format!("found {}; the dissipation γ must be > 0", dpd.gamma),
+                ));
+            }
+            if !(dpd.kt.is_finite() && dpd.kt > 0.0) {
+                return Err(ix.error(&fl("kt"), format!("found {}; k_BT must be > 0", dpd.kt)));
+            }
+            if !(dpd.cutoff.is_finite() && dpd.cutoff > 0.0) {
+                return Err(ix.error(&fl("cutoff"), format!("found {}; must be > 0", dpd.cutoff)));
+            }
+            if !(dpd.weight_exponent.is_finite() && dpd.weight_exponent > 0.0) {
+                return Err(ix.error(
+                &fl("weight_exponent"),
+                format!(
+                    "found {}; the exponent s of w_D = (1 − r/r_c)^s must be > 0 (2 standard, 0.5 \
+                     modified)",
+                    dpd.weight_exponent
+                ),
+            ));
+            }
+        }
+        FluidCfg::SummationGas(gas) => {
+            if !(gas.smoothing_length.is_finite() && gas.smoothing_length > 0.0) {
+                return Err(ix.error(
+                    &fl("smoothing_length"),
+                    format!("found {}; must be > 0", gas.smoothing_length),
+                ));
+            }
+            if !(gas.sound_speed.is_finite() && gas.sound_speed > 0.0) {
+                return Err(ix.error(
+                    &fl("sound_speed"),
+                    format!("found {}; must be > 0", gas.sound_speed),
+                ));
+            }
+        }
     }
     // [integrator]
     let IntegratorCfg::GrootWarren(gw) = &case.integrator;
@@ -207,7 +224,7 @@ pub fn validate(case: &Case, ix: &SpanIndex) -> Result<(), CaseError> {
     if !(skin.is_finite() && skin > 0.0) {
         return err(&["neighbour", "skin"], format!("found {skin}; must be > 0"));
     }
-    let range = dpd.cutoff + skin;
+    let range = case.cutoff() + skin;
     for (i, l) in lengths.iter().enumerate() {
         if *l < range {
             return Err(ix.error(
@@ -220,10 +237,14 @@ pub fn validate(case: &Case, ix: &SpanIndex) -> Result<(), CaseError> {
             ));
         }
     }
+    let cutoff_key = match &case.fluid {
+        FluidCfg::Dpd(_) => "cutoff",
+        FluidCfg::SummationGas(_) => "smoothing_length",
+    };
     for (i, (l, b)) in lengths.iter().zip(&boundaries).enumerate() {
         if *b == Boundary::Periodic && range > 0.5 * l {
             return Err(ix.error(
-                &fl("cutoff"),
+                &fl(cutoff_key),
                 format!(
                     "cutoff + skin = {range} is larger than half the box along axis {} \
                      (L = {l}); a particle would meet two images of the same neighbour. Use a \
@@ -235,26 +256,43 @@ pub fn validate(case: &Case, ix: &SpanIndex) -> Result<(), CaseError> {
         }
     }
     // Time-step stability.
-    let limits = stability::dpd_limits(case);
-    if gw.dt > limits.dissipative {
-        return err(
-            &["integrator", "dt"],
-            format!(
-                "Δt = {} is beyond the explicit stability limit of the dissipative force, \
-                 Δt < m / (γ Σ_j w_D) ≈ {:.4} for this density and γ; use a smaller time step",
-                gw.dt, limits.dissipative
-            ),
-        );
-    }
-    if gw.dt > limits.conservative {
-        return err(
-            &["integrator", "dt"],
-            format!(
-                "Δt = {} is beyond the velocity-Verlet stability limit of the conservative force, \
-                 Δt < 2/ω ≈ {:.4} (ω² = a N_c / (r_c D m)); use a smaller time step or a softer a",
-                gw.dt, limits.conservative
-            ),
-        );
+    match &case.fluid {
+        FluidCfg::Dpd(dpd) => {
+            let limits = stability::dpd_limits(case, dpd);
+            if gw.dt > limits.dissipative {
+                return err(
+                    &["integrator", "dt"],
+                    format!(
+                        "Δt = {} is beyond the explicit stability limit of the dissipative force, \
+                         Δt < m / (γ Σ_j w_D) ≈ {:.4} for this density and γ; use a smaller time step",
+                        gw.dt, limits.dissipative
+                    ),
+                );
+            }
+            if gw.dt > limits.conservative {
+                return err(
+                    &["integrator", "dt"],
+                    format!(
+                        "Δt = {} is beyond the velocity-Verlet stability limit of the conservative force, \
+                         Δt < 2/ω ≈ {:.4} (ω² = a N_c / (r_c D m)); use a smaller time step or a softer a",
+                        gw.dt, limits.conservative
+                    ),
+                );
+            }
+        }
+        FluidCfg::SummationGas(gas) => {
+            let cfl = stability::cfl_limit(gas.smoothing_length, gas.sound_speed);
+            if gw.dt > cfl {
+                return err(
+                    &["integrator", "dt"],
+                    format!(
+                        "Δt = {} is beyond the acoustic (CFL) limit 0.25 h/c = {cfl:.4e}; use a \
+                         smaller time step",
+                        gw.dt
+                    ),
+                );
+            }
+        }
     }
     // [run]
     validate_run(&case.run, case.diagnostics.blocks, ix)?;

@@ -4,6 +4,10 @@
 //! ghosts are refreshed every step ("forward communication") with the current image shifts.
 //! Ghost velocities carry the Lees–Edwards jump ±γ̇ L_y, so dissipative forces and velocity
 //! gradients see the sliding images without knowing about them.
+//!
+//! Registered per-particle fields reach the ghosts only when a model's pass asks for them
+//! ([`HaloPlan::refresh_fields`]), over the same send lists and local images, in a message of
+//! their own; a field flagged velocity-like gets the same Lees–Edwards shift as the velocity.
 
 use super::slab::Slab;
 use super::tags;
@@ -34,8 +38,6 @@ pub struct HaloPlan {
     /// Lees–Edwards offset when the plan was built.
     offset_at_build: f64,
     step_at_build: u64,
-    /// Whether the fixed-width extra fields travel with the ghosts.
-    with_extra: bool,
 }
 
 impl HaloPlan {
@@ -69,7 +71,6 @@ impl HaloPlan {
         range: f64,
         step: u64,
         dt: f64,
-        with_extra: bool,
     ) -> Self {
         particles.clear_ghosts();
         let offset = sim_box.le_offset(step, dt);
@@ -82,7 +83,6 @@ impl HaloPlan {
             k_down: if crossing_down { 1 } else { 0 },
             offset_at_build: offset,
             step_at_build: step,
-            with_extra,
             ..Default::default()
         };
         let (lo, hi) = (slab.lo(), slab.hi());
@@ -119,13 +119,7 @@ impl HaloPlan {
                         let mut p = particles.pos[src];
                         let mut v = particles.vel[src];
                         sim_box.apply_image(&mut p, &mut v, axis, k, offset);
-                        let mut extra = Vec::new();
-                        if with_extra {
-                            particles.extra_of(src, &mut extra);
-                        } else {
-                            extra.resize(particles.extra_width(), 0.0);
-                        }
-                        particles.push_ghost(particles.gid[src], p, v, &extra);
+                        particles.push_ghost(particles.gid[src], p, v);
                     }
                 }
             }
@@ -142,14 +136,7 @@ impl HaloPlan {
         k: i32,
         offset: f64,
     ) -> Vec<f64> {
-        let width = 1
-            + 2 * D
-            + if self.with_extra {
-                particles.extra_width()
-            } else {
-                0
-            };
-        let mut buf = Vec::with_capacity(list.len() * width);
+        let mut buf = Vec::with_capacity(list.len() * (1 + 2 * D));
         for &i in list {
             let i = i as usize;
             let mut p = particles.pos[i];
@@ -160,9 +147,6 @@ impl HaloPlan {
             buf.push(f64::from_bits(particles.gid[i]));
             buf.extend_from_slice(&p);
             buf.extend_from_slice(&v);
-            if self.with_extra {
-                particles.extra_of(i, &mut buf);
-            }
         }
         buf
     }
@@ -183,35 +167,18 @@ impl HaloPlan {
         (from_down, from_up)
     }
 
-    fn record_width<const D: usize>(&self, particles: &Particles<D>) -> usize {
-        1 + 2 * D
-            + if self.with_extra {
-                particles.extra_width()
-            } else {
-                0
-            }
-    }
-
     /// Appends received ghosts (build time).
     fn unpack<const D: usize>(&self, particles: &mut Particles<D>, a: &[f64], b: &[f64]) {
-        let width = self.record_width(particles);
-        let ew = particles.extra_width();
-        let zeros = vec![0.0; ew];
         for buf in [a, b] {
-            for rec in buf.chunks_exact(width) {
+            for rec in buf.chunks_exact(1 + 2 * D) {
                 let (p, v) = split_record::<D>(rec);
-                let extra = if self.with_extra {
-                    &rec[1 + 2 * D..]
-                } else {
-                    &zeros[..]
-                };
-                particles.push_ghost(rec[0].to_bits(), p, v, extra);
+                particles.push_ghost(rec[0].to_bits(), p, v);
             }
         }
     }
 
-    /// Refreshes every ghost's position and velocity (and extra fields when the plan carries
-    /// them) from its original, with the image shifts of `step`.
+    /// Refreshes every ghost's position and velocity from its original, with the image shifts
+    /// of `step`.
     pub fn forward<const D: usize>(
         &self,
         particles: &mut Particles<D>,
@@ -223,21 +190,12 @@ impl HaloPlan {
     ) {
         let offset = self.offset_at(sim_box, step, dt);
         let (from_down, from_up) = self.exchange(particles, sim_box, slab, comm, offset);
-        let width = self.record_width(particles);
         let mut slot = particles.n_owned;
         for buf in [&from_down, &from_up] {
-            for rec in buf.chunks_exact(width) {
+            for rec in buf.chunks_exact(1 + 2 * D) {
                 let (p, v) = split_record::<D>(rec);
                 particles.pos[slot] = p;
                 particles.vel[slot] = v;
-                if self.with_extra {
-                    let mut off = 1 + 2 * D;
-                    for f in &mut particles.extra {
-                        f.data[slot * f.width..(slot + 1) * f.width]
-                            .copy_from_slice(&rec[off..off + f.width]);
-                        off += f.width;
-                    }
-                }
                 slot += 1;
             }
         }
@@ -248,15 +206,93 @@ impl HaloPlan {
             sim_box.apply_image(&mut p, &mut v, img.axis as usize, i32::from(img.k), offset);
             particles.pos[slot] = p;
             particles.vel[slot] = v;
-            if self.with_extra {
-                for f in &mut particles.extra {
-                    let w = f.width;
-                    f.data.copy_within(src * w..(src + 1) * w, slot * w);
+            slot += 1;
+        }
+    }
+
+    /// Refreshes the ghost copies of the registered fields `fields` (indices into
+    /// `particles.extra`) from their originals: the values of the send lists travel to the
+    /// neighbouring ranks in one message each way, then the local images copy theirs, in the
+    /// order the ghosts were created. A velocity-like field (width D) gets the Lees–Edwards
+    /// velocity shift of its image, as the velocity does; every other field is copied
+    /// unchanged. Collective.
+    pub fn refresh_fields<const D: usize>(
+        &self,
+        particles: &mut Particles<D>,
+        fields: &[usize],
+        sim_box: &SimBox<D>,
+        slab: &Slab,
+        comm: &dyn Comm,
+    ) {
+        if fields.is_empty() {
+            return;
+        }
+        let width: usize = fields.iter().map(|&k| particles.extra[k].width).sum();
+        let pack = |list: &[u32], k: i32| -> Vec<f64> {
+            let mut buf = Vec::with_capacity(list.len() * width);
+            for &i in list {
+                let i = i as usize;
+                for &f in fields {
+                    let field = &particles.extra[f];
+                    let at = buf.len();
+                    buf.extend_from_slice(&field.data[i * field.width..(i + 1) * field.width]);
+                    if k != 0 && field.flags.velocity_like {
+                        shift_velocity_like(&mut buf[at..], sim_box, slab.axis, k);
+                    }
+                }
+            }
+            buf
+        };
+        let up = pack(&self.send_up, self.k_up);
+        let from_down = comm.sendrecv(up, slab.up(), slab.down(), tags::HALO_FIELDS_UP);
+        let down = pack(&self.send_down, self.k_down);
+        let from_up = comm.sendrecv(down, slab.down(), slab.up(), tags::HALO_FIELDS_DOWN);
+        let mut slot = particles.n_owned;
+        for buf in [&from_down, &from_up] {
+            for rec in buf.chunks_exact(width) {
+                let mut off = 0;
+                for &f in fields {
+                    let field = &mut particles.extra[f];
+                    let w = field.width;
+                    field.data[slot * w..(slot + 1) * w].copy_from_slice(&rec[off..off + w]);
+                    off += w;
+                }
+                slot += 1;
+            }
+        }
+        for img in &self.local {
+            let src = img.src as usize;
+            for &f in fields {
+                let field = &mut particles.extra[f];
+                let w = field.width;
+                field.data.copy_within(src * w..(src + 1) * w, slot * w);
+                if field.flags.velocity_like {
+                    let (axis, k) = (img.axis as usize, i32::from(img.k));
+                    shift_velocity_like(
+                        &mut field.data[slot * w..(slot + 1) * w],
+                        sim_box,
+                        axis,
+                        k,
+                    );
                 }
             }
             slot += 1;
         }
     }
+}
+
+/// The Lees–Edwards velocity shift of image `k` along `axis` applied to a velocity-like field
+/// value (D numbers), by the same formula as the ghosts' velocities.
+fn shift_velocity_like<const D: usize>(
+    value: &mut [f64],
+    sim_box: &SimBox<D>,
+    axis: usize,
+    k: i32,
+) {
+    let mut v = [0.0; D];
+    v.copy_from_slice(value);
+    sim_box.shift_velocity(&mut v, axis, k);
+    value.copy_from_slice(&v);
 }
 
 fn split_record<const D: usize>(rec: &[f64]) -> ([f64; D], [f64; D]) {

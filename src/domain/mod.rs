@@ -23,4 +23,6 @@ pub(crate) mod tags {
     pub const MIGRATE_UP: u32 = 3;
     pub const MIGRATE_DOWN: u32 = 4;
     pub const REDISTRIBUTE: u32 = 5;
+    pub const HALO_FIELDS_UP: u32 = 6;
+    pub const HALO_FIELDS_DOWN: u32 = 7;
 }

@@ -2,5 +2,10 @@
 
 pub mod dpd;
 pub mod dumbbells;
+pub mod gather;
 pub mod homogeneous_flow;
+pub mod interface;
 pub mod pair_loop;
+pub mod summation_gas;
+
+pub use interface::{FieldKind, FieldSpec, ParticleModel, PassContext, PassOutput, PassSpec};

@@ -390,7 +390,7 @@ fn near_pairs<const D: usize>(
     n_near
 }
 
-/// Evaluates all listed pairs and writes the force on every owned particle into `force`;
+/// Evaluates all listed pairs and adds the force on every owned particle to `force`;
 /// returns the virial components `virial` asks for (else `None`), or an error if a pair force
 /// is not finite (a blown-up run).
 /// `isa` (normally [`Isa::current`]) picks the compiled version; every one gives the same bits.
@@ -458,7 +458,9 @@ pub fn compute_forces<const D: usize, K: PairKernel<D>>(
                 for b in buffers {
                     s.merge(&b[i][d]);
                 }
-                f[d] = s.value();
+                // Added (the engine zeroes the forces before the first model): 0 + x = x
+                // bitwise, since a fixed-point value is never −0.
+                f[d] += s.value();
             }
         });
     Ok((virial != VirialScope::Off).then(|| {
@@ -488,8 +490,7 @@ pub fn compute_forces<const D: usize, K: PairKernel<D>>(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::config::DpdCfg;
-    use crate::models::dpd::{Dpd, Noise};
+    use crate::models::dpd::{Dpd, DpdCfg, Noise};
     use crate::rng::{Purpose, StreamKey};
 
     /// A random fluid in a 6³ (or 6²) box at ρ ≈ 3 with ghost copies of the particles within
@@ -508,7 +509,7 @@ mod tests {
                 let mut pos = p.pos[i];
                 pos[0] += 6.0;
                 let (gid, vel) = (p.gid[i], p.vel[i]);
-                p.push_ghost(gid, pos, vel, &[]);
+                p.push_ghost(gid, pos, vel);
             }
         }
         p

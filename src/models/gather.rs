@@ -1,0 +1,262 @@
+//! Gather passes: every owned particle sums the contributions of its neighbours into its own
+//! accumulators, over the full neighbour list, exactly.
+//!
+//! ```text
+//! S_i^q = s_i^q + Σ_{j ∈ N(i)} c^q(i, j)          q = 0 … width − 1
+//! ```
+//!
+//! with s_i the self term and c(i, j) the pair term of the [`GatherKernel`]. Each quantity q is
+//! accumulated in fixed point under its own [`Scale`] ([`crate::fixed_sum`]), so the sum is
+//! the same bits whatever the order of the neighbours, the number of threads or the
+//! decomposition; a term out of its scale's range (or not finite) stops the pass with a
+//! [`PairError`] naming the pair, and is never wrapped.
+//!
+//! Why gather, not scatter: a wide output (an MSPH moment matrix has 36 or 100 numbers) would
+//! need per-thread buffers of n_owned × width to scatter into; gathering writes each owned
+//! particle's sums once, from one thread. The price is that an owned–owned pair is evaluated
+//! from both ends — which is also what makes the result independent of which end is owned: the
+//! contribution to i is always c(i, j), computed on i's rank from i's copy and j's (ghost or
+//! owned) copy.
+
+use crate::fixed_sum::{FixedSum, Scale};
+use crate::neighbour::NeighbourList;
+use crate::particles::Particles;
+use rayon::prelude::*;
+
+/// Every owned particle's neighbours (owned and ghosts) within the list radius, in compressed
+/// rows: `neighbours[offsets[i]..offsets[i + 1]]`. Built from the half list at each rebuild.
+#[derive(Clone, Debug, Default)]
+pub struct FullList {
+    offsets: Vec<usize>,
+    neighbours: Vec<u32>,
+}
+
+impl FullList {
+    /// The full rows of the half list's `n_owned` owned particles: pair [i, j] puts j in row i
+    /// and, when j is owned, i in row j.
+    pub fn from_half<const D: usize>(list: &NeighbourList<D>, n_owned: usize) -> Self {
+        let mut counts = vec![0usize; n_owned + 1];
+        for [i, j] in list.pairs() {
+            counts[i as usize + 1] += 1;
+            if (j as usize) < n_owned {
+                counts[j as usize + 1] += 1;
+            }
+        }
+        for k in 1..counts.len() {
+            counts[k] += counts[k - 1];
+        }
+        let offsets = counts.clone();
+        let mut fill = counts;
+        let mut neighbours = vec![0u32; offsets[n_owned]];
+        for [i, j] in list.pairs() {
+            neighbours[fill[i as usize]] = j;
+            fill[i as usize] += 1;
+            if (j as usize) < n_owned {
+                neighbours[fill[j as usize]] = i;
+                fill[j as usize] += 1;
+            }
+        }
+        Self {
+            offsets,
+            neighbours,
+        }
+    }
+
+    /// Neighbours of owned particle `i`.
+    #[inline]
+    pub fn row(&self, i: usize) -> &[u32] {
+        &self.neighbours[self.offsets[i]..self.offsets[i + 1]]
+    }
+
+    /// Number of rows (owned particles).
+    pub fn rows(&self) -> usize {
+        self.offsets.len().saturating_sub(1)
+    }
+}
+
+/// The per-pair arithmetic of a gather pass.
+///
+/// Contract: [`Self::pair`] must depend only on the two particles' data and r_ij (never on
+/// whether j is owned or a ghost, nor on indices), so that every decomposition gives the same
+/// terms. For momentum conservation a model's force terms should also be antisymmetric to the
+/// last bit — c(j, i) = −c(i, j) — which [`pair_symmetry`] checks in its tests.
+pub trait GatherKernel<const D: usize>: Sync {
+    /// The scale of each accumulated quantity (its length is the pass's width).
+    fn scales(&self) -> &[Scale];
+
+    /// Pairs with |r_ij| ≥ cutoff contribute nothing (not evaluated).
+    fn cutoff(&self) -> f64;
+
+    /// Writes the contribution of neighbour `j` to particle `i` into `out` (all of it: `out`
+    /// holds garbage on entry), with r_ij = r_i − r_j and r = |r_ij| < cutoff.
+    fn pair(&self, p: &Particles<D>, i: usize, j: usize, r_ij: &[f64; D], r: f64, out: &mut [f64]);
+
+    /// Writes particle `i`'s contribution to itself into `out` and returns true, or returns
+    /// false when there is none (the default).
+    fn self_term(&self, p: &Particles<D>, i: usize, out: &mut [f64]) -> bool {
+        let _ = (p, i, out);
+        false
+    }
+}
+
+/// A term that could not be accumulated: the pass stops (on every rank) with this.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PairError {
+    /// Global id of the particle whose sum it was for.
+    pub gid_i: u64,
+    /// Global id of the neighbour (equal to `gid_i` for the self term).
+    pub gid_j: u64,
+    /// Index of the quantity.
+    pub quantity: usize,
+    /// The term.
+    pub value: f64,
+    /// The largest magnitude the quantity's scale accepts.
+    pub max_term: f64,
+}
+
+impl std::fmt::Display for PairError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "the term {:e} of quantity {} for the pair of particles {} and {} is not finite or \
+             exceeds the range ±{:e} of its exact sum: the run is unstable (time step too \
+             large, particles overlapping) or the model's scale is too small",
+            self.value, self.quantity, self.gid_i, self.gid_j, self.max_term
+        )
+    }
+}
+
+impl std::error::Error for PairError {}
+
+/// Terms per fixed-point accumulator between normalisations (the low word cannot wrap before
+/// 2^12 worst-case terms).
+const NORMALISE_EVERY: usize = 2048;
+
+/// Runs a gather pass over the owned particles of `p`: `out` gets, for every owned particle i,
+/// its `width` sums (each rounded once) at `out[i·width..(i+1)·width]`. Runs on the current
+/// rayon pool; the result does not depend on its thread count.
+pub fn gather<const D: usize, K: GatherKernel<D>>(
+    kernel: &K,
+    p: &Particles<D>,
+    full: &FullList,
+    out: &mut Vec<f64>,
+) -> Result<(), PairError> {
+    let scales = kernel.scales();
+    let width = scales.len();
+    let n = p.n_owned;
+    assert_eq!(full.rows(), n, "the full list is not of these particles");
+    out.clear();
+    out.resize(n * width, 0.0);
+    if width == 0 {
+        return Ok(());
+    }
+    let rc2 = kernel.cutoff() * kernel.cutoff();
+    out.par_chunks_mut(width)
+        .enumerate()
+        .with_min_len(64)
+        .try_for_each_init(
+            || (vec![FixedSum::ZERO; width], vec![0.0; width]),
+            |(sums, term), (i, sums_out)| {
+                sums.fill(FixedSum::ZERO);
+                let add = |sums: &mut [FixedSum], term: &[f64], j: usize| {
+                    for (q, (s, &x)) in sums.iter_mut().zip(term).enumerate() {
+                        match scales[q].split(x) {
+                            Some(words) => s.add_split(words),
+                            None => {
+                                return Err(PairError {
+                                    gid_i: p.gid[i],
+                                    gid_j: p.gid[j],
+                                    quantity: q,
+                                    value: x,
+                                    max_term: scales[q].max_term(),
+                                });
+                            }
+                        }
+                    }
+                    Ok(())
+                };
+                if kernel.self_term(p, i, term) {
+                    add(sums, term, i)?;
+                }
+                for (k, &j) in full.row(i).iter().enumerate() {
+                    let j = j as usize;
+                    let mut r_ij = [0.0; D];
+                    let mut r2 = 0.0;
+                    for d in 0..D {
+                        r_ij[d] = p.pos[i][d] - p.pos[j][d];
+                        r2 += r_ij[d] * r_ij[d];
+                    }
+                    // Not `r2 < rc2`: a NaN distance must reach the kernel and be reported.
+                    #[allow(clippy::neg_cmp_op_on_partial_ord)]
+                    if !(r2 >= rc2) {
+                        kernel.pair(p, i, j, &r_ij, r2.sqrt(), term);
+                        add(sums, term, j)?;
+                    }
+                    if k % NORMALISE_EVERY == NORMALISE_EVERY - 1 {
+                        sums.iter_mut().for_each(FixedSum::normalize);
+                    }
+                }
+                for ((o, s), scale) in sums_out.iter_mut().zip(sums.iter()).zip(scales) {
+                    *o = scale.value(s);
+                }
+                Ok(())
+            },
+        )
+}
+
+/// How a pair quantity behaves when the two ends swap.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Parity {
+    /// c(j, i) = c(i, j) (a density contribution).
+    Even,
+    /// c(j, i) = −c(i, j) (a pair force).
+    Odd,
+}
+
+/// Whether `kernel` gives c(j, i) = ±c(i, j) to the last bit, per `parity`, for every listed
+/// pair of `p` within the cutoff whose ends are both owned (the property that makes pair
+/// forces conserve momentum exactly and an owned–ghost pair the same on both of its ranks).
+/// Returns the first pair that breaks it, with the two terms.
+pub fn pair_symmetry<const D: usize, K: GatherKernel<D>>(
+    kernel: &K,
+    p: &Particles<D>,
+    list: &NeighbourList<D>,
+    parity: &[Parity],
+) -> Result<usize, String> {
+    let width = kernel.scales().len();
+    assert_eq!(parity.len(), width);
+    let (mut a, mut b) = (vec![0.0; width], vec![0.0; width]);
+    let mut checked = 0;
+    for [i, j] in list.pairs() {
+        let (i, j) = (i as usize, j as usize);
+        if j >= p.n_owned {
+            continue;
+        }
+        let mut r_ij = [0.0; D];
+        let mut r_ji = [0.0; D];
+        for d in 0..D {
+            r_ij[d] = p.pos[i][d] - p.pos[j][d];
+            r_ji[d] = p.pos[j][d] - p.pos[i][d];
+        }
+        let r = r_ij.iter().map(|x| x * x).sum::<f64>().sqrt();
+        if r >= kernel.cutoff() {
+            continue;
+        }
+        kernel.pair(p, i, j, &r_ij, r, &mut a);
+        kernel.pair(p, j, i, &r_ji, r, &mut b);
+        for q in 0..width {
+            let want = match parity[q] {
+                Parity::Even => a[q],
+                Parity::Odd => -a[q],
+            };
+            if want.to_bits() != b[q].to_bits() {
+                return Err(format!(
+                    "quantity {q} of the pair ({}, {}): c(i, j) = {:e}, c(j, i) = {:e}",
+                    p.gid[i], p.gid[j], a[q], b[q]
+                ));
+            }
+        }
+        checked += 1;
+    }
+    Ok(checked)
+}

@@ -1,0 +1,168 @@
+//! The model interface: what a particle model declares, and what the engine does with it.
+//!
+//! # Adding a model
+//!
+//! A model is one file in `src/models/` and one registration (a variant of
+//! [`crate::config::FluidCfg`] with its parameter struct, defined in the model's file, and the
+//! line of [`crate::sim::build_model`] that constructs it). The file implements
+//! [`ParticleModel`]:
+//!
+//! 1. **Fields** ([`ParticleModel::fields`]): every per-particle quantity it keeps, each with its
+//!    kind ([`FieldKind`]: scalar, D-vector, D×D tensor, or a fixed number of values) and its
+//!    [`FieldFlags`]: whether it migrates, is checkpointed, enters the state digest, and
+//!    whether it transforms like a velocity (then, and only then, its ghost copies get the
+//!    Lees–Edwards velocity shift). State (a stress tensor) is [`FieldFlags::STATE`]; a
+//!    quantity derived anew every step (a summation density, a velocity gradient) is
+//!    [`FieldFlags::DERIVED`]. The engine registers them ([`crate::particles::Particles`]);
+//!    on a restart it checks that the checkpoint brought the checkpointed ones.
+//! 2. **Passes** ([`ParticleModel::passes`]): the pair passes of one force evaluation, in
+//!    order, each naming the fields its ghosts must hold up to date before it runs. Between
+//!    passes the engine refreshes exactly those ghost fields
+//!    ([`crate::domain::HaloPlan::refresh_fields`]); physics never sees a rank.
+//! 3. **The pass itself** ([`ParticleModel::pass`]): usually a [`GatherKernel`] — the
+//!    contribution of neighbour j to particle i, and of i to itself — handed to
+//!    [`gather`](super::gather::gather), which sums it over the full neighbour list of every
+//!    owned particle on the rank's threads, exactly, under the [`Scale`] the kernel states for
+//!    each accumulated quantity (a term out of range stops the run with an error naming the
+//!    pair; nothing wraps), and returns the sums; the model's finish writes them into its
+//!    fields or adds them to the forces. A model with a faster specialised loop (DPD's
+//!    vectorised half-list scatter, [`super::pair_loop`]) runs that instead.
+//! 4. **State update** ([`ParticleModel::update_state`]): per owned particle, after the
+//!    integrator has moved it (a stress ODE, a conformation vector, a dumbbell ensemble), on
+//!    the rank's worker threads.
+//!
+//! The engine zeroes the forces before the first pass of a step; every model *adds* its forces
+//! (0 + x = x bitwise, so a single model's forces are exactly its sums).
+//!
+//! [`Scale`]: crate::fixed_sum::Scale
+
+use super::pair_loop::{Virial, VirialScope};
+use crate::neighbour::NeighbourList;
+use crate::particles::{FieldFlags, Particles};
+use crate::simd::Isa;
+
+pub use super::gather::{FullList, GatherKernel, PairError};
+
+/// The shape of a per-particle field.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FieldKind {
+    /// One number.
+    Scalar,
+    /// D numbers (a velocity-like field must be one).
+    Vector,
+    /// D × D numbers, row-major (a velocity gradient κ_αβ = ∂v_α/∂x_β, a stress).
+    Tensor,
+    /// A fixed number of values (an MSPH moment matrix, a packed symmetric tensor).
+    Values(usize),
+    /// A variable-length array per owned particle (a dumbbell ensemble); never sent to ghosts,
+    /// always migrated, checkpointed and digested.
+    Ensemble,
+}
+
+impl FieldKind {
+    /// Numbers per particle in `dimension` dimensions.
+    pub fn width(self, dimension: usize) -> usize {
+        match self {
+            FieldKind::Scalar => 1,
+            FieldKind::Vector => dimension,
+            FieldKind::Tensor => dimension * dimension,
+            FieldKind::Values(n) => n,
+            FieldKind::Ensemble => 0,
+        }
+    }
+}
+
+/// A per-particle field a model declares.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct FieldSpec {
+    /// Name (unique in the scene; appears in checkpoints).
+    pub name: &'static str,
+    /// Shape.
+    pub kind: FieldKind,
+    /// Migration, checkpoint, digest and Lees–Edwards treatment.
+    pub flags: FieldFlags,
+}
+
+/// A pair pass a model declares.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct PassSpec {
+    /// Name (for errors and logs).
+    pub name: &'static str,
+    /// Fields whose ghost copies must be refreshed before the pass runs.
+    pub ghost_fields: Vec<&'static str>,
+}
+
+/// What a pass sees: the rank's particles (owned first, then ghosts), the half neighbour list
+/// (pairs within cutoff + skin, i owned), the full list of every owned particle's neighbours
+/// when the model asked for it, the step, and the virial the diagnostics want.
+pub struct PassContext<'a, const D: usize> {
+    /// Owned particles and ghosts, with every registered field.
+    pub particles: &'a mut Particles<D>,
+    /// Half list: every pair within cutoff + skin with at least one owned end, once.
+    pub list: &'a NeighbourList<D>,
+    /// Full list of every owned particle's neighbours (empty unless
+    /// [`ParticleModel::uses_full_list`]).
+    pub full: &'a FullList,
+    /// The step whose forces are evaluated.
+    pub step: u64,
+    /// Which virial components the diagnostics need from this evaluation.
+    pub virial: VirialScope,
+    /// Instruction set for the vectorised loops.
+    pub isa: Isa,
+}
+
+/// What a pass returns to the engine.
+#[derive(Debug, Default)]
+pub struct PassOutput {
+    /// The pair virial, when the pass computed one.
+    pub virial: Option<Virial>,
+}
+
+/// A particle model: fields, pair passes and a per-particle state update (module
+/// documentation: the guide to adding one).
+pub trait ParticleModel<const D: usize>: Send + Sync {
+    /// Name (for errors and logs).
+    fn name(&self) -> &'static str;
+
+    /// Interaction range of its pair passes (0: none).
+    fn cutoff(&self) -> f64 {
+        0.0
+    }
+
+    /// The per-particle fields it keeps.
+    fn fields(&self) -> Vec<FieldSpec> {
+        Vec::new()
+    }
+
+    /// Its pair passes, in order.
+    fn passes(&self) -> Vec<PassSpec> {
+        Vec::new()
+    }
+
+    /// Whether its passes gather over the full neighbour list ([`FullList`]), which the engine
+    /// then builds at every neighbour-list rebuild.
+    fn uses_full_list(&self) -> bool {
+        false
+    }
+
+    /// Called once the fields are registered: on a fresh run (`restarted` false) it sets the
+    /// initial values of its state fields (they start at zero); after a restart they hold the
+    /// checkpoint's values. Also where it looks up and keeps the indices of its fields.
+    fn attach(&mut self, particles: &mut Particles<D>, restarted: bool) -> Result<(), String> {
+        let _ = (particles, restarted);
+        Ok(())
+    }
+
+    /// Runs pass `pass` (an index into [`Self::passes`]); the ghost fields it named are up to
+    /// date. Runs on the rank's worker pool.
+    fn pass(&mut self, pass: usize, ctx: PassContext<'_, D>) -> Result<PassOutput, String> {
+        let _ = ctx;
+        Err(format!("{} declares no pass {pass}", self.name()))
+    }
+
+    /// Advances the owned particles' own state to `step`, after the integrator has moved them
+    /// (once per step). Runs on the rank's worker pool.
+    fn update_state(&self, particles: &mut Particles<D>, step: u64) {
+        let _ = (particles, step);
+    }
+}
