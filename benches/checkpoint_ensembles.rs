@@ -5,24 +5,35 @@
 
 use mesorheo::comm::SerialComm;
 use mesorheo::config;
+use mesorheo::models::{FieldKind, FieldSpec, ParticleModel};
 use mesorheo::output::checkpoint;
+use mesorheo::particles::FieldFlags;
 use mesorheo::particles::Particles;
-use mesorheo::sim::{Simulation, StateModel};
+use mesorheo::sim::Simulation;
 use std::path::PathBuf;
 use std::time::Instant;
 
 struct Ensembles(usize);
 
-impl<const D: usize> StateModel<D> for Ensembles {
-    fn attach(&self, p: &mut Particles<D>) -> Result<(), String> {
-        let k = p.register_var("dumbbells");
+impl<const D: usize> ParticleModel<D> for Ensembles {
+    fn name(&self) -> &'static str {
+        "synthetic ensembles"
+    }
+    fn fields(&self) -> Vec<FieldSpec> {
+        vec![FieldSpec {
+            name: "dumbbells",
+            kind: FieldKind::Ensemble,
+            flags: FieldFlags::STATE,
+        }]
+    }
+    fn attach(&mut self, p: &mut Particles<D>, _restarted: bool) -> Result<(), String> {
+        let k = p.var.len() - 1;
         for i in 0..p.n_owned {
             let g = p.gid[i] as f64;
             p.var[k].data[i] = (0..3 * self.0).map(|j| g + j as f64 * 1e-3).collect();
         }
         Ok(())
     }
-    fn advance(&self, _: &mut Particles<D>, _: u64) {}
 }
 
 fn main() {

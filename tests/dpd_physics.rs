@@ -103,7 +103,9 @@ fn forces_sum_to_zero() {
 #[test]
 fn an_exploding_force_is_reported_not_accumulated() {
     let mut loaded = case_from_str(&small_dpd(3, 6.0, 0.0, 10, ""), "explode");
-    let mesorheo::config::FluidCfg::Dpd(d) = &mut loaded.case.fluid;
+    let mesorheo::config::FluidCfg::Dpd(d) = &mut loaded.case.fluid else {
+        panic!("a DPD case");
+    };
     d.a = 1e12;
     let comm = SerialComm::new();
     let err = match Simulation::<3>::new(&loaded.case, &comm, 1) {

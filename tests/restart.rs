@@ -10,9 +10,11 @@ mod common;
 use common::{case_from_str, small_dpd};
 use mesorheo::comm::Comm;
 use mesorheo::driver::{CHECKPOINT_REFUSED, RunOptions, in_process, restart_case, run_case};
+use mesorheo::models::{FieldKind, FieldSpec, ParticleModel};
 use mesorheo::output::checkpoint;
+use mesorheo::particles::FieldFlags;
 use mesorheo::particles::Particles;
-use mesorheo::sim::{Simulation, StateModel};
+use mesorheo::sim::Simulation;
 use mesorheo::summary::Summary;
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -133,26 +135,46 @@ fn restart_between_neighbour_list_builds_is_bitwise() {
 /// position, and an array whose length changes with time (the shape of a dumbbell ensemble).
 struct TensorAndArray;
 
-impl<const D: usize> StateModel<D> for TensorAndArray {
-    fn attach(&self, p: &mut Particles<D>) -> Result<(), String> {
-        // Two fields of each kind, registered out of alphabetical order (a file lists its
-        // members alphabetically; the restart must keep the registration order).
-        if let Some(k) = p.extra_index("tensor") {
+impl<const D: usize> ParticleModel<D> for TensorAndArray {
+    fn name(&self) -> &'static str {
+        "tensor_and_array"
+    }
+
+    // Two fields of each kind, declared out of alphabetical order (a file lists its members
+    // alphabetically; the restart must keep the registration order).
+    fn fields(&self) -> Vec<FieldSpec> {
+        let spec = |name, kind| FieldSpec {
+            name,
+            kind,
+            flags: FieldFlags::STATE,
+        };
+        vec![
+            spec("tensor", FieldKind::Tensor),
+            spec("a_scalar", FieldKind::Scalar),
+            spec("history", FieldKind::Ensemble),
+            spec("aa_log", FieldKind::Ensemble),
+        ]
+    }
+
+    fn attach(&mut self, p: &mut Particles<D>, restarted: bool) -> Result<(), String> {
+        if restarted {
             let names: Vec<&str> = p.extra.iter().map(|f| f.name.as_str()).collect();
             let vars: Vec<&str> = p.var.iter().map(|f| f.name.as_str()).collect();
-            return if p.extra[k].width == D * D
-                && names.starts_with(&["tensor", "a_scalar"])
-                && vars == ["history", "aa_log"]
-            {
+            return if names.starts_with(&["tensor", "a_scalar"]) && vars == ["history", "aa_log"] {
                 Ok(())
             } else {
                 Err(format!("checkpoint fields {names:?} {vars:?}"))
             };
         }
-        let k = p.register_extra("tensor", D * D);
-        let s = p.register_extra("a_scalar", 1);
-        let v = p.register_var("history");
-        let l = p.register_var("aa_log");
+        let index = |name: &str| p.extra_index(name).expect("registered");
+        let (k, s) = (index("tensor"), index("a_scalar"));
+        let var = |name: &str| {
+            p.var
+                .iter()
+                .position(|f| f.name == name)
+                .expect("registered")
+        };
+        let (v, l) = (var("history"), var("aa_log"));
         for i in 0..p.n_owned {
             let g = p.gid[i];
             for c in 0..D * D {
@@ -165,7 +187,7 @@ impl<const D: usize> StateModel<D> for TensorAndArray {
         Ok(())
     }
 
-    fn advance(&self, p: &mut Particles<D>, step: u64) {
+    fn update_state(&self, p: &mut Particles<D>, step: u64) {
         let k = p.extra_index("tensor").expect("registered");
         let v = p
             .var

@@ -99,9 +99,9 @@ pub const KEYS: &[KeyDoc] = &[
     ),
     key(
         "fluid.kind",
-        "\"dpd\"",
+        "\"dpd\" | \"summation_gas\"",
         "required",
-        "Fluid model. \"dpd\": dissipative particle dynamics (Groot–Warren).",
+        "Fluid model. \"dpd\": dissipative particle dynamics (Groot–Warren). \"summation_gas\": the engine's two-pass test model, an isothermal SPH gas (Lucy kernel, summation density, p = c²ρ).",
     ),
     key(
         "fluid.a",
@@ -138,6 +138,18 @@ pub const KEYS: &[KeyDoc] = &[
         "\"gaussian\" | \"uniform\"",
         "\"gaussian\"",
         "Distribution of θ_ij: standard normal, or √3(2u − 1) (unit variance).",
+    ),
+    key(
+        "fluid.smoothing_length",
+        "float > 0",
+        "required (summation_gas)",
+        "Smoothing length h: support of the Lucy kernel and interaction cutoff.",
+    ),
+    key(
+        "fluid.sound_speed",
+        "float > 0",
+        "required (summation_gas)",
+        "Isothermal sound speed c (p = c² ρ); integrator.dt must stay below 0.25 h/c.",
     ),
     key(
         "integrator.kind",

@@ -6,7 +6,7 @@
 //! path tracking, so a wrong type or an unknown choice names its own key and line.
 
 use super::spans::{Segment, SpanIndex, segments};
-use super::{CaseError, DpdCfg, GrootWarrenCfg, ProfileReference, ValueReference};
+use super::{CaseError, DpdCfg, GrootWarrenCfg, ProfileReference, SummationGasCfg, ValueReference};
 use serde::de::DeserializeOwned;
 
 type Check = fn(toml::Value) -> Result<(), serde_path_to_error::Error<toml::de::Error>>;
@@ -17,7 +17,10 @@ fn check<T: DeserializeOwned>(
     serde_path_to_error::deserialize::<_, T>(v).map(|_| ())
 }
 
-const FLUIDS: &[(&str, Check)] = &[("dpd", check::<DpdCfg>)];
+const FLUIDS: &[(&str, Check)] = &[
+    ("dpd", check::<DpdCfg>),
+    ("summation_gas", check::<SummationGasCfg>),
+];
 const INTEGRATORS: &[(&str, Check)] = &[("groot_warren", check::<GrootWarrenCfg>)];
 const REFERENCES: &[(&str, Check)] = &[
     ("value", check::<ValueReference>),

@@ -368,6 +368,25 @@ pub fn validate(case: &Case, ix: &SpanIndex) -> Result<(), CaseError> {
                 format!("\"{}\" needs shear; set box.shear_rate ≠ 0", o.name()),
             ));
         }
+        let needs_virial = matches!(
+            o,
+            Observable::Pressure
+                | Observable::Stress
+                | Observable::Viscosity
+                | Observable::FirstNormalStressDifference
+                | Observable::SecondNormalStressDifference
+        );
+        if needs_virial && matches!(case.fluid, FluidCfg::SummationGas(_)) {
+            return Err(ix.error(
+                &[k("diagnostics"), k("observables"), Segment::Index(i)],
+                format!(
+                    "\"{}\" needs the pair virial, which the summation gas does not compute \
+                     (the default list has \"pressure\"); list only \"temperature\", \
+                     \"momentum\" or \"velocity_profile\"",
+                    o.name()
+                ),
+            ));
+        }
         if *o == Observable::SecondNormalStressDifference && dim != 3 {
             return Err(ix.error(
                 &[k("diagnostics"), k("observables"), Segment::Index(i)],

@@ -260,3 +260,82 @@ pub fn pair_symmetry<const D: usize, K: GatherKernel<D>>(
     }
     Ok(checked)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Three particles in a row (ids 3, 4, 5) and a ghost image of the first (id 3 again).
+    fn row() -> (Particles<2>, NeighbourList<2>) {
+        let mut p = Particles::<2>::default();
+        for (g, x) in [(3u64, 0.0), (4, 0.5), (5, 1.0)] {
+            p.push_owned(g, [x, 0.0], [0.0; 2]);
+        }
+        p.push_ghost(3, [1.4, 0.0], [0.0; 2]);
+        let list = NeighbourList::build(&p, 0.6, 0.6);
+        (p, list)
+    }
+
+    #[test]
+    fn full_rows_hold_every_pair_from_both_owned_ends() {
+        let (p, list) = row();
+        let full = FullList::from_half(&list, p.n_owned);
+        let mut rows: Vec<Vec<u32>> = (0..3).map(|i| full.row(i).to_vec()).collect();
+        rows.iter_mut().for_each(|r| r.sort());
+        // 0–1 and 1–2 are owned pairs (both rows), 2–ghost(3) only in row 2.
+        assert_eq!(rows, vec![vec![1], vec![0, 2], vec![1, 3]]);
+    }
+
+    /// Sums ids of the neighbours, and a term of 10⁹ for the pair (4, 5).
+    struct Probe {
+        scales: [Scale; 2],
+    }
+
+    impl GatherKernel<2> for Probe {
+        fn scales(&self) -> &[Scale] {
+            &self.scales
+        }
+        fn cutoff(&self) -> f64 {
+            0.6
+        }
+        fn pair(
+            &self,
+            p: &Particles<2>,
+            i: usize,
+            j: usize,
+            _: &[f64; 2],
+            _: f64,
+            out: &mut [f64],
+        ) {
+            out[0] = p.gid[j] as f64;
+            out[1] = if p.gid[i] == 4 && p.gid[j] == 5 {
+                1e9
+            } else {
+                0.0
+            };
+        }
+        fn self_term(&self, p: &Particles<2>, i: usize, out: &mut [f64]) -> bool {
+            out[0] = 100.0 * p.gid[i] as f64;
+            out[1] = 0.0;
+            true
+        }
+    }
+
+    #[test]
+    fn gathered_sums_include_the_self_term_and_a_term_beyond_its_scale_names_the_pair() {
+        let (p, list) = row();
+        let full = FullList::from_half(&list, p.n_owned);
+        let mut out = Vec::new();
+        let wide = Probe {
+            scales: [Scale::covering(1e3), Scale::covering(1e10)],
+        };
+        gather(&wide, &p, &full, &mut out).expect("in range");
+        assert_eq!(out, vec![304.0, 0.0, 408.0, 1e9, 507.0, 0.0]);
+        let narrow = Probe {
+            scales: [Scale::covering(1e3), Scale::covering(1e3)],
+        };
+        let err = gather(&narrow, &p, &full, &mut out).expect_err("1e9 is beyond 2048");
+        assert_eq!((err.gid_i, err.gid_j, err.quantity), (4, 5, 1));
+        assert!(err.to_string().contains("particles 4 and 5"), "{err}");
+    }
+}
