@@ -162,7 +162,7 @@ pub fn flow_report(case: &crate::config::FlowCase, ranks: usize) -> (String, Res
     let dim = case.dimension;
     let lambda = p.relaxation_time;
     let gib = 1024.0 * 1024.0 * 1024.0;
-    let per_rank = crate::flow_driver::rank_memory(case, ranks, 0);
+    let per_rank = crate::flow_scene::rank_memory(case, ranks, 0);
     let total = n as f64 * p.bytes_per_particle(dim);
     let mut s = String::new();
     let mut line = |t: String| {
@@ -220,7 +220,7 @@ pub fn flow_report(case: &crate::config::FlowCase, ranks: usize) -> (String, Res
          docs/performance.md) about {:.1} core-seconds",
         work / 5e7
     ));
-    let free = crate::flow_driver::available_memory();
+    let free = crate::flow_scene::available_memory();
     let verdict = match free {
         Some(free) if per_rank > 0.9 * free => Err(format!(
             "one rank's ensembles need {:.2} GiB but this machine has {:.2} GiB available; use \

@@ -1,11 +1,18 @@
-//! Running a case on a communicator: dimension dispatch, fresh start or restart, the step
-//! loop with progress lines, checkpoints, snapshots and clean stops, and the summary.
+//! The one driver of every scene: dimension dispatch, fresh start or restart, the step loop
+//! with progress lines, sampling, checkpoints, snapshots and clean stops, and the summary.
+//!
+//! A scene ([`Scene`]) is what the loop steps: the particle scene ([`ParticleScene`], a
+//! [`Simulation`] and its snapshot series) or the homogeneous-flow scene
+//! ([`crate::flow_scene::FlowScene`], dumbbell ensembles in an imposed flow). The loop, its
+//! schedule, signals, checkpoints, restarts and the summary's common part are written once,
+//! here.
 
 use crate::comm::Comm;
-use crate::config::LoadedCase;
+use crate::config::{LoadedCase, OutputCfg, RunCfg};
 use crate::diagnostics::Estimate;
-use crate::sim::Simulation;
-use crate::summary::{ProfilePoint, Summary, validate};
+use crate::sim::{PhaseTimes, Simulation};
+use crate::summary::{ProfilePoint, Summary, Validation, validate};
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
@@ -32,11 +39,6 @@ pub fn request_stop() {
     STOP_REQUESTED.store(true, Ordering::SeqCst);
 }
 
-/// Whether a stop was requested in this process (a signal, or [`request_stop`]).
-pub(crate) fn stop_requested() -> bool {
-    STOP_REQUESTED.load(Ordering::SeqCst)
-}
-
 /// Clears a stop request.
 pub fn clear_stop() {
     STOP_REQUESTED.store(false, Ordering::SeqCst);
@@ -50,22 +52,249 @@ pub(crate) fn threads_of(options: &RunOptions) -> usize {
     }
 }
 
-/// Runs a case from its initial state on this rank (collective over `comm`); every rank
-/// returns the same summary.
+/// What the step loop of [`drive`] needs of a scene.
+pub trait Scene {
+    /// The step reached.
+    fn step(&self) -> u64;
+    /// Simulated time.
+    fn time(&self) -> f64;
+    /// Run length and sampling of the case.
+    fn run(&self) -> &RunCfg;
+    /// Checkpoints and snapshots of the case.
+    fn output(&self) -> &OutputCfg;
+    /// Stores a new step count (`--steps`), so that later checkpoints keep it.
+    fn set_steps(&mut self, steps: u64);
+    /// What the set-up line of the log says: what is simulated, and how big.
+    fn describe(&self) -> String;
+    /// Advances one step and samples on the scene's schedule; any rank's stop request is
+    /// agreed within the step (collective).
+    fn advance(&mut self) -> Result<(), String>;
+    /// Marks that this rank was asked to stop.
+    fn request_stop(&mut self);
+    /// Whether any rank asked to stop before the last step (the same on every rank).
+    fn stop_agreed(&self) -> bool;
+    /// What the progress line says beside the step, the time and the ETA, at `steps_per_second`.
+    fn progress(&self, steps_per_second: f64) -> String;
+    /// Writes the checkpoint of the current step into `dir`, keeping the newest `keep`
+    /// (collective).
+    fn write_checkpoint(&mut self, dir: &Path, keep: usize) -> Result<PathBuf, String>;
+    /// Opens the scene's output series in `out` (continued after a restart).
+    fn open_outputs(&mut self, out: &Path, restarted: bool) -> Result<(), String>;
+    /// Writes what the series take at this step.
+    fn write_outputs(&mut self) -> Result<(), String>;
+    /// Closes the series and writes the scene's end-of-run files into `out`, if any.
+    fn close_outputs(&mut self, out: Option<&Path>) -> Result<(), String>;
+    /// The scene's part of the summary.
+    fn report(&mut self, completed: bool) -> Result<SceneReport, String>;
+    /// Phase timers.
+    fn times(&mut self) -> &mut PhaseTimes;
+}
+
+/// The part of the summary a scene fills in.
+pub struct SceneReport {
+    /// The case as run (with `--steps` applied).
+    pub case: serde_json::Value,
+    /// 2 or 3.
+    pub dimension: usize,
+    /// Total particle count.
+    pub particles: u64,
+    /// Dumbbells per step (homogeneous-flow scenes), for the dumbbell-steps rate.
+    pub dumbbells: Option<u64>,
+    /// Time averages with error bars.
+    pub observables: BTreeMap<String, Estimate>,
+    /// Binned velocity profile.
+    pub velocity_profile: Vec<ProfilePoint>,
+    /// Checks against the case's references (after a completed run).
+    pub validation: Vec<Validation>,
+    /// Warnings about the averages.
+    pub warnings: Vec<String>,
+    /// Digest of the final state.
+    pub state_digest: String,
+}
+
+/// A particle scene: the simulation and its snapshot series.
+pub struct ParticleScene<'c, const D: usize> {
+    /// The simulation.
+    pub sim: Simulation<'c, D>,
+    #[cfg(feature = "hdf5")]
+    snapshots: Option<crate::output::snapshot::SnapshotWriter>,
+}
+
+impl<'c, const D: usize> ParticleScene<'c, D> {
+    /// The scene of `sim`.
+    pub fn new(sim: Simulation<'c, D>) -> Self {
+        Self {
+            sim,
+            #[cfg(feature = "hdf5")]
+            snapshots: None,
+        }
+    }
+}
+
+impl<const D: usize> Scene for ParticleScene<'_, D> {
+    fn step(&self) -> u64 {
+        self.sim.step
+    }
+
+    fn time(&self) -> f64 {
+        self.sim.time()
+    }
+
+    fn run(&self) -> &RunCfg {
+        &self.sim.case.run
+    }
+
+    fn output(&self) -> &OutputCfg {
+        &self.sim.case.output
+    }
+
+    fn set_steps(&mut self, steps: u64) {
+        self.sim.case.run.steps = steps;
+    }
+
+    fn describe(&self) -> String {
+        format!(
+            "{} particles ({}D), {} owned here",
+            self.sim.total_particles, D, self.sim.particles.n_owned
+        )
+    }
+
+    fn advance(&mut self) -> Result<(), String> {
+        self.sim.advance()?;
+        if self.sim.is_sample_step() {
+            self.sim.sample();
+        }
+        Ok(())
+    }
+
+    fn request_stop(&mut self) {
+        self.sim.request_stop();
+    }
+
+    fn stop_agreed(&self) -> bool {
+        self.sim.stop_agreed()
+    }
+
+    fn progress(&self, steps_per_second: f64) -> String {
+        format!("{steps_per_second:.1} steps/s")
+    }
+
+    fn write_checkpoint(&mut self, dir: &Path, keep: usize) -> Result<PathBuf, String> {
+        #[cfg(feature = "hdf5")]
+        {
+            crate::output::checkpoint::write(&self.sim, dir, keep)
+        }
+        #[cfg(not(feature = "hdf5"))]
+        {
+            let _ = (dir, keep);
+            Err(NO_HDF5_CHECKPOINTS.into())
+        }
+    }
+
+    fn open_outputs(&mut self, out: &Path, restarted: bool) -> Result<(), String> {
+        if self.sim.case.output.snapshot_every == 0 {
+            return Ok(());
+        }
+        #[cfg(feature = "hdf5")]
+        {
+            let w = crate::output::snapshot::SnapshotWriter::open(&self.sim, out, restarted)?;
+            self.snapshots = Some(w);
+            Ok(())
+        }
+        #[cfg(not(feature = "hdf5"))]
+        {
+            let _ = (out, restarted);
+            Err("snapshots need HDF5: this mesorheo was built without the `hdf5` feature".into())
+        }
+    }
+
+    fn write_outputs(&mut self) -> Result<(), String> {
+        #[cfg(feature = "hdf5")]
+        if let Some(w) = &mut self.snapshots
+            && self
+                .sim
+                .step
+                .is_multiple_of(self.sim.case.output.snapshot_every)
+        {
+            let t = Instant::now();
+            w.write_frame(&self.sim)?;
+            self.sim.times.snapshots += t.elapsed().as_secs_f64();
+        }
+        Ok(())
+    }
+
+    fn close_outputs(&mut self, _out: Option<&Path>) -> Result<(), String> {
+        #[cfg(feature = "hdf5")]
+        if let Some(w) = &mut self.snapshots {
+            w.finish(&self.sim)?;
+        }
+        Ok(())
+    }
+
+    fn report(&mut self, completed: bool) -> Result<SceneReport, String> {
+        let sim = &self.sim;
+        let case = &sim.case;
+        let blocks = case.diagnostics.blocks;
+        let observables = sim.series.estimates(blocks);
+        let warnings = crate::diagnostics::block_warnings(&sim.series.scalars, blocks);
+        let ly = case.domain.lengths[1];
+        let nb = case.diagnostics.profile_bins as f64;
+        let velocity_profile: Vec<ProfilePoint> = (sim.series.profile_estimates(blocks).iter())
+            .enumerate()
+            .map(|(b, e): (usize, &Estimate)| {
+                let y = (b as f64 + 0.5) * ly / nb;
+                ProfilePoint {
+                    y,
+                    mean: e.mean,
+                    stderr: e.stderr,
+                    expected: sim.sim_box.streaming_velocity(y),
+                }
+            })
+            .collect();
+        let validation = if completed {
+            validate(case, &observables, &velocity_profile)
+        } else {
+            Vec::new()
+        };
+        Ok(SceneReport {
+            case: serde_json::to_value(case).map_err(|e| e.to_string())?,
+            dimension: D,
+            particles: sim.total_particles,
+            dumbbells: None,
+            observables,
+            velocity_profile,
+            validation,
+            warnings,
+            state_digest: sim.state_digest(),
+        })
+    }
+
+    fn times(&mut self) -> &mut PhaseTimes {
+        &mut self.sim.times
+    }
+}
+
+#[cfg(not(feature = "hdf5"))]
+const NO_HDF5_CHECKPOINTS: &str =
+    "checkpoints need HDF5: this mesorheo was built without the `hdf5` feature";
+
+/// Runs a particle case from its initial state on this rank (collective over `comm`); every
+/// rank returns the same summary.
 pub fn run_case(
     loaded: &LoadedCase,
     comm: &dyn Comm,
     options: &RunOptions,
 ) -> Result<Summary, String> {
     let threads = threads_of(options);
+    let path = &loaded.path;
     match loaded.case.dimension {
         2 => {
             let sim = Simulation::<2>::new(&loaded.case, comm, threads)?;
-            drive(sim, loaded, None, comm, options, threads)
+            drive(ParticleScene::new(sim), path, None, comm, options, threads)
         }
         3 => {
             let sim = Simulation::<3>::new(&loaded.case, comm, threads)?;
-            drive(sim, loaded, None, comm, options, threads)
+            drive(ParticleScene::new(sim), path, None, comm, options, threads)
         }
         d => Err(format!("dimension {d} is not supported")),
     }
@@ -110,8 +339,9 @@ pub fn restart_candidates(path: &Path) -> Vec<PathBuf> {
 /// one) begins; the path and the reason follow.
 pub const CHECKPOINT_REFUSED: &str = "checkpoint refused, an older one used";
 
-/// Continues a run from a checkpoint (collective). A checkpoint that cannot be read or fails
-/// its checksum is reported and the previous one in the same directory is used instead.
+/// Continues a run from a checkpoint (collective), whatever its scene. A checkpoint that
+/// cannot be used is reported and the previous one in the same directory is tried instead; a
+/// damaged one is also set aside ([`crate::output::checkpoint::CheckpointError`]).
 pub fn restart_case(
     checkpoint: &Path,
     comm: &dyn Comm,
@@ -119,7 +349,7 @@ pub fn restart_case(
 ) -> Result<Summary, String> {
     #[cfg(feature = "hdf5")]
     {
-        use crate::output::checkpoint as ck;
+        use crate::output::checkpoint::{self as ck, SceneKind};
         let threads = threads_of(options);
         if !checkpoint.exists() {
             return Err(format!(
@@ -134,18 +364,14 @@ pub fn restart_case(
         }
         let mut refused = Vec::new();
         for path in candidates {
-            // A homogeneous-flow checkpoint is continued by the flow driver (every rank reads
-            // the same attribute; agreed collectively all the same).
-            let is_flow = matches!(
-                ck::format_of(&path),
-                Ok(f) if f == crate::output::flow_checkpoint::FORMAT
-            );
-            let mut flow_flag = [if is_flow { 1.0 } else { 0.0 }];
-            comm.allreduce_max(&mut flow_flag);
-            let attempt = if flow_flag[0] > 0.0 {
-                crate::flow_driver::restart_from(&path, comm, options, threads)
-            } else {
-                restart_particles(&path, comm, options, threads)
+            // Every rank identifies the file itself; the verdict is agreed collectively.
+            let scene = ck::agree(ck::scene_of(&path), &path, comm);
+            let attempt = match scene {
+                Ok(SceneKind::Particles) => restart_particles(&path, comm, options, threads),
+                Ok(SceneKind::HomogeneousFlow) => {
+                    crate::flow_scene::restart_from(&path, comm, options, threads)
+                }
+                Err(e) => Err(Restart::Refused(e)),
             };
             match attempt {
                 Ok(mut summary) => {
@@ -158,13 +384,10 @@ pub fn restart_case(
                 Err(Restart::Failed(e)) => return Err(e),
                 Err(Restart::Refused(e)) => {
                     if comm.rank() == 0 {
-                        tracing::warn!(
-                            "checkpoint {} refused: {e}; trying the previous one",
-                            path.display()
-                        );
+                        tracing::warn!("checkpoint refused: {e}; trying the previous one");
                     }
-                    refused.push(e.clone());
-                    set_aside_if_corrupt(&path, &e, comm);
+                    set_aside_if_damaged(&path, &e, comm);
+                    refused.push(e.to_string());
                 }
             }
         }
@@ -188,31 +411,28 @@ fn restart_particles(
     options: &RunOptions,
     threads: usize,
 ) -> Result<Summary, Restart> {
-    let case = crate::output::checkpoint::read_case(path);
-    let mut flag = [if case.is_err() { 1.0 } else { 0.0 }];
-    comm.allreduce_max(&mut flag);
-    match case {
-        Ok(case) if flag[0] == 0.0 => {
-            let loaded = LoadedCase {
-                source: toml::to_string(&case).unwrap_or_default(),
-                case,
-                path: path.to_path_buf(),
-            };
-            match loaded.case.dimension {
-                2 => restore_and_drive::<2>(&loaded, path, comm, options, threads),
-                3 => restore_and_drive::<3>(&loaded, path, comm, options, threads),
-                d => Err(Restart::Refused(format!("dimension {d} is not supported"))),
-            }
-        }
-        Ok(_) => Err(Restart::Refused("unreadable on another rank".into())),
-        Err(e) => Err(Restart::Refused(e)),
+    use crate::output::checkpoint as ck;
+    let case = ck::agree(ck::read_case(path), path, comm).map_err(Restart::Refused)?;
+    let loaded = LoadedCase {
+        source: toml::to_string(&case).unwrap_or_default(),
+        case,
+        path: path.to_path_buf(),
+    };
+    match loaded.case.dimension {
+        2 => restore_and_drive::<2>(&loaded, path, comm, options, threads),
+        3 => restore_and_drive::<3>(&loaded, path, comm, options, threads),
+        d => Err(Restart::Refused(ck::CheckpointError::incompatible(
+            path,
+            format!("dimension {d} is not supported"),
+        ))),
     }
 }
 
+/// Why a restart attempt did not give a summary.
 #[cfg(feature = "hdf5")]
 pub(crate) enum Restart {
     /// The checkpoint is unusable: try an older one.
-    Refused(String),
+    Refused(crate::output::checkpoint::CheckpointError),
     /// The run itself failed after a good start.
     Failed(String),
 }
@@ -238,7 +458,8 @@ fn restore_and_drive<const D: usize>(
     )
     .map_err(Restart::Failed)?;
     log_restart(comm, path, r.step);
-    drive(sim, loaded, Some(path), comm, options, threads).map_err(Restart::Failed)
+    let scene = ParticleScene::new(sim);
+    drive(scene, &loaded.path, Some(path), comm, options, threads).map_err(Restart::Failed)
 }
 
 /// A fresh run into an output directory that holds checkpoints of an earlier run moves them to
@@ -275,14 +496,18 @@ pub(crate) fn set_aside_old_checkpoints(dir: &Path, comm: &dyn Comm) -> Result<(
     }
 }
 
-/// A checkpoint refused for damage (not e.g. for a dimension mismatch) is renamed
-/// `NAME.corrupt` (rank 0, after every rank has decided), so it is kept for inspection but no
-/// restart picks it again.
+/// A checkpoint refused because it is damaged on any rank (not, e.g., for a dimension
+/// mismatch) is renamed `NAME.corrupt` by rank 0, so it is kept for inspection but no restart
+/// picks it again (collective).
 #[cfg(feature = "hdf5")]
-pub(crate) fn set_aside_if_corrupt(path: &Path, reason: &str, comm: &dyn Comm) {
-    comm.barrier();
-    let damaged = reason.contains("corrupt") || reason.contains("not a readable HDF5 file");
-    if comm.rank() == 0 && damaged && path.is_file() {
+pub(crate) fn set_aside_if_damaged(
+    path: &Path,
+    error: &crate::output::checkpoint::CheckpointError,
+    comm: &dyn Comm,
+) {
+    let mut damaged = [if error.is_damaged() { 1.0 } else { 0.0 }];
+    comm.allreduce_max(&mut damaged);
+    if comm.rank() == 0 && damaged[0] > 0.0 && path.is_file() {
         let aside = path.with_extension("h5.corrupt");
         match std::fs::rename(path, &aside) {
             Ok(()) => tracing::warn!("renamed {} to {}", path.display(), aside.display()),
@@ -293,49 +518,40 @@ pub(crate) fn set_aside_if_corrupt(path: &Path, reason: &str, comm: &dyn Comm) {
 }
 
 /// Writes a checkpoint of the current step, if output is on (collective).
-fn checkpoint<const D: usize>(
-    sim: &mut Simulation<'_, D>,
+fn checkpoint(
+    scene: &mut impl Scene,
     options: &RunOptions,
+    comm: &dyn Comm,
 ) -> Result<Option<PathBuf>, String> {
     let Some(out) = &options.out else {
         return Ok(None);
     };
-    #[cfg(feature = "hdf5")]
-    {
-        let t = Instant::now();
-        let path = crate::output::checkpoint::write(
-            sim,
-            &out.join("checkpoints"),
-            sim.case.output.checkpoint_keep,
-        )?;
-        sim.times.checkpoints += t.elapsed().as_secs_f64();
-        if sim.comm().rank() == 0 {
-            tracing::info!(
-                "checkpoint {} ({:.2} s)",
-                path.display(),
-                t.elapsed().as_secs_f64()
-            );
-        }
-        Ok(Some(path))
+    let t = Instant::now();
+    let keep = scene.output().checkpoint_keep;
+    let path = scene.write_checkpoint(&out.join("checkpoints"), keep)?;
+    scene.times().checkpoints += t.elapsed().as_secs_f64();
+    if comm.rank() == 0 {
+        tracing::info!(
+            "checkpoint {} ({:.2} s)",
+            path.display(),
+            t.elapsed().as_secs_f64()
+        );
     }
-    #[cfg(not(feature = "hdf5"))]
-    {
-        let _ = (sim, out);
-        Err("checkpoints need HDF5: this mesorheo was built without the `hdf5` feature".into())
-    }
+    Ok(Some(path))
 }
 
-/// The step loop with its schedule of samples, snapshots and checkpoints, then the summary.
-fn drive<const D: usize>(
-    mut sim: Simulation<'_, D>,
-    loaded: &LoadedCase,
+/// The step loop of every scene, with its schedule of samples, snapshots and checkpoints and
+/// its clean stops; then the summary.
+pub(crate) fn drive(
+    mut scene: impl Scene,
+    case_file: &Path,
     restarted_from: Option<&Path>,
     comm: &dyn Comm,
     options: &RunOptions,
     threads: usize,
 ) -> Result<Summary, String> {
     let wall = Instant::now();
-    let first_step = sim.step;
+    let first_step = scene.step();
     if let Some(n) = options.steps {
         if n < first_step {
             return Err(format!(
@@ -343,80 +559,58 @@ fn drive<const D: usize>(
             ));
         }
         // Stored in the case, so later checkpoints (and restarts from them) keep it.
-        sim.case.run.steps = n;
+        scene.set_steps(n);
     }
-    let case = sim.case.clone();
-    let last_step = case.run.steps;
+    let last_step = scene.run().steps;
     let stop_at = options.until_step.map_or(last_step, |k| k.min(last_step));
     if stop_at <= first_step && first_step < last_step {
         return Err(format!(
             "--until-step {stop_at} is not after the current step {first_step}"
         ));
     }
-    tracing::info!(
-        particles = sim.total_particles,
-        ranks = comm.size(),
-        threads,
-        owned = sim.particles.n_owned,
-        "{} {} at step {first_step}",
-        if restarted_from.is_some() {
-            "continuing"
-        } else {
-            "set up"
-        },
-        loaded.path.display()
-    );
-    if restarted_from.is_none()
-        && let Some(out) = &options.out
-    {
-        set_aside_old_checkpoints(&out.join("checkpoints"), comm)?;
-    }
-    #[cfg(feature = "hdf5")]
-    let mut snapshots = match (&options.out, case.output.snapshot_every) {
-        (Some(out), every) if every > 0 => Some(crate::output::snapshot::SnapshotWriter::open(
-            &sim,
-            out,
-            restarted_from.is_some(),
-        )?),
-        _ => None,
-    };
-    #[cfg(not(feature = "hdf5"))]
-    if options.out.is_some() && case.output.snapshot_every > 0 {
-        return Err(
-            "snapshots need HDF5: this mesorheo was built without the `hdf5` feature".into(),
+    let is_root = comm.rank() == 0;
+    if is_root {
+        tracing::info!(
+            ranks = comm.size(),
+            threads,
+            "{} {}: {} at step {first_step}",
+            if restarted_from.is_some() {
+                "continuing"
+            } else {
+                "set up"
+            },
+            case_file.display(),
+            scene.describe()
         );
     }
-    let every = case.run.progress_seconds;
-    let is_root = comm.rank() == 0;
+    if let Some(out) = &options.out {
+        if restarted_from.is_none() {
+            set_aside_old_checkpoints(&out.join("checkpoints"), comm)?;
+        }
+        scene.open_outputs(out, restarted_from.is_some())?;
+    }
+    let every = scene.run().progress_seconds;
+    let checkpoint_every = scene.output().checkpoint_every;
     let mut last_report = Instant::now();
     let start = Instant::now();
     let mut last_checkpoint: Option<PathBuf> = None;
     let mut checkpointed_at = None;
     let mut stopped_by_signal = false;
-    while sim.step < stop_at {
+    while scene.step() < stop_at {
         if STOP_REQUESTED.load(Ordering::SeqCst) {
-            sim.request_stop();
+            scene.request_stop();
         }
-        sim.advance()?;
-        if sim.is_sample_step() {
-            sim.sample();
+        scene.advance()?;
+        let step = scene.step();
+        if options.out.is_some() {
+            scene.write_outputs()?;
         }
-        let step = sim.step;
-        #[cfg(feature = "hdf5")]
-        if let Some(w) = &mut snapshots
-            && step.is_multiple_of(case.output.snapshot_every)
-        {
-            let t = Instant::now();
-            w.write_frame(&sim)?;
-            sim.times.snapshots += t.elapsed().as_secs_f64();
-        }
-        let ck = case.output.checkpoint_every;
-        if ck > 0 && step.is_multiple_of(ck) && options.out.is_some() {
-            last_checkpoint = checkpoint(&mut sim, options)?;
+        if checkpoint_every > 0 && step.is_multiple_of(checkpoint_every) && options.out.is_some() {
+            last_checkpoint = checkpoint(&mut scene, options, comm)?;
             checkpointed_at = Some(step);
         }
-        // Agreed within the step's own reduction, so every rank stops after the same step.
-        if sim.stop_agreed() {
+        // Agreed within the step itself, so every rank stops after the same step.
+        if scene.stop_agreed() {
             stopped_by_signal = true;
             if is_root {
                 tracing::warn!("stop requested: stopping after step {step}");
@@ -425,27 +619,25 @@ fn drive<const D: usize>(
         }
         if is_root && every > 0.0 && last_report.elapsed().as_secs_f64() >= every {
             last_report = Instant::now();
-            let done = (step - first_step) as f64;
-            let rate = done / start.elapsed().as_secs_f64();
+            let rate = (step - first_step) as f64 / start.elapsed().as_secs_f64();
             let eta = (stop_at - step) as f64 / rate.max(1e-12);
             tracing::info!(
-                "step {step}/{last_step} t = {:.4} {:.1} steps/s ETA {:.0} s",
-                sim.time(),
-                rate,
-                eta
+                "step {step}/{last_step} t = {:.4} {} ETA {eta:.0} s",
+                scene.time(),
+                scene.progress(rate),
             );
         }
     }
     let loop_seconds = start.elapsed().as_secs_f64();
-    let completed = sim.step >= last_step;
-    let wants_final = case.output.checkpoint_at_end || !completed;
-    if wants_final && options.out.is_some() && checkpointed_at != Some(sim.step) {
-        last_checkpoint = checkpoint(&mut sim, options)?;
+    let completed = scene.step() >= last_step;
+    let wants_final = scene.output().checkpoint_at_end || !completed;
+    if wants_final && options.out.is_some() && checkpointed_at != Some(scene.step()) {
+        last_checkpoint = checkpoint(&mut scene, options, comm)?;
     }
     if stopped_by_signal || !completed {
         tracing::info!(
             "stopped at step {} of {last_step}; restart from {}",
-            sim.step,
+            scene.step(),
             last_checkpoint
                 .as_deref()
                 .map_or("(no checkpoint: no output directory)".into(), |p| p
@@ -453,64 +645,36 @@ fn drive<const D: usize>(
                     .to_string())
         );
     }
-    #[cfg(feature = "hdf5")]
-    if let Some(w) = &mut snapshots {
-        w.finish(&sim)?;
-    }
-    let blocks = case.diagnostics.blocks;
-    let observables = sim.series.estimates(blocks);
-    let warnings = crate::diagnostics::block_warnings(&sim.series.scalars, blocks);
-    for w in &warnings {
+    scene.close_outputs(options.out.as_deref())?;
+    let report = scene.report(completed)?;
+    for w in &report.warnings {
         tracing::warn!("{w}");
     }
-    let ly = case.domain.lengths[1];
-    let profile: Vec<ProfilePoint> = sim
-        .series
-        .profile_estimates(blocks)
-        .iter()
-        .enumerate()
-        .map(|(b, e): (usize, &Estimate)| {
-            let nb = case.diagnostics.profile_bins as f64;
-            let y = (b as f64 + 0.5) * ly / nb;
-            ProfilePoint {
-                y,
-                mean: e.mean,
-                stderr: e.stderr,
-                expected: sim.sim_box.streaming_velocity(y),
-            }
-        })
-        .collect();
-    let validation = if completed {
-        validate(&case, &observables, &profile)
-    } else {
-        Vec::new()
-    };
-    let state_digest = sim.state_digest();
-    let steps_run = sim.step - first_step;
+    let steps_run = (scene.step() - first_step) as f64;
+    let rate = |n: f64| n * steps_run / loop_seconds.max(1e-300);
     Ok(Summary {
         version: env!("CARGO_PKG_VERSION").to_owned(),
-        case: serde_json::to_value(&case).map_err(|e| e.to_string())?,
-        case_file: loaded.path.display().to_string(),
+        case: report.case,
+        case_file: case_file.display().to_string(),
         ranks: comm.size(),
         threads,
-        dimension: D,
-        particles: sim.total_particles,
-        steps: sim.step,
+        dimension: report.dimension,
+        particles: report.particles,
+        steps: scene.step(),
         completed,
         restarted_from: restarted_from.map(|p| p.display().to_string()),
         last_checkpoint: last_checkpoint.map(|p| p.display().to_string()),
-        time: sim.time(),
+        time: scene.time(),
         wall_seconds: wall.elapsed().as_secs_f64(),
         loop_seconds,
-        particle_steps_per_second: sim.total_particles as f64 * steps_run as f64
-            / loop_seconds.max(1e-300),
-        dumbbell_steps_per_second: None,
-        observables,
-        velocity_profile: profile,
-        validation,
-        warnings,
-        state_digest,
-        phase_seconds: sim.times.clone(),
+        particle_steps_per_second: rate(report.particles as f64),
+        dumbbell_steps_per_second: report.dumbbells.map(|n| rate(n as f64)),
+        observables: report.observables,
+        velocity_profile: report.velocity_profile,
+        validation: report.validation,
+        warnings: report.warnings,
+        state_digest: report.state_digest,
+        phase_seconds: scene.times().clone(),
     })
 }
 

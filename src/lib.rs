@@ -19,7 +19,7 @@ pub mod diagnostics;
 pub mod domain;
 pub mod driver;
 pub mod fixed_sum;
-pub mod flow_driver;
+pub mod flow_scene;
 pub mod geometry;
 pub mod integrators;
 pub mod models;

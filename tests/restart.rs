@@ -233,7 +233,7 @@ fn model_run(
     let mut sim = match from {
         None => Simulation::<3>::new(&case, comm, 1)?,
         Some(path) => {
-            let r = checkpoint::read::<3>(path, comm)?;
+            let r = checkpoint::read::<3>(path, comm).map_err(|e| e.to_string())?;
             Simulation::<3>::from_checkpoint(
                 &r.case,
                 comm,
@@ -328,8 +328,9 @@ fn a_corrupt_or_truncated_checkpoint_is_refused_and_the_previous_one_used() {
         }
         // Refused when named explicitly…
         let n = newest.clone();
-        let err = in_process(1, move |c| checkpoint::read::<2>(&n, c).map(|_| ()))
-            .expect_err("damaged checkpoint accepted");
+        let read = move |c: &dyn Comm| checkpoint::read::<2>(&n, c).map_err(|e| e.to_string());
+        let err =
+            in_process(1, move |c| read(c).map(|_| ())).expect_err("damaged checkpoint accepted");
         let expect = if damage == "flip" { "checksum" } else { "HDF5" };
         assert!(err.contains(expect), "{damage}: {err}");
         // …and the restart falls back to step 100 and still ends in the uninterrupted state.

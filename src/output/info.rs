@@ -14,10 +14,15 @@ pub fn describe(path: &std::path::Path) -> Result<String, String> {
         .and_then(|a| a.read_scalar::<VarLenUnicode>())
         .map(|v| v.to_string())
         .unwrap_or_default();
-    let kind = if format == super::checkpoint::FORMAT {
-        "checkpoint"
-    } else if format == super::flow_checkpoint::FORMAT {
-        "checkpoint of a homogeneous-flow scene (dumbbell ensembles)"
+    let kind = if format == super::checkpoint::FORMAT || format == super::checkpoint::FLOW_FORMAT_V1
+    {
+        match super::checkpoint::scene_of(path) {
+            Ok(super::checkpoint::SceneKind::Particles) => "checkpoint of a particle scene",
+            Ok(super::checkpoint::SceneKind::HomogeneousFlow) => {
+                "checkpoint of a homogeneous-flow scene (dumbbell ensembles)"
+            }
+            Err(_) => "checkpoint (of a format version this mesorheo does not read)",
+        }
     } else if f.link_exists("h5md") {
         "snapshot series (H5MD)"
     } else {

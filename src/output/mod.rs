@@ -2,7 +2,6 @@
 //! the same parallel writer, snapshots (H5MD + XDMF). Needs the `hdf5` feature.
 
 pub mod checkpoint;
-pub mod flow_checkpoint;
 pub mod info;
 pub mod shared_file;
 pub mod snapshot;

@@ -1,12 +1,7 @@
-//! Checkpoints: the complete state of a run in one HDF5 file, in global-id order, so a run can
-//! continue bitwise identically on any rank count (rust-stack.md §4.5).
-//!
-//! Layout (`format = "mesorheo-checkpoint"`, `format_version = 1`):
+//! Checkpoints of particle scenes (`scene = "particles"`).
 //!
 //! ```text
-//! /                         attributes: format, format_version, code_version, step, rebuild_step,
-//!                           time, dt, le_offset, dimension, particles, seed, case (TOML echo),
-//!                           checksum (hex)
+//! /                         attributes (beside the common ones): rebuild_step, le_offset
 //! /particles/id             [N]      u64   global ids 0..N−1, sorted
 //! /particles/position       [N, D]   f64   as integrated (may be up to skin/2 outside the box
 //!                                          between neighbour-list builds)
@@ -14,64 +9,32 @@
 //! /particles/force          [N, D]   f64   forces of the step (not recomputed at restart)
 //! /particles/velocity_half  [N, D]   f64   integrator scratch v + ½Δt f/m
 //! /particles/image          [N, D]   i32   periodic crossings
-//! /particles/fields/<name>  [N, w]   f64   every registered fixed-width field, including
+//! /particles/fields/<name>  [N, w]   f64   every checkpointed fixed-width field, then
 //!                                          list_reference_position (list-build positions)
-//! /particles/var/<name>/count [N]    u64   every registered variable-length field …
+//! /particles/var/<name>/count [N]    u64   every variable-length field (an ensemble) …
 //! /particles/var/<name>/value [ΣN_i] f64   … concatenated in id order
-//! /observables/step         [S]      u64   sampled time series (so averages continue)
-//! /observables/<name>       [S]      f64
 //! /observables/velocity_profile [S, bins]
 //! ```
 //!
-//! No random-number state is stored: the noise is keyed by (seed, step, ids). The checksum
-//! combines a hash of every particle's words (order-independent, so any rank count computes the
-//! same) with the scalar attributes; a reader recomputes it and refuses a file that differs.
-//! The file is written as `NAME.h5.tmp`, flushed to disk and renamed, so a crash during the
-//! write leaves the previous checkpoint untouched.
+//! Fields derived anew every step (a summation density) are not written.
 
-use super::collective_ok;
-use super::shared_file::{SharedFile, read_attr, read_attr_str, read_block};
+use super::{
+    CheckpointError, SceneKind, agree, file_name, open, publish, read_series, series_hash,
+    text_hash, write_common_attributes, write_series,
+};
 use crate::comm::{Comm, U64Op};
 use crate::config::Case;
 use crate::diagnostics::Series;
 use crate::domain::id_block;
+use crate::output::collective_ok;
+use crate::output::shared_file::{SharedFile, read_attr, read_attr_str, read_block};
 use crate::particles::Particles;
 use crate::sim::{LIST_REFERENCE_FIELD, Simulation, hash_words};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
 
-/// Value of the `format` attribute.
-pub const FORMAT: &str = "mesorheo-checkpoint";
-/// Value of the `format_version` attribute.
-pub const FORMAT_VERSION: u64 = 1;
-
 /// Checkpoints this process has started writing (for the fault-injection hook).
 static WRITES: AtomicU64 = AtomicU64::new(0);
-
-/// File name of the checkpoint of `step`.
-pub fn file_name(step: u64) -> String {
-    format!("checkpoint_{step:012}.h5")
-}
-
-/// Checkpoints in `dir`, newest (highest step) first.
-pub fn list(dir: &Path) -> Vec<(u64, PathBuf)> {
-    let mut found: Vec<(u64, PathBuf)> = std::fs::read_dir(dir)
-        .into_iter()
-        .flatten()
-        .flatten()
-        .filter_map(|e| {
-            let name = e.file_name().into_string().ok()?;
-            let step = name
-                .strip_prefix("checkpoint_")?
-                .strip_suffix(".h5")?
-                .parse()
-                .ok()?;
-            Some((step, e.path()))
-        })
-        .collect();
-    found.sort_by_key(|f| std::cmp::Reverse(f.0));
-    found
-}
 
 /// Hash of one particle's complete record (the `pack_owned` words).
 fn particle_hash<const D: usize>(p: &Particles<D>, i: usize, scratch: &mut Vec<f64>) -> u64 {
@@ -100,33 +63,6 @@ fn checksum<const D: usize>(p: &Particles<D>, comm: &dyn Comm, scalars: &[u64]) 
     hash_words(&words)
 }
 
-/// Hash of a text (the case echo).
-pub(crate) fn text_hash(text: &str) -> u64 {
-    let words: Vec<u64> = text
-        .as_bytes()
-        .chunks(8)
-        .map(|c| {
-            let mut b = [0u8; 8];
-            b[..c.len()].copy_from_slice(c);
-            u64::from_le_bytes(b)
-        })
-        .collect();
-    hash_words(&words) ^ text.len() as u64
-}
-
-/// Hash of the sampled series (steps, every scalar series in name order, the profiles).
-pub(crate) fn series_hash(series: &Series) -> u64 {
-    let mut words: Vec<u64> = series.steps.clone();
-    for (name, values) in &series.scalars {
-        words.push(text_hash(name));
-        words.extend(values.iter().map(|x| x.to_bits()));
-    }
-    for p in &series.profile {
-        words.extend(p.iter().map(|x| x.to_bits()));
-    }
-    hash_words(&words)
-}
-
 /// Writes the checkpoint of the current step into `dir` and keeps the newest `keep`
 /// (collective). Returns the path.
 pub fn write<const D: usize>(
@@ -137,7 +73,7 @@ pub fn write<const D: usize>(
     let comm = sim.comm();
     let (rank, size) = (comm.rank(), comm.size());
     let total = sim.total_particles;
-    let mine = super::id_ordered(&sim.checkpoint_particles(), total, comm)?;
+    let mine = crate::output::id_ordered(&sim.checkpoint_particles(), total, comm)?;
     let block = id_block(total, size, rank);
     let case_toml = toml::to_string(&sim.case).map_err(|e| format!("cannot echo the case: {e}"))?;
     let scalars = [
@@ -145,29 +81,23 @@ pub fn write<const D: usize>(
         sim.rebuild_step(),
         total,
         D as u64,
-        FORMAT_VERSION,
+        super::FORMAT_VERSION,
         text_hash(&case_toml),
         series_hash(&sim.series),
     ];
     let sum = checksum(&mine, comm, &scalars);
-    super::create_dir_collective(dir, comm)?;
+    crate::output::create_dir_collective(dir, comm)?;
     let path = dir.join(file_name(sim.step));
     let tmp = dir.join(format!("{}.tmp", file_name(sim.step)));
     let nth = WRITES.fetch_add(1, Ordering::SeqCst) + 1;
     let mut f = SharedFile::create(&tmp, comm)?;
     let n = total as usize;
     let (start, rows) = (block.start as usize, (block.end - block.start) as usize);
-    f.attr_str("/", "format", FORMAT)?;
-    f.attr("/", "format_version", &FORMAT_VERSION)?;
-    f.attr_str("/", "code_version", env!("CARGO_PKG_VERSION"))?;
-    f.attr("/", "step", &sim.step)?;
+    let (step, time, dt, seed) = (sim.step, sim.time(), sim.dt(), sim.case.seed);
+    let scene = SceneKind::Particles;
+    write_common_attributes(&mut f, scene, step, time, dt, D, total, seed)?;
     f.attr("/", "rebuild_step", &sim.rebuild_step())?;
-    f.attr("/", "time", &sim.time())?;
-    f.attr("/", "dt", &sim.dt())?;
     f.attr("/", "le_offset", &sim.sim_box.le_offset(sim.step, sim.dt()))?;
-    f.attr("/", "dimension", &(D as u64))?;
-    f.attr("/", "particles", &total)?;
-    f.attr("/", "seed", &sim.case.seed)?;
     f.attr_str("/", "case", &case_toml)?;
     f.attr_str("/", "checksum", &format!("{sum:016x}"))?;
     f.group("particles")?;
@@ -248,109 +178,6 @@ pub fn write<const D: usize>(
     Ok(path)
 }
 
-/// fsync, atomic rename, fsync of the directory, then removal of all but the newest `keep`.
-pub(crate) fn publish(
-    tmp: &Path,
-    path: &Path,
-    this: u64,
-    dir: &Path,
-    keep: usize,
-) -> Result<(), String> {
-    let sync = |p: &Path| -> std::io::Result<()> { std::fs::File::open(p)?.sync_all() };
-    sync(tmp).map_err(|e| format!("cannot flush {}: {e}", tmp.display()))?;
-    std::fs::rename(tmp, path)
-        .map_err(|e| format!("cannot rename {} to {}: {e}", tmp.display(), path.display()))?;
-    // Durability of the rename; some file systems refuse to sync a directory (not fatal).
-    let _ = sync(dir);
-    // Keep the newest `keep` up to this step; never the one just written, never a later one.
-    let older: Vec<(u64, PathBuf)> = list(dir).into_iter().filter(|(s, _)| *s < this).collect();
-    for (_, old) in older.into_iter().skip(keep.max(1) - 1) {
-        if let Err(e) = std::fs::remove_file(&old) {
-            tracing::warn!("cannot remove old checkpoint {}: {e}", old.display());
-        }
-    }
-    // Temporary files left by an interrupted write of an earlier checkpoint.
-    for entry in std::fs::read_dir(dir).into_iter().flatten().flatten() {
-        let name = entry.file_name().to_string_lossy().into_owned();
-        if let Some(stem) = name.strip_suffix(".tmp")
-            && let Some(step) = stem
-                .strip_prefix("checkpoint_")
-                .and_then(|n| n.strip_suffix(".h5"))
-                .and_then(|n| n.parse::<u64>().ok())
-            && step < this
-        {
-            let _ = std::fs::remove_file(entry.path());
-        }
-    }
-    Ok(())
-}
-
-/// Writes the sampled series under `/observables` (rank 0's copy; every rank has the same).
-pub(crate) fn write_series(f: &mut SharedFile, series: &Series, root: bool) -> Result<(), String> {
-    let s = series.steps.len();
-    let rows = if root { s } else { 0 };
-    f.group("observables")?;
-    f.dataset::<u64>("observables/step", &[s], false)?;
-    f.write("observables/step", &[0], &[rows], &series.steps[..rows])?;
-    for (name, values) in &series.scalars {
-        if values.len() != s {
-            return Err(format!(
-                "observable {name} has {} samples, expected {s}",
-                values.len()
-            ));
-        }
-        let ds = format!("observables/{name}");
-        f.dataset::<f64>(&ds, &[s], false)?;
-        f.write(&ds, &[0], &[rows], &values[..rows])?;
-    }
-    if let Some(first) = series.profile.first() {
-        let bins = first.len();
-        let flat: Vec<f64> = series.profile.concat();
-        f.dataset::<f64>("observables/velocity_profile", &[s, bins], false)?;
-        let data = if root { &flat[..] } else { &flat[..0] };
-        f.write("observables/velocity_profile", &[0, 0], &[rows, bins], data)?;
-    }
-    Ok(())
-}
-
-pub(crate) fn read_series(f: &hdf5::File) -> Result<Series, String> {
-    let mut series = Series::default();
-    let group = f
-        .group("observables")
-        .map_err(|e| format!("{}: no /observables: {e}", f.filename()))?;
-    let names = group
-        .member_names()
-        .map_err(|e| format!("{}: /observables: {e}", f.filename()))?;
-    let len = |name: &str| -> Result<Vec<usize>, String> {
-        f.dataset(name)
-            .map(|d| d.shape())
-            .map_err(|e| format!("{}: {name}: {e}", f.filename()))
-    };
-    let s = *len("observables/step")?
-        .first()
-        .ok_or_else(|| format!("{}: /observables/step is not 1-D", f.filename()))?;
-    series.steps = read_block(f, "observables/step", &[0], &[s])?;
-    for name in names {
-        if name == "step" {
-            continue;
-        }
-        let ds = format!("observables/{name}");
-        if name == "velocity_profile" {
-            let shape = len(&ds)?;
-            if shape.len() != 2 {
-                return Err(format!("{}: {ds} is not [samples, bins]", f.filename()));
-            }
-            let flat: Vec<f64> = read_block(f, &ds, &[0, 0], &shape)?;
-            series.profile = flat.chunks(shape[1].max(1)).map(<[f64]>::to_vec).collect();
-        } else {
-            series
-                .scalars
-                .insert(name.clone(), read_block(f, &ds, &[0], &[s])?);
-        }
-    }
-    Ok(series)
-}
-
 /// A checkpoint as read by one rank.
 pub struct Restored<const D: usize> {
     /// The case echoed in the file.
@@ -367,77 +194,35 @@ pub struct Restored<const D: usize> {
     pub series: Series,
 }
 
-/// The case echoed in a checkpoint, and its dimension (any rank, independent).
-pub fn read_case(path: &Path) -> Result<Case, String> {
-    let f = open(path)?;
-    let text = read_attr_str(&f, "/", "case")?;
+/// The case echoed in a particle scene's checkpoint (any rank, independent).
+pub fn read_case(path: &Path) -> Result<Case, CheckpointError> {
+    let opened = open(path)?;
+    if opened.scene != SceneKind::Particles {
+        return Err(CheckpointError::incompatible(
+            path,
+            format!("a checkpoint of a {} scene", opened.scene.name()),
+        ));
+    }
+    let text =
+        read_attr_str(&opened.file, "/", "case").map_err(|e| CheckpointError::damaged(path, e))?;
     crate::config::parse(
         &text,
         &PathBuf::from(format!("{} (case echo)", path.display())),
     )
-    .map_err(|e| e.to_string())
-}
-
-/// The `format` attribute of a mesorheo HDF5 file (what kind of checkpoint it is).
-pub fn format_of(path: &Path) -> Result<String, String> {
-    let f = super::h5_options()
-        .open(path)
-        .map_err(|e| format!("{}: not a readable HDF5 file ({e})", path.display()))?;
-    read_attr_str(&f, "/", "format")
-        .map_err(|_| format!("{}: not a mesorheo checkpoint", path.display()))
-}
-
-fn open(path: &Path) -> Result<hdf5::File, String> {
-    open_as(path, FORMAT, FORMAT_VERSION)
-}
-
-/// Opens a mesorheo HDF5 file and checks its `format` and `format_version` attributes.
-pub(crate) fn open_as(path: &Path, expected: &str, version: u64) -> Result<hdf5::File, String> {
-    let f = super::h5_options()
-        .open(path)
-        .map_err(|e| format!("{}: not a readable HDF5 file ({e})", path.display()))?;
-    let format = read_attr_str(&f, "/", "format")
-        .map_err(|_| format!("{}: not a mesorheo checkpoint", path.display()))?;
-    if format != expected {
-        return Err(format!(
-            "{}: format is {format:?}, expected {expected:?}",
-            path.display()
-        ));
-    }
-    let found: u64 = read_attr(&f, "/", "format_version")?;
-    if found != version {
-        return Err(format!(
-            "{}: {expected} format version {found}, this mesorheo reads version {version}",
-            path.display()
-        ));
-    }
-    Ok(f)
+    .map_err(|e| CheckpointError::damaged(path, format!("unreadable case echo: {e}")))
 }
 
 /// Reads and verifies a checkpoint (collective; every rank returns the same verdict). Each rank
 /// reads one block of ids; [`Simulation::from_checkpoint`] sends the particles to their owners.
-pub fn read<const D: usize>(path: &Path, comm: &dyn Comm) -> Result<Restored<D>, String> {
-    let local = read_local::<D>(path, comm);
-    let (local, scalars) = match local {
-        Ok((r, s)) => (Ok(r), s),
-        Err(e) => (Err(e), Vec::new()),
-    };
-    let mut failed = [if local.is_err() { 1.0 } else { 0.0 }];
-    comm.allreduce_max(&mut failed);
-    let restored = match local {
-        Err(e) => return Err(e),
-        Ok(_) if failed[0] > 0.0 => {
-            return Err(format!("{}: unreadable on another rank", path.display()));
-        }
-        Ok(r) => r,
-    };
+pub fn read<const D: usize>(path: &Path, comm: &dyn Comm) -> Result<Restored<D>, CheckpointError> {
+    let (restored, scalars) = agree(read_local::<D>(path, comm), path, comm)?;
     // Checksum (collective); the stored value travels as the last scalar.
     let (stored, scalars) = scalars.split_last().expect("read_local returns 8 scalars");
     let sum = checksum(&restored.particles, comm, scalars);
     if sum != *stored {
-        return Err(format!(
-            "{}: checksum mismatch (stored {stored:016x}, computed {sum:016x}): the file is corrupt",
-            path.display()
+        return Err(CheckpointError::damaged(
+            path,
+            format!("checksum mismatch (stored {stored:016x}, computed {sum:016x})"),
         ));
     }
     Ok(restored)
@@ -446,21 +231,40 @@ pub fn read<const D: usize>(path: &Path, comm: &dyn Comm) -> Result<Restored<D>,
 fn read_local<const D: usize>(
     path: &Path,
     comm: &dyn Comm,
-) -> Result<(Restored<D>, Vec<u64>), String> {
-    let f = open(path)?;
-    let dim: u64 = read_attr(&f, "/", "dimension")?;
-    if dim != D as u64 {
-        return Err(format!(
-            "{}: the checkpoint is {dim}-dimensional",
-            path.display()
+) -> Result<(Restored<D>, Vec<u64>), CheckpointError> {
+    let opened = open(path)?;
+    if opened.scene != SceneKind::Particles {
+        return Err(CheckpointError::incompatible(
+            path,
+            format!("a checkpoint of a {} scene", opened.scene.name()),
         ));
     }
+    let damaged = |e: String| CheckpointError::damaged(path, e);
+    let dim: u64 = read_attr(&opened.file, "/", "dimension").map_err(damaged)?;
+    if dim != D as u64 {
+        return Err(CheckpointError::incompatible(
+            path,
+            format!("the checkpoint is {dim}-dimensional"),
+        ));
+    }
+    let case = read_case(path)?;
+    read_particles::<D>(path, &opened.file, opened.version, case, comm).map_err(damaged)
+}
+
+/// The particles, series and scalars of an identified particle checkpoint (errors: the file
+/// is damaged).
+fn read_particles<const D: usize>(
+    path: &Path,
+    f: &hdf5::File,
+    version: u64,
+    case: Case,
+    comm: &dyn Comm,
+) -> Result<(Restored<D>, Vec<u64>), String> {
     let total: u64 = read_attr(&f, "/", "particles")?;
     let step: u64 = read_attr(&f, "/", "step")?;
     let rebuild_step: u64 = read_attr(&f, "/", "rebuild_step")?;
-    let case_text = read_attr_str(&f, "/", "case")?;
-    let stored_checksum = read_attr_str(&f, "/", "checksum")?;
-    let case = read_case(path)?;
+    let case_text = read_attr_str(f, "/", "case")?;
+    let stored_checksum = read_attr_str(f, "/", "checksum")?;
     let block = id_block(total, comm.size(), comm.rank());
     let (start, rows) = (block.start as usize, (block.end - block.start) as usize);
     let mut p = Particles::<D>::default();
@@ -569,7 +373,7 @@ fn read_local<const D: usize>(
         rebuild_step,
         total,
         D as u64,
-        FORMAT_VERSION,
+        version,
         text_hash(&case_text),
         series_hash(&series),
         u64::from_str_radix(&stored_checksum, 16).map_err(|_| {

@@ -1,6 +1,7 @@
-//! Running a homogeneous-flow scene (`[flow]` + `[polymer] kind = "dumbbells"`): set-up or
-//! restart of the ensembles, the step loop with progress lines, sampling of the polymer stress,
-//! checkpoints and clean stops, the stress time series and the summary.
+//! The homogeneous-flow scene (`[flow]` + `[polymer] kind = "dumbbells"`): set-up or restart
+//! of the ensembles, their step and the sampling of the polymer stress, its checkpoint, the
+//! stress time series and its part of the summary. The step loop, signals and checkpoint
+//! schedule are the one driver's ([`crate::driver::drive`]).
 //!
 //! Observables (stresses in units of `polymer.modulus` G). Each sample takes every particle's
 //! ensemble average; the series (`polymer_stress.csv`) holds their mean over particles with the
@@ -19,12 +20,13 @@
 //! ```
 
 use crate::comm::Comm;
-use crate::config::FlowCase;
 use crate::config::flow::{FlowKind, Precision};
+use crate::config::{FlowCase, OutputCfg, RunCfg};
 use crate::diagnostics::{Series, tensor_components};
 use crate::domain::id_block;
-use crate::driver::{RunOptions, set_aside_old_checkpoints, stop_requested, threads_of};
+use crate::driver::{RunOptions, Scene, SceneReport, drive, threads_of};
 use crate::models::homogeneous_flow::{HomogeneousEnsembles, particle_moments};
+use crate::sim::PhaseTimes;
 use crate::summary::{Summary, check_value};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -59,18 +61,8 @@ fn start<const D: usize>(
 ) -> Result<Summary, String> {
     let e = fresh::<D>(case, comm, threads)?;
     let averages = ParticleAverages::new(e.gids.len(), quantities(case).len());
-    let series = Series::default();
-    drive(
-        e,
-        case.clone(),
-        series,
-        averages,
-        case_file,
-        None,
-        comm,
-        options,
-        threads,
-    )
+    let scene = FlowScene::new(e, case.clone(), Series::default(), averages, comm);
+    drive(scene, case_file, None, comm, options, threads)
 }
 
 fn fresh<'c, const D: usize>(
@@ -147,19 +139,16 @@ pub(crate) fn restart_from(
     threads: usize,
 ) -> Result<Summary, crate::driver::Restart> {
     use crate::driver::Restart;
-    let case = crate::output::flow_checkpoint::read_case(path);
-    let mut flag = [if case.is_err() { 1.0 } else { 0.0 }];
-    comm.allreduce_max(&mut flag);
-    let case = match case {
-        Ok(c) if flag[0] == 0.0 => c,
-        Ok(_) => return Err(Restart::Refused("unreadable on another rank".into())),
-        Err(e) => return Err(Restart::Refused(e)),
-    };
+    use crate::output::checkpoint::{CheckpointError, agree, ensembles};
+    let case = agree(ensembles::read_case(path), path, comm).map_err(Restart::Refused)?;
     check_memory(&case, comm).map_err(Restart::Failed)?;
     match case.dimension {
         2 => restore::<2>(case, path, comm, options, threads),
         3 => restore::<3>(case, path, comm, options, threads),
-        d => Err(Restart::Refused(format!("dimension {d} is not supported"))),
+        d => Err(Restart::Refused(CheckpointError::incompatible(
+            path,
+            format!("dimension {d} is not supported"),
+        ))),
     }
 }
 
@@ -172,7 +161,8 @@ fn restore<const D: usize>(
     threads: usize,
 ) -> Result<Summary, crate::driver::Restart> {
     use crate::driver::Restart;
-    let r = crate::output::flow_checkpoint::read::<D>(path, comm).map_err(Restart::Refused)?;
+    let r =
+        crate::output::checkpoint::ensembles::read::<D>(path, comm).map_err(Restart::Refused)?;
     let e = HomogeneousEnsembles::<D>::from_state(
         comm,
         threads,
@@ -187,18 +177,8 @@ fn restore<const D: usize>(
     )
     .map_err(Restart::Failed)?;
     crate::driver::log_restart(comm, path, r.step);
-    drive(
-        e,
-        case,
-        r.series,
-        r.averages,
-        path,
-        Some(path),
-        comm,
-        options,
-        threads,
-    )
-    .map_err(Restart::Failed)
+    let scene = FlowScene::new(e, case, r.series, r.averages, comm);
+    drive(scene, path, Some(path), comm, options, threads).map_err(Restart::Failed)
 }
 
 /// A per-particle observable, computed from one particle's τ/G.
@@ -355,43 +335,6 @@ fn sample<const D: usize>(
     }
 }
 
-/// Writes a checkpoint of the current step, if output is on (collective).
-fn checkpoint<const D: usize>(
-    e: &HomogeneousEnsembles<'_, D>,
-    case: &FlowCase,
-    series: &Series,
-    averages: &ParticleAverages,
-    out: &Path,
-    comm: &dyn Comm,
-) -> Result<PathBuf, String> {
-    #[cfg(feature = "hdf5")]
-    {
-        let t = Instant::now();
-        let path = crate::output::flow_checkpoint::write(
-            e,
-            case,
-            series,
-            averages,
-            &out.join("checkpoints"),
-            case.output.checkpoint_keep,
-            comm,
-        )?;
-        if comm.rank() == 0 {
-            tracing::info!(
-                "checkpoint {} ({:.2} s)",
-                path.display(),
-                t.elapsed().as_secs_f64()
-            );
-        }
-        Ok(path)
-    }
-    #[cfg(not(feature = "hdf5"))]
-    {
-        let _ = (e, case, series, averages, out, comm);
-        Err("checkpoints need HDF5: this mesorheo was built without the `hdf5` feature".into())
-    }
-}
-
 /// `OUT/polymer_stress.csv`: every sample (from the start, transient included) with its
 /// particle-spread standard error (rank 0).
 fn write_series_csv(series: &Series, dt: f64, out: &Path) -> std::io::Result<()> {
@@ -425,207 +368,208 @@ fn write_series_csv(series: &Series, dt: f64, out: &Path) -> std::io::Result<()>
     std::fs::rename(tmp, out.join("polymer_stress.csv"))
 }
 
-/// The step loop, then the summary.
-#[allow(clippy::too_many_arguments)]
-fn drive<const D: usize>(
-    mut e: HomogeneousEnsembles<'_, D>,
-    mut case: FlowCase,
-    mut series: Series,
-    mut averages: ParticleAverages,
-    case_file: &Path,
-    restarted_from: Option<&Path>,
-    comm: &dyn Comm,
-    options: &RunOptions,
-    threads: usize,
-) -> Result<Summary, String> {
-    let wall = Instant::now();
-    let first_step = e.step;
-    if let Some(n) = options.steps {
-        if n < first_step {
-            return Err(format!(
-                "--steps {n} is below the step {first_step} the run has already reached"
-            ));
+/// A homogeneous-flow scene: the ensembles, the case, the sampled series and the
+/// per-particle running sums.
+pub struct FlowScene<'c, const D: usize> {
+    e: HomogeneousEnsembles<'c, D>,
+    case: FlowCase,
+    series: Series,
+    averages: ParticleAverages,
+    times: PhaseTimes,
+    comm: &'c dyn Comm,
+    stop_requested_here: bool,
+    stop_agreed: bool,
+}
+
+impl<'c, const D: usize> FlowScene<'c, D> {
+    /// The scene of `e` with its case, series and running sums so far.
+    pub fn new(
+        e: HomogeneousEnsembles<'c, D>,
+        case: FlowCase,
+        series: Series,
+        averages: ParticleAverages,
+        comm: &'c dyn Comm,
+    ) -> Self {
+        Self {
+            e,
+            case,
+            series,
+            averages,
+            times: PhaseTimes::default(),
+            comm,
+            stop_requested_here: false,
+            stop_agreed: false,
         }
-        case.run.steps = n;
     }
-    let last_step = case.run.steps;
-    let stop_at = options.until_step.map_or(last_step, |k| k.min(last_step));
-    if stop_at <= first_step && first_step < last_step {
-        return Err(format!(
-            "--until-step {stop_at} is not after the current step {first_step}"
-        ));
+}
+
+impl<const D: usize> Scene for FlowScene<'_, D> {
+    fn step(&self) -> u64 {
+        self.e.step
     }
-    let is_root = comm.rank() == 0;
-    if is_root {
-        tracing::info!(
-            particles = e.total,
-            dumbbells_per_particle = e.n_d,
-            ranks = comm.size(),
-            threads,
-            memory_mib = e.memory_bytes() as f64 / (1024.0 * 1024.0),
-            "{} homogeneous-flow scene {} at step {first_step}",
-            if restarted_from.is_some() {
-                "continuing"
-            } else {
-                "set up"
-            },
-            case_file.display()
-        );
+
+    fn time(&self) -> f64 {
+        self.e.time()
     }
-    if restarted_from.is_none()
-        && let Some(out) = &options.out
-    {
-        set_aside_old_checkpoints(&out.join("checkpoints"), comm)?;
+
+    fn run(&self) -> &RunCfg {
+        &self.case.run
     }
-    let mut times = crate::sim::PhaseTimes::default();
-    let every = case.run.progress_seconds;
-    let (mut last_report, start) = (Instant::now(), Instant::now());
-    let mut last_checkpoint: Option<PathBuf> = None;
-    let mut checkpointed_at = None;
-    while e.step < stop_at {
+
+    fn output(&self) -> &OutputCfg {
+        &self.case.output
+    }
+
+    fn set_steps(&mut self, steps: u64) {
+        self.case.run.steps = steps;
+    }
+
+    fn describe(&self) -> String {
+        format!(
+            "homogeneous flow, {} particles × {} dumbbells ({}D), {:.1} MiB of ensembles here",
+            self.e.total,
+            self.e.n_d,
+            D,
+            self.e.memory_bytes() as f64 / (1024.0 * 1024.0)
+        )
+    }
+
+    fn advance(&mut self) -> Result<(), String> {
         let t = Instant::now();
-        e.advance();
-        times.integrate += t.elapsed().as_secs_f64();
-        let step = e.step;
-        if step.is_multiple_of(case.run.sample_every) {
+        self.e.advance();
+        self.times.integrate += t.elapsed().as_secs_f64();
+        if self.e.step.is_multiple_of(self.case.run.sample_every) {
             let t = Instant::now();
-            sample(&e, &case, &mut series, &mut averages);
-            times.diagnostics += t.elapsed().as_secs_f64();
-        }
-        let ck = case.output.checkpoint_every;
-        if let Some(out) = &options.out
-            && ck > 0
-            && step.is_multiple_of(ck)
-        {
-            let t = Instant::now();
-            last_checkpoint = Some(checkpoint(&e, &case, &series, &averages, out, comm)?);
-            times.checkpoints += t.elapsed().as_secs_f64();
-            checkpointed_at = Some(step);
+            sample(&self.e, &self.case, &mut self.series, &mut self.averages);
+            self.times.diagnostics += t.elapsed().as_secs_f64();
         }
         // Every rank stops after the same step.
-        let mut stop = [if stop_requested() { 1.0 } else { 0.0 }];
-        comm.allreduce_max(&mut stop);
-        if stop[0] > 0.0 {
-            if is_root {
-                tracing::warn!("stop requested: stopping after step {step}");
-            }
-            break;
+        let mut stop = [if self.stop_requested_here { 1.0 } else { 0.0 }];
+        self.comm.allreduce_max(&mut stop);
+        self.stop_agreed = stop[0] > 0.0;
+        Ok(())
+    }
+
+    fn request_stop(&mut self) {
+        self.stop_requested_here = true;
+    }
+
+    fn stop_agreed(&self) -> bool {
+        self.stop_agreed
+    }
+
+    fn progress(&self, steps_per_second: f64) -> String {
+        let latest = |n: &str| self.series.scalars.get(n).and_then(|v| v.last().copied());
+        format!(
+            "τ_xy = {:.5} N₁ = {:.5} {:.3e} dumbbell-steps/s",
+            latest("polymer_stress_xy").unwrap_or(f64::NAN),
+            latest("first_normal_stress_difference").unwrap_or(f64::NAN),
+            steps_per_second * (self.e.total * self.e.n_d as u64) as f64,
+        )
+    }
+
+    fn write_checkpoint(&mut self, dir: &Path, keep: usize) -> Result<PathBuf, String> {
+        #[cfg(feature = "hdf5")]
+        {
+            let (e, case, series, averages) = (&self.e, &self.case, &self.series, &self.averages);
+            crate::output::checkpoint::ensembles::write(
+                e, case, series, averages, dir, keep, self.comm,
+            )
         }
-        if is_root && every > 0.0 && last_report.elapsed().as_secs_f64() >= every {
-            last_report = Instant::now();
-            let rate = (step - first_step) as f64 / start.elapsed().as_secs_f64();
-            let latest = |n: &str| series.scalars.get(n).and_then(|v| v.last().copied());
-            tracing::info!(
-                "step {step}/{last_step} t = {:.4} τ_xy = {:.5} N₁ = {:.5} {:.3e} dumbbell-steps/s ETA {:.0} s",
-                e.time(),
-                latest("polymer_stress_xy").unwrap_or(f64::NAN),
-                latest("first_normal_stress_difference").unwrap_or(f64::NAN),
-                rate * (e.total * e.n_d as u64) as f64,
-                (stop_at - step) as f64 / rate.max(1e-12)
+        #[cfg(not(feature = "hdf5"))]
+        {
+            let _ = (dir, keep);
+            Err("checkpoints need HDF5: this mesorheo was built without the `hdf5` feature".into())
+        }
+    }
+
+    fn open_outputs(&mut self, _out: &Path, _restarted: bool) -> Result<(), String> {
+        Ok(())
+    }
+
+    fn write_outputs(&mut self) -> Result<(), String> {
+        Ok(())
+    }
+
+    fn close_outputs(&mut self, out: Option<&Path>) -> Result<(), String> {
+        if self.comm.rank() == 0
+            && let Some(out) = out
+        {
+            write_series_csv(&self.series, self.case.dt(), out).map_err(|err| {
+                format!("cannot write {}/polymer_stress.csv: {err}", out.display())
+            })?;
+        }
+        Ok(())
+    }
+
+    fn report(&mut self, completed: bool) -> Result<SceneReport, String> {
+        let (e, case, series, averages) = (&self.e, &self.case, &self.series, &self.averages);
+        // Time averages after equilibration: the mean over particles of each particle's time
+        // average, with the standard error from their spread.
+        let q = quantities(case);
+        let k = averages.samples.max(1) as f64;
+        let m = particle_moments(self.comm, averages.sums.len(), q.len(), e.total, |p, i| {
+            averages.sums[p][i] / k
+        });
+        let mut observables: BTreeMap<String, crate::diagnostics::Estimate> = q
+            .iter()
+            .zip(&m)
+            .map(|((name, _), &(mean, stderr))| {
+                let (mean, stderr) = if averages.samples == 0 {
+                    (f64::NAN, f64::NAN)
+                } else {
+                    (mean, stderr)
+                };
+                let est = crate::diagnostics::Estimate {
+                    mean,
+                    stderr,
+                    samples: averages.samples as usize,
+                };
+                (name.clone(), est)
+            })
+            .collect();
+        // The largest |Q| seen after equilibration (not an average).
+        if let Some(values) = series.scalars.get("max_connector_length") {
+            let window: Vec<f64> = (0..series.steps.len())
+                .filter(|&k| series.steps[k] > case.run.equilibration)
+                .map(|k| values[k])
+                .collect();
+            observables.insert(
+                "max_connector_length".into(),
+                crate::diagnostics::Estimate {
+                    mean: window.iter().copied().fold(f64::NAN, f64::max),
+                    stderr: 0.0,
+                    samples: window.len(),
+                },
             );
         }
-    }
-    let loop_seconds = start.elapsed().as_secs_f64();
-    let completed = e.step >= last_step;
-    let wants_final = case.output.checkpoint_at_end || !completed;
-    if let Some(out) = &options.out
-        && wants_final
-        && checkpointed_at != Some(e.step)
-    {
-        let t = Instant::now();
-        last_checkpoint = Some(checkpoint(&e, &case, &series, &averages, out, comm)?);
-        times.checkpoints += t.elapsed().as_secs_f64();
-    }
-    if !completed {
-        tracing::info!(
-            "stopped at step {} of {last_step}; restart from {}",
-            e.step,
-            last_checkpoint
-                .as_deref()
-                .map_or("(no checkpoint: no output directory)".into(), |p| p
-                    .display()
-                    .to_string())
-        );
-    }
-    if is_root && let Some(out) = &options.out {
-        write_series_csv(&series, case.dt(), out)
-            .map_err(|err| format!("cannot write {}/polymer_stress.csv: {err}", out.display()))?;
-    }
-    // Time averages after equilibration: the mean over particles of each particle's time
-    // average, with the standard error from their spread.
-    let q = quantities(&case);
-    let k = averages.samples.max(1) as f64;
-    let m = particle_moments(comm, averages.sums.len(), q.len(), e.total, |p, i| {
-        averages.sums[p][i] / k
-    });
-    let mut observables: BTreeMap<String, crate::diagnostics::Estimate> = q
-        .iter()
-        .zip(&m)
-        .map(|((name, _), &(mean, stderr))| {
-            let (mean, stderr) = if averages.samples == 0 {
-                (f64::NAN, f64::NAN)
-            } else {
-                (mean, stderr)
-            };
-            let est = crate::diagnostics::Estimate {
-                mean,
-                stderr,
-                samples: averages.samples as usize,
-            };
-            (name.clone(), est)
+        let validation = if completed {
+            case.reference
+                .iter()
+                .filter_map(|r| match r {
+                    crate::config::ReferenceCfg::Value(v) => Some(check_value(v, &observables)),
+                    crate::config::ReferenceCfg::LinearShearProfile(_) => None,
+                })
+                .collect()
+        } else {
+            Vec::new()
+        };
+        Ok(SceneReport {
+            case: serde_json::to_value(case).map_err(|err| err.to_string())?,
+            dimension: D,
+            particles: e.total,
+            dumbbells: Some(e.total * e.n_d as u64),
+            observables,
+            velocity_profile: Vec::new(),
+            validation,
+            // The error bars come from the spread of independent particles' averages: no
+            // blocks.
+            warnings: Vec::new(),
+            state_digest: format!("{:016x}", e.digest()),
         })
-        .collect();
-    // The largest |Q| seen after equilibration (not an average).
-    if let Some(values) = series.scalars.get("max_connector_length") {
-        let window: Vec<f64> = (0..series.steps.len())
-            .filter(|&k| series.steps[k] > case.run.equilibration)
-            .map(|k| values[k])
-            .collect();
-        observables.insert(
-            "max_connector_length".into(),
-            crate::diagnostics::Estimate {
-                mean: window.iter().copied().fold(f64::NAN, f64::max),
-                stderr: 0.0,
-                samples: window.len(),
-            },
-        );
     }
-    let validation = if completed {
-        case.reference
-            .iter()
-            .filter_map(|r| match r {
-                crate::config::ReferenceCfg::Value(v) => Some(check_value(v, &observables)),
-                crate::config::ReferenceCfg::LinearShearProfile(_) => None,
-            })
-            .collect()
-    } else {
-        Vec::new()
-    };
-    let steps_run = (e.step - first_step) as f64;
-    let loop_rate = |n: f64| n * steps_run / loop_seconds.max(1e-300);
-    Ok(Summary {
-        version: env!("CARGO_PKG_VERSION").to_owned(),
-        case: serde_json::to_value(&case).map_err(|err| err.to_string())?,
-        case_file: case_file.display().to_string(),
-        ranks: comm.size(),
-        threads,
-        dimension: D,
-        particles: e.total,
-        steps: e.step,
-        completed,
-        restarted_from: restarted_from.map(|p| p.display().to_string()),
-        last_checkpoint: last_checkpoint.map(|p| p.display().to_string()),
-        time: e.time(),
-        wall_seconds: wall.elapsed().as_secs_f64(),
-        loop_seconds,
-        particle_steps_per_second: loop_rate(e.total as f64),
-        dumbbell_steps_per_second: Some(loop_rate((e.total * e.n_d as u64) as f64)),
-        observables,
-        velocity_profile: Vec::new(),
-        validation,
-        // The error bars come from the spread of independent particles' averages: no blocks.
-        warnings: Vec::new(),
-        state_digest: format!("{:016x}", e.digest()),
-        phase_seconds: times,
-    })
+
+    fn times(&mut self) -> &mut PhaseTimes {
+        &mut self.times
+    }
 }

@@ -1,40 +1,31 @@
-//! Checkpoints of homogeneous-flow scenes: every particle's dumbbell ensemble (and its control
-//! copy) in global-id order, so the run continues bitwise identically on any rank count.
-//!
-//! Layout (`format = "mesorheo-flow-checkpoint"`, `format_version = 1`):
+//! Checkpoints of homogeneous-flow scenes (`scene = "homogeneous_flow"`): every particle's
+//! dumbbell ensemble (and its control copy) in global-id order, so the run continues bitwise
+//! identically on any rank count.
 //!
 //! ```text
-//! /                        attributes: format, format_version, code_version, step, time, dt,
-//!                          dimension, particles, per_particle, precision, seed,
-//!                          case (TOML echo), checksum (hex)
+//! /                        attributes (beside the common ones): per_particle, precision
 //! /ensembles/connectors    [N, N_d·D]  f64 (or f32 with precision = "single")
 //! /ensembles/control       [N, N_d·D]  f64   equilibrium copies (variance reduction only)
 //! /ensembles/averages      [N, K]      f64   per-particle sums of the K averaged observables
 //!                                            (attribute `samples`: how many samples they hold)
-//! /observables/step        [S]         u64   sampled time series (so averages continue)
-//! /observables/<name>      [S]         f64
 //! ```
 //!
-//! Ranks hold contiguous id blocks, so each writes and reads its rows directly. No random
-//! state is stored: the noise is keyed by (seed, particle id, step). The checksum combines
-//! an order-independent hash of every particle's words with the scalar attributes.
+//! Ranks hold contiguous id blocks, so each writes and reads its rows directly.
 
-use super::checkpoint::{file_name, publish, read_series, series_hash, text_hash, write_series};
-use super::collective_ok;
-use super::shared_file::{SharedFile, read_attr, read_attr_str, read_block};
+use super::{
+    CheckpointError, SceneKind, agree, file_name, open, publish, read_series, series_hash,
+    text_hash, write_common_attributes, write_series,
+};
 use crate::comm::{Comm, U64Op};
 use crate::config::FlowCase;
 use crate::diagnostics::Series;
 use crate::domain::id_block;
-use crate::flow_driver::ParticleAverages;
+use crate::flow_scene::ParticleAverages;
 use crate::models::homogeneous_flow::{Connectors, ConnectorsRef, HomogeneousEnsembles};
+use crate::output::collective_ok;
+use crate::output::shared_file::{SharedFile, read_attr, read_attr_str, read_block};
 use crate::sim::hash_words;
 use std::path::{Path, PathBuf};
-
-/// Value of the `format` attribute.
-pub const FORMAT: &str = "mesorheo-flow-checkpoint";
-/// Value of the `format_version` attribute.
-pub const FORMAT_VERSION: u64 = 1;
 
 /// Order-independent checksum of every rank's ensembles plus the scalar metadata (collective).
 fn checksum(
@@ -82,6 +73,7 @@ fn push_words(
 
 #[allow(clippy::too_many_arguments)]
 fn scalars(
+    version: u64,
     step: u64,
     total: u64,
     dim: u64,
@@ -98,7 +90,7 @@ fn scalars(
         dim,
         n_d,
         u64::from(single),
-        FORMAT_VERSION,
+        version,
         text_hash(case),
         series_hash(series),
     ]
@@ -123,6 +115,7 @@ pub fn write<const D: usize>(
     let single = matches!(q, ConnectorsRef::Single(_));
     let control = e.control.as_deref();
     let sc = scalars(
+        super::FORMAT_VERSION,
         e.step,
         total,
         D as u64,
@@ -139,23 +132,25 @@ pub fn write<const D: usize>(
         comm,
         &sc,
     );
-    super::create_dir_collective(dir, comm)?;
+    crate::output::create_dir_collective(dir, comm)?;
     let path = dir.join(file_name(e.step));
     let tmp = dir.join(format!("{}.tmp", file_name(e.step)));
     let mut f = SharedFile::create(&tmp, comm)?;
     let (n, width) = (total as usize, e.n_d * D);
     let (start, rows) = (block.start as usize, (block.end - block.start) as usize);
-    f.attr_str("/", "format", FORMAT)?;
-    f.attr("/", "format_version", &FORMAT_VERSION)?;
-    f.attr_str("/", "code_version", env!("CARGO_PKG_VERSION"))?;
-    f.attr("/", "step", &e.step)?;
-    f.attr("/", "time", &e.time())?;
-    f.attr("/", "dt", &e.params.dt)?;
-    f.attr("/", "dimension", &(D as u64))?;
-    f.attr("/", "particles", &total)?;
+    let scene = SceneKind::HomogeneousFlow;
+    write_common_attributes(
+        &mut f,
+        scene,
+        e.step,
+        e.time(),
+        e.params.dt,
+        D,
+        total,
+        e.seed,
+    )?;
     f.attr("/", "per_particle", &(e.n_d as u64))?;
     f.attr_str("/", "precision", if single { "single" } else { "double" })?;
-    f.attr("/", "seed", &e.seed)?;
     f.attr_str("/", "case", &case_toml)?;
     f.attr_str("/", "checksum", &format!("{sum:016x}"))?;
     f.group("ensembles")?;
@@ -230,26 +225,29 @@ pub struct RestoredFlow {
     pub averages: ParticleAverages,
 }
 
-/// The case echoed in a flow checkpoint (any rank, independent).
-pub fn read_case(path: &Path) -> Result<FlowCase, String> {
-    let f = open(path)?;
-    let text = read_attr_str(&f, "/", "case")?;
-    match crate::config::parse_scene(
-        &text,
-        &PathBuf::from(format!("{} (case echo)", path.display())),
-    )
-    .map_err(|e| e.to_string())?
-    {
-        crate::config::Scene::HomogeneousFlow(c) => Ok(*c),
-        crate::config::Scene::Particles(_) => Err(format!(
-            "{}: the case echo is not a homogeneous-flow scene: the file is corrupt",
-            path.display()
+/// The case echoed in a homogeneous-flow scene's checkpoint (any rank, independent).
+pub fn read_case(path: &Path) -> Result<FlowCase, CheckpointError> {
+    let opened = open(path)?;
+    if opened.scene != SceneKind::HomogeneousFlow {
+        return Err(CheckpointError::incompatible(
+            path,
+            format!("a checkpoint of a {} scene", opened.scene.name()),
+        ));
+    }
+    let text =
+        read_attr_str(&opened.file, "/", "case").map_err(|e| CheckpointError::damaged(path, e))?;
+    let echo = PathBuf::from(format!("{} (case echo)", path.display()));
+    match crate::config::parse_scene(&text, &echo) {
+        Ok(crate::config::Scene::HomogeneousFlow(c)) => Ok(*c),
+        Ok(crate::config::Scene::Particles(_)) => Err(CheckpointError::damaged(
+            path,
+            "the case echo is not a homogeneous-flow scene",
+        )),
+        Err(e) => Err(CheckpointError::damaged(
+            path,
+            format!("unreadable case echo: {e}"),
         )),
     }
-}
-
-fn open(path: &Path) -> Result<hdf5::File, String> {
-    super::checkpoint::open_as(path, FORMAT, FORMAT_VERSION)
 }
 
 fn rows_of<T: Copy>(flat: Vec<T>, width: usize) -> Vec<Vec<T>> {
@@ -257,17 +255,8 @@ fn rows_of<T: Copy>(flat: Vec<T>, width: usize) -> Vec<Vec<T>> {
 }
 
 /// Reads and verifies a flow checkpoint (collective; every rank returns the same verdict).
-pub fn read<const D: usize>(path: &Path, comm: &dyn Comm) -> Result<RestoredFlow, String> {
-    let local = read_local::<D>(path, comm);
-    let mut failed = [if local.is_err() { 1.0 } else { 0.0 }];
-    comm.allreduce_max(&mut failed);
-    let (r, stored, sc) = match local {
-        Err(e) => return Err(e),
-        Ok(_) if failed[0] > 0.0 => {
-            return Err(format!("{}: unreadable on another rank", path.display()));
-        }
-        Ok(r) => r,
-    };
+pub fn read<const D: usize>(path: &Path, comm: &dyn Comm) -> Result<RestoredFlow, CheckpointError> {
+    let (r, stored, sc) = agree(read_local::<D>(path, comm), path, comm)?;
     let gids: Vec<u64> = id_block(r.total, comm.size(), comm.rank()).collect();
     let q = match &r.connectors {
         Connectors::Double(q) => ConnectorsRef::Double(q),
@@ -282,9 +271,9 @@ pub fn read<const D: usize>(path: &Path, comm: &dyn Comm) -> Result<RestoredFlow
         &sc,
     );
     if sum != stored {
-        return Err(format!(
-            "{}: checksum mismatch (stored {stored:016x}, computed {sum:016x}): the file is corrupt",
-            path.display()
+        return Err(CheckpointError::damaged(
+            path,
+            format!("checksum mismatch (stored {stored:016x}, computed {sum:016x})"),
         ));
     }
     Ok(r)
@@ -293,16 +282,29 @@ pub fn read<const D: usize>(path: &Path, comm: &dyn Comm) -> Result<RestoredFlow
 fn read_local<const D: usize>(
     path: &Path,
     comm: &dyn Comm,
-) -> Result<(RestoredFlow, u64, Vec<u64>), String> {
-    let f = open(path)?;
-    let corrupt = |what: String| format!("{}: {what}: the file is corrupt", path.display());
-    let dim: u64 = read_attr(&f, "/", "dimension")?;
+) -> Result<(RestoredFlow, u64, Vec<u64>), CheckpointError> {
+    let case = read_case(path)?;
+    let opened = open(path)?;
+    let damaged = |e: String| CheckpointError::damaged(path, e);
+    let dim: u64 = read_attr(&opened.file, "/", "dimension").map_err(damaged)?;
     if dim != D as u64 {
-        return Err(format!(
-            "{}: the checkpoint is {dim}-dimensional",
-            path.display()
+        return Err(CheckpointError::incompatible(
+            path,
+            format!("the checkpoint is {dim}-dimensional"),
         ));
     }
+    read_ensembles::<D>(&opened.file, opened.version, case, comm).map_err(damaged)
+}
+
+/// The ensembles, series and scalars of an identified flow checkpoint (errors: the file is
+/// damaged).
+fn read_ensembles<const D: usize>(
+    f: &hdf5::File,
+    version: u64,
+    case: FlowCase,
+    comm: &dyn Comm,
+) -> Result<(RestoredFlow, u64, Vec<u64>), String> {
+    let corrupt = |what: String| what;
     let total: u64 = read_attr(&f, "/", "particles")?;
     let step: u64 = read_attr(&f, "/", "step")?;
     let n_d: u64 = read_attr(&f, "/", "per_particle")?;
@@ -311,7 +313,6 @@ fn read_local<const D: usize>(
     let stored = read_attr_str(&f, "/", "checksum")?;
     let stored = u64::from_str_radix(&stored, 16)
         .map_err(|_| corrupt(format!("checksum attribute {stored:?} is not hexadecimal")))?;
-    let case = read_case(path)?;
     if case.flow.particles != total || case.polymer.per_particle as u64 != n_d {
         return Err(corrupt(
             "the particle or dumbbell count differs from the case echo".into(),
@@ -361,7 +362,7 @@ fn read_local<const D: usize>(
         return Err(corrupt("ensembles/averages has the wrong shape".into()));
     }
     let sc = scalars(
-        step, total, D as u64, n_d, single, &case_text, &series, samples,
+        version, step, total, D as u64, n_d, single, &case_text, &series, samples,
     );
     Ok((
         RestoredFlow {

@@ -1,0 +1,375 @@
+//! Checkpoints: the complete state of a run in one HDF5 file, in global-id order, so a run can
+//! continue bitwise identically on any rank count (rust-stack.md §4.5). One format for every
+//! scene; what the file holds beside the common part depends on the scene it was written by.
+//!
+//! Format `"mesorheo-checkpoint"`, `format_version = 2`:
+//!
+//! ```text
+//! /                attributes: format, format_version, scene ("particles" | "homogeneous_flow"),
+//!                  code_version, step, time, dt, dimension, particles, seed, case (TOML echo),
+//!                  checksum (hex), and the scene's own (below)
+//! /observables/step   [S]  u64   sampled time series (so averages continue)
+//! /observables/<name> [S]  f64
+//! ```
+//!
+//! - `scene = "particles"` ([`particles`]): `/particles/…` (ids, positions, velocities, forces,
+//!   integrator scratch, image counts, every checkpointed field of every model, the variable-
+//!   length fields such as dumbbell ensembles) and the attributes `rebuild_step`, `le_offset`.
+//! - `scene = "homogeneous_flow"` ([`ensembles`]): `/ensembles/…` (every particle's dumbbell
+//!   connectors in their storage precision, control copies, per-particle running sums) and the
+//!   attributes `per_particle`, `precision`.
+//!
+//! Version 1 files (`"mesorheo-checkpoint"` for particle scenes, `"mesorheo-flow-checkpoint"`
+//! for homogeneous-flow scenes: the same layouts without the `scene` attribute) are read too,
+//! and restart bitwise like version 2 files (tested on files written by the version-1 code, in
+//! `tests/data/format_v1`). Any other version is refused with a message naming it.
+//!
+//! No random-number state is stored: the noise is keyed by (seed, step, ids). The checksum
+//! combines an order-independent hash of every particle's words with the scalar attributes; a
+//! reader recomputes it and refuses a file that differs. The file is written as `NAME.h5.tmp`,
+//! flushed to disk and renamed, so a crash during the write leaves the previous checkpoint
+//! untouched.
+
+pub mod ensembles;
+pub mod particles;
+
+use super::shared_file::{SharedFile, read_attr, read_attr_str, read_block};
+use crate::diagnostics::Series;
+use crate::sim::hash_words;
+use std::path::{Path, PathBuf};
+
+pub use particles::{Restored, read, read_case, write};
+
+/// Value of the `format` attribute.
+pub const FORMAT: &str = "mesorheo-checkpoint";
+/// Value of the `format_version` attribute this code writes.
+pub const FORMAT_VERSION: u64 = 2;
+/// The `format` of version-1 checkpoints of homogeneous-flow scenes.
+pub const FLOW_FORMAT_V1: &str = "mesorheo-flow-checkpoint";
+
+/// The kind of scene a checkpoint continues.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SceneKind {
+    /// Particles with positions, velocities and model fields.
+    Particles,
+    /// Dumbbell ensembles in an imposed homogeneous flow.
+    HomogeneousFlow,
+}
+
+impl SceneKind {
+    /// The value of the `scene` attribute.
+    pub fn name(self) -> &'static str {
+        match self {
+            SceneKind::Particles => "particles",
+            SceneKind::HomogeneousFlow => "homogeneous_flow",
+        }
+    }
+}
+
+/// Why a checkpoint cannot be used. A restart falls back to the previous checkpoint in either
+/// case; a [`CheckpointError::Damaged`] file is also renamed `NAME.h5.corrupt`, so no later
+/// restart picks it again, while an [`CheckpointError::Incompatible`] one (another format,
+/// version, scene or dimension: a good file of another kind) is left where it is.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum CheckpointError {
+    /// Truncated, not HDF5, a dataset missing or of the wrong shape, a checksum mismatch.
+    #[error("{path}: {reason}: the file is corrupt")]
+    Damaged {
+        /// The file.
+        path: String,
+        /// What is wrong.
+        reason: String,
+    },
+    /// A readable file this run cannot continue from.
+    #[error("{path}: {reason}")]
+    Incompatible {
+        /// The file.
+        path: String,
+        /// What is wrong.
+        reason: String,
+    },
+    /// Read on this rank, but another rank could not.
+    #[error("{0}: unreadable on another rank")]
+    OtherRank(String),
+}
+
+impl CheckpointError {
+    /// A damaged file.
+    pub fn damaged(path: &Path, reason: impl Into<String>) -> Self {
+        Self::Damaged {
+            path: path.display().to_string(),
+            reason: reason.into(),
+        }
+    }
+
+    /// A good file of another kind.
+    pub fn incompatible(path: &Path, reason: impl Into<String>) -> Self {
+        Self::Incompatible {
+            path: path.display().to_string(),
+            reason: reason.into(),
+        }
+    }
+
+    /// Whether the file itself is damaged (and should be set aside).
+    pub fn is_damaged(&self) -> bool {
+        matches!(self, Self::Damaged { .. })
+    }
+}
+
+/// An open checkpoint whose format and version this code reads.
+pub(crate) struct Opened {
+    pub file: hdf5::File,
+    pub scene: SceneKind,
+    pub version: u64,
+}
+
+/// Opens `path` and identifies it: format, version, scene.
+pub(crate) fn open(path: &Path) -> Result<Opened, CheckpointError> {
+    let file = super::h5_options()
+        .open(path)
+        .map_err(|e| CheckpointError::damaged(path, format!("not a readable HDF5 file ({e})")))?;
+    let format = read_attr_str(&file, "/", "format").map_err(|_| {
+        CheckpointError::incompatible(path, "not a mesorheo checkpoint (no `format` attribute)")
+    })?;
+    let version: u64 =
+        read_attr(&file, "/", "format_version").map_err(|e| CheckpointError::damaged(path, e))?;
+    let scene = match (format.as_str(), version) {
+        (FORMAT, 1) => SceneKind::Particles,
+        (FLOW_FORMAT_V1, 1) => SceneKind::HomogeneousFlow,
+        (FORMAT, FORMAT_VERSION) => {
+            let scene = read_attr_str(&file, "/", "scene")
+                .map_err(|e| CheckpointError::damaged(path, e))?;
+            match scene.as_str() {
+                "particles" => SceneKind::Particles,
+                "homogeneous_flow" => SceneKind::HomogeneousFlow,
+                other => {
+                    return Err(CheckpointError::incompatible(
+                        path,
+                        format!("unknown scene {other:?}"),
+                    ));
+                }
+            }
+        }
+        (FORMAT | FLOW_FORMAT_V1, v) => {
+            return Err(CheckpointError::incompatible(
+                path,
+                format!(
+                    "{format} format version {v}; this mesorheo ({}) reads versions 1 and \
+                     {FORMAT_VERSION}",
+                    env!("CARGO_PKG_VERSION")
+                ),
+            ));
+        }
+        (other, _) => {
+            return Err(CheckpointError::incompatible(
+                path,
+                format!("format is {other:?}, not a mesorheo checkpoint"),
+            ));
+        }
+    };
+    Ok(Opened {
+        file,
+        scene,
+        version,
+    })
+}
+
+/// The scene a checkpoint continues (any rank, independent).
+pub fn scene_of(path: &Path) -> Result<SceneKind, CheckpointError> {
+    open(path).map(|o| o.scene)
+}
+
+/// The common attributes of every checkpoint, written by rank 0's view of the run.
+pub(crate) fn write_common_attributes(
+    f: &mut SharedFile,
+    scene: SceneKind,
+    step: u64,
+    time: f64,
+    dt: f64,
+    dimension: usize,
+    particles: u64,
+    seed: u64,
+) -> Result<(), String> {
+    f.attr_str("/", "format", FORMAT)?;
+    f.attr("/", "format_version", &FORMAT_VERSION)?;
+    f.attr_str("/", "scene", scene.name())?;
+    f.attr_str("/", "code_version", env!("CARGO_PKG_VERSION"))?;
+    f.attr("/", "step", &step)?;
+    f.attr("/", "time", &time)?;
+    f.attr("/", "dt", &dt)?;
+    f.attr("/", "dimension", &(dimension as u64))?;
+    f.attr("/", "particles", &particles)?;
+    f.attr("/", "seed", &seed)
+}
+
+/// File name of the checkpoint of `step`.
+pub fn file_name(step: u64) -> String {
+    format!("checkpoint_{step:012}.h5")
+}
+
+/// Checkpoints in `dir`, newest (highest step) first.
+pub fn list(dir: &Path) -> Vec<(u64, PathBuf)> {
+    let mut found: Vec<(u64, PathBuf)> = std::fs::read_dir(dir)
+        .into_iter()
+        .flatten()
+        .flatten()
+        .filter_map(|e| {
+            let name = e.file_name().into_string().ok()?;
+            let step = name
+                .strip_prefix("checkpoint_")?
+                .strip_suffix(".h5")?
+                .parse()
+                .ok()?;
+            Some((step, e.path()))
+        })
+        .collect();
+    found.sort_by_key(|f| std::cmp::Reverse(f.0));
+    found
+}
+
+/// Hash of a text (the case echo).
+pub(crate) fn text_hash(text: &str) -> u64 {
+    let words: Vec<u64> = text
+        .as_bytes()
+        .chunks(8)
+        .map(|c| {
+            let mut b = [0u8; 8];
+            b[..c.len()].copy_from_slice(c);
+            u64::from_le_bytes(b)
+        })
+        .collect();
+    hash_words(&words) ^ text.len() as u64
+}
+
+/// Hash of the sampled series (steps, every scalar series in name order, the profiles).
+pub(crate) fn series_hash(series: &Series) -> u64 {
+    let mut words: Vec<u64> = series.steps.clone();
+    for (name, values) in &series.scalars {
+        words.push(text_hash(name));
+        words.extend(values.iter().map(|x| x.to_bits()));
+    }
+    for p in &series.profile {
+        words.extend(p.iter().map(|x| x.to_bits()));
+    }
+    hash_words(&words)
+}
+
+/// fsync, atomic rename, fsync of the directory, then removal of all but the newest `keep`.
+pub(crate) fn publish(
+    tmp: &Path,
+    path: &Path,
+    this: u64,
+    dir: &Path,
+    keep: usize,
+) -> Result<(), String> {
+    let sync = |p: &Path| -> std::io::Result<()> { std::fs::File::open(p)?.sync_all() };
+    sync(tmp).map_err(|e| format!("cannot flush {}: {e}", tmp.display()))?;
+    std::fs::rename(tmp, path)
+        .map_err(|e| format!("cannot rename {} to {}: {e}", tmp.display(), path.display()))?;
+    // Durability of the rename; some file systems refuse to sync a directory (not fatal).
+    let _ = sync(dir);
+    // Keep the newest `keep` up to this step; never the one just written, never a later one.
+    let older: Vec<(u64, PathBuf)> = list(dir).into_iter().filter(|(s, _)| *s < this).collect();
+    for (_, old) in older.into_iter().skip(keep.max(1) - 1) {
+        if let Err(e) = std::fs::remove_file(&old) {
+            tracing::warn!("cannot remove old checkpoint {}: {e}", old.display());
+        }
+    }
+    // Temporary files left by an interrupted write of an earlier checkpoint.
+    for entry in std::fs::read_dir(dir).into_iter().flatten().flatten() {
+        let name = entry.file_name().to_string_lossy().into_owned();
+        if let Some(stem) = name.strip_suffix(".tmp")
+            && let Some(step) = stem
+                .strip_prefix("checkpoint_")
+                .and_then(|n| n.strip_suffix(".h5"))
+                .and_then(|n| n.parse::<u64>().ok())
+            && step < this
+        {
+            let _ = std::fs::remove_file(entry.path());
+        }
+    }
+    Ok(())
+}
+
+/// Writes the sampled series under `/observables` (rank 0's copy; every rank has the same).
+pub(crate) fn write_series(f: &mut SharedFile, series: &Series, root: bool) -> Result<(), String> {
+    let s = series.steps.len();
+    let rows = if root { s } else { 0 };
+    f.group("observables")?;
+    f.dataset::<u64>("observables/step", &[s], false)?;
+    f.write("observables/step", &[0], &[rows], &series.steps[..rows])?;
+    for (name, values) in &series.scalars {
+        if values.len() != s {
+            return Err(format!(
+                "observable {name} has {} samples, expected {s}",
+                values.len()
+            ));
+        }
+        let ds = format!("observables/{name}");
+        f.dataset::<f64>(&ds, &[s], false)?;
+        f.write(&ds, &[0], &[rows], &values[..rows])?;
+    }
+    if let Some(first) = series.profile.first() {
+        let bins = first.len();
+        let flat: Vec<f64> = series.profile.concat();
+        f.dataset::<f64>("observables/velocity_profile", &[s, bins], false)?;
+        let data = if root { &flat[..] } else { &flat[..0] };
+        f.write("observables/velocity_profile", &[0, 0], &[rows, bins], data)?;
+    }
+    Ok(())
+}
+
+/// Reads the sampled series from `/observables`.
+pub(crate) fn read_series(f: &hdf5::File) -> Result<Series, String> {
+    let mut series = Series::default();
+    let group = f
+        .group("observables")
+        .map_err(|e| format!("{}: no /observables: {e}", f.filename()))?;
+    let names = group
+        .member_names()
+        .map_err(|e| format!("{}: /observables: {e}", f.filename()))?;
+    let len = |name: &str| -> Result<Vec<usize>, String> {
+        f.dataset(name)
+            .map(|d| d.shape())
+            .map_err(|e| format!("{}: {name}: {e}", f.filename()))
+    };
+    let s = *len("observables/step")?
+        .first()
+        .ok_or_else(|| format!("{}: /observables/step is not 1-D", f.filename()))?;
+    series.steps = read_block(f, "observables/step", &[0], &[s])?;
+    for name in names {
+        if name == "step" {
+            continue;
+        }
+        let ds = format!("observables/{name}");
+        if name == "velocity_profile" {
+            let shape = len(&ds)?;
+            if shape.len() != 2 {
+                return Err(format!("{}: {ds} is not [samples, bins]", f.filename()));
+            }
+            let flat: Vec<f64> = read_block(f, &ds, &[0, 0], &shape)?;
+            series.profile = flat.chunks(shape[1].max(1)).map(<[f64]>::to_vec).collect();
+        } else {
+            series
+                .scalars
+                .insert(name.clone(), read_block(f, &ds, &[0], &[s])?);
+        }
+    }
+    Ok(series)
+}
+
+/// The same verdict on every rank (collective): this rank's error, or
+/// [`CheckpointError::OtherRank`] if only another rank failed.
+pub(crate) fn agree<T>(
+    local: Result<T, CheckpointError>,
+    path: &Path,
+    comm: &dyn crate::comm::Comm,
+) -> Result<T, CheckpointError> {
+    let mut failed = [if local.is_err() { 1.0 } else { 0.0 }];
+    comm.allreduce_max(&mut failed);
+    match local {
+        Err(e) => Err(e),
+        Ok(_) if failed[0] > 0.0 => Err(CheckpointError::OtherRank(path.display().to_string())),
+        Ok(r) => Ok(r),
+    }
+}
