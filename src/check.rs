@@ -103,7 +103,7 @@ fn dpd_report(case: &Case, d: &DpdCfg, density: f64, line: &mut impl FnMut(Strin
     let dim = case.dimension;
     let m = case.particles.mass;
     let dt = case.integrator.dt();
-    let lim = dpd_limits(case, d);
+    let lim = dpd_limits(d, dim, case.particles.density, case.particles.mass);
     let alpha = d.gamma * d.gamma * d.cutoff / (m * d.a.max(f64::MIN_POSITIVE));
     line(format!(
         "DPD: a = {}, γ = {}, k_BT = {}, r_c = {}, s = {}, σ = {:.4}, α = γ² r_c/(m a) = {:.3}",

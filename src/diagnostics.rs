@@ -18,48 +18,9 @@
 //! Every sum (per-rank and over ranks) is exact fixed point ([`crate::fixed_sum::FixedSum`]), so
 //! the observables are bitwise the same for any rank and thread count, like the state.
 
-use crate::config::{Case, Observable};
 use std::collections::BTreeMap;
 
-/// Names of the D×D components in the upper triangle.
-pub fn tensor_components(dimension: usize) -> Vec<(usize, usize, String)> {
-    let names = ["x", "y", "z"];
-    let mut out = Vec::new();
-    for a in 0..dimension {
-        for b in a..dimension {
-            out.push((a, b, format!("{}{}", names[a], names[b])));
-        }
-    }
-    out
-}
-
-/// Contributions of the stress tensor.
-pub const STRESS_PARTS: [&str; 5] = ["total", "kinetic", "conservative", "dissipative", "random"];
-
-/// Every scalar observable name the case produces (for references and the summary).
-pub fn scalar_names(case: &Case) -> Vec<String> {
-    let mut out = Vec::new();
-    let dim = case.dimension;
-    for o in &case.diagnostics.observables {
-        match o {
-            Observable::Stress => {
-                for part in STRESS_PARTS {
-                    for (_, _, c) in tensor_components(dim) {
-                        out.push(format!("stress_{part}_{c}"));
-                    }
-                }
-            }
-            Observable::Momentum => {
-                for c in ["x", "y", "z"].iter().take(dim) {
-                    out.push(format!("momentum_{c}"));
-                }
-            }
-            Observable::VelocityProfile => {}
-            other => out.push(other.name().to_owned()),
-        }
-    }
-    out
-}
+pub use crate::config::observables::{STRESS_PARTS, scalar_names, tensor_components};
 
 /// Mean, standard error and sample count of a time series.
 #[derive(Clone, Copy, Debug, serde::Serialize, PartialEq)]

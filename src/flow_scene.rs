@@ -24,46 +24,16 @@ use crate::config::flow::{FlowKind, Precision};
 use crate::config::{FlowCase, OutputCfg, RunCfg};
 use crate::diagnostics::{Series, tensor_components};
 use crate::domain::id_block;
-use crate::driver::{RunOptions, Scene, SceneReport, drive, threads_of};
-use crate::models::homogeneous_flow::{HomogeneousEnsembles, particle_moments};
+use crate::models::homogeneous_flow::{HomogeneousEnsembles, ParticleAverages, particle_moments};
+use crate::scene::{Scene, SceneReport};
 use crate::sim::PhaseTimes;
-use crate::summary::{Summary, check_value};
+use crate::summary::check_value;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 /// Suffix of the per-sample standard errors (particle-to-particle spread) in the series.
 const STDERR: &str = "_stderr";
-
-/// Runs a homogeneous-flow scene from equilibrium (collective); every rank returns the same
-/// summary.
-pub fn run_flow_case(
-    case: &FlowCase,
-    case_file: &Path,
-    comm: &dyn Comm,
-    options: &RunOptions,
-) -> Result<Summary, String> {
-    let threads = threads_of(options);
-    check_memory(case, comm)?;
-    match case.dimension {
-        2 => start::<2>(case, case_file, comm, options, threads),
-        3 => start::<3>(case, case_file, comm, options, threads),
-        d => Err(format!("dimension {d} is not supported")),
-    }
-}
-
-fn start<const D: usize>(
-    case: &FlowCase,
-    case_file: &Path,
-    comm: &dyn Comm,
-    options: &RunOptions,
-    threads: usize,
-) -> Result<Summary, String> {
-    let e = fresh::<D>(case, comm, threads)?;
-    let averages = ParticleAverages::new(e.gids.len(), quantities(case).len());
-    let scene = FlowScene::new(e, case.clone(), Series::default(), averages, comm);
-    drive(scene, case_file, None, comm, options, threads)
-}
 
 fn fresh<'c, const D: usize>(
     case: &FlowCase,
@@ -130,57 +100,6 @@ fn check_memory(case: &FlowCase, comm: &dyn Comm) -> Result<(), String> {
 
 const GIB: f64 = 1024.0 * 1024.0 * 1024.0;
 
-/// Continues a homogeneous-flow run from the checkpoint `path` (collective).
-#[cfg(feature = "hdf5")]
-pub(crate) fn restart_from(
-    path: &Path,
-    comm: &dyn Comm,
-    options: &RunOptions,
-    threads: usize,
-) -> Result<Summary, crate::driver::Restart> {
-    use crate::driver::Restart;
-    use crate::output::checkpoint::{CheckpointError, agree, ensembles};
-    let case = agree(ensembles::read_case(path), path, comm).map_err(Restart::Refused)?;
-    check_memory(&case, comm).map_err(Restart::Failed)?;
-    match case.dimension {
-        2 => restore::<2>(case, path, comm, options, threads),
-        3 => restore::<3>(case, path, comm, options, threads),
-        d => Err(Restart::Refused(CheckpointError::incompatible(
-            path,
-            format!("dimension {d} is not supported"),
-        ))),
-    }
-}
-
-#[cfg(feature = "hdf5")]
-fn restore<const D: usize>(
-    case: FlowCase,
-    path: &Path,
-    comm: &dyn Comm,
-    options: &RunOptions,
-    threads: usize,
-) -> Result<Summary, crate::driver::Restart> {
-    use crate::driver::Restart;
-    let r =
-        crate::output::checkpoint::ensembles::read::<D>(path, comm).map_err(Restart::Refused)?;
-    let e = HomogeneousEnsembles::<D>::from_state(
-        comm,
-        threads,
-        r.total,
-        case.polymer.per_particle,
-        case.dumbbell_params(),
-        case.flow_model(),
-        case.seed,
-        r.step,
-        r.connectors,
-        r.control,
-    )
-    .map_err(Restart::Failed)?;
-    crate::driver::log_restart(comm, path, r.step);
-    let scene = FlowScene::new(e, case, r.series, r.averages, comm);
-    drive(scene, path, Some(path), comm, options, threads).map_err(Restart::Failed)
-}
-
 /// A per-particle observable, computed from one particle's τ/G.
 #[derive(Clone, Copy, Debug)]
 enum Quantity {
@@ -240,28 +159,6 @@ fn quantities(case: &FlowCase) -> Vec<(String, Quantity)> {
             Some((name, q))
         })
         .collect()
-}
-
-/// Running sums, per particle of this rank, of every [`quantities`] value over the samples after
-/// equilibration. The time average of each particle is an independent estimate (independent
-/// noise, no interaction), so the spread between particles gives honest error bars whatever
-/// the time correlation of the stress (which block averages of short runs underestimate).
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct ParticleAverages {
-    /// sums[k][i]: quantity i of this rank's particle k.
-    pub sums: Vec<Vec<f64>>,
-    /// Samples added.
-    pub samples: u64,
-}
-
-impl ParticleAverages {
-    /// Zero sums for `particles` particles and `width` quantities.
-    pub fn new(particles: usize, width: usize) -> Self {
-        Self {
-            sums: vec![vec![0.0; width]; particles],
-            samples: 0,
-        }
-    }
 }
 
 /// Records the stress of the current step (collective): the particle-averaged series (from step
@@ -382,6 +279,54 @@ pub struct FlowScene<'c, const D: usize> {
 }
 
 impl<'c, const D: usize> FlowScene<'c, D> {
+    /// The scene at equilibrium, after checking that its ensembles fit the node's memory
+    /// (collective).
+    pub fn fresh(case: &FlowCase, comm: &'c dyn Comm, threads: usize) -> Result<Self, String> {
+        check_memory(case, comm)?;
+        let e = fresh::<D>(case, comm, threads)?;
+        let averages = ParticleAverages::new(e.gids.len(), quantities(case).len());
+        Ok(Self::new(
+            e,
+            case.clone(),
+            Series::default(),
+            averages,
+            comm,
+        ))
+    }
+
+    /// The scene continued from the checkpoint `path` of `case` (collective).
+    #[cfg(feature = "hdf5")]
+    pub fn restored(
+        case: FlowCase,
+        path: &Path,
+        comm: &'c dyn Comm,
+        threads: usize,
+    ) -> Result<Self, crate::scene::Restart> {
+        use crate::scene::Restart;
+        check_memory(&case, comm).map_err(Restart::Failed)?;
+        let r = crate::output::checkpoint::ensembles::read::<D>(path, comm)
+            .map_err(Restart::Refused)?;
+        let e = HomogeneousEnsembles::<D>::from_state(
+            comm,
+            threads,
+            r.total,
+            case.polymer.per_particle,
+            case.dumbbell_params(),
+            case.flow_model(),
+            case.seed,
+            r.step,
+            r.connectors,
+            r.control,
+        )
+        .map_err(Restart::Failed)?;
+        Ok(Self::new(e, case, r.series, r.averages, comm))
+    }
+
+    /// The step the ensembles have reached.
+    pub fn step_reached(&self) -> u64 {
+        self.e.step
+    }
+
     /// The scene of `e` with its case, series and running sums so far.
     pub fn new(
         e: HomogeneousEnsembles<'c, D>,

@@ -191,7 +191,7 @@ fn main() -> ExitCode {
             session(&*comm, &out, cli.quiet, cli.verbose, |comm| {
                 match &loaded.scene {
                     config::Scene::HomogeneousFlow(flow) => {
-                        mesorheo::flow_scene::run_flow_case(flow, &loaded.path, comm, &options)
+                        mesorheo::driver::run_flow_case(flow, &loaded.path, comm, &options)
                     }
                     config::Scene::Particles(c) => {
                         let particles = config::LoadedCase {

@@ -31,6 +31,7 @@ use crate::neighbour::{NeighbourList, spatial_order};
 use crate::particles::Particles;
 use crate::rng::{Purpose, StreamKey};
 use crate::simd::Isa;
+pub use crate::workers::{hash_words, worker_pool};
 use std::time::{Duration, Instant};
 
 /// Wall time spent per phase of the step (this rank).
@@ -54,19 +55,6 @@ pub struct PhaseTimes {
     pub checkpoints: f64,
     /// Number of neighbour-list builds.
     pub rebuilds: u64,
-}
-
-/// This rank's `threads` rayon workers (0: all cores it may use). Collective: a rank that
-/// cannot start its threads stops every rank, so none waits for it in a later collective.
-pub fn worker_pool(comm: &dyn Comm, threads: usize) -> Result<rayon::ThreadPool, String> {
-    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build();
-    let mut failed = [if pool.is_err() { 1.0 } else { 0.0 }];
-    comm.allreduce_max(&mut failed);
-    match pool {
-        Err(e) => Err(format!("cannot start {threads} worker threads: {e}")),
-        Ok(_) if failed[0] > 0.0 => Err("another rank could not start its worker threads".into()),
-        Ok(p) => Ok(p),
-    }
 }
 
 /// A running simulation on one rank.
@@ -906,20 +894,6 @@ fn virial_scope(observables: &[Observable]) -> VirialScope {
     } else {
         VirialScope::Off
     }
-}
-
-/// splitmix64-style mixing of a word sequence.
-pub fn hash_words(words: &[u64]) -> u64 {
-    let mut h: u64 = 0x6A09_E667_F3BC_C909;
-    for &w in words {
-        h ^= w;
-        h = h.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = h;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        h = z ^ (z >> 31);
-    }
-    h
 }
 
 /// Builds the initial particles of the whole system in global-id order — the same on every

@@ -18,7 +18,6 @@
 //! SPH (the summation gas): the acoustic CFL limit Δt < 0.25 h / c (Monaghan 1992; spec
 //! `sph-maxwell.md` §1).
 
-use crate::config::Case;
 use crate::models::dpd::DpdCfg;
 
 /// Time-step limits of a DPD case.
@@ -49,13 +48,12 @@ pub fn cfl_limit(smoothing_length: f64, sound_speed: f64) -> f64 {
     0.25 * smoothing_length / sound_speed
 }
 
-/// Limits for the DPD fluid `d` of `case`.
-pub fn dpd_limits(case: &Case, d: &DpdCfg) -> DpdLimits {
-    let n = case.particles.density;
-    let m = case.particles.mass;
+/// Limits for the DPD fluid `d` in `dimension` dimensions at number density `n` and particle
+/// mass `m`.
+pub fn dpd_limits(d: &DpdCfg, dimension: usize, n: f64, m: f64) -> DpdLimits {
     let s = d.weight_exponent;
     let rc = d.cutoff;
-    let dim = case.dimension;
+    let dim = dimension;
     let sum_wd = if dim == 2 {
         n * 2.0 * std::f64::consts::PI * rc * rc / ((s + 1.0) * (s + 2.0))
     } else {

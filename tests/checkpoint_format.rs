@@ -76,7 +76,7 @@ fn a_version_1_flow_checkpoint_restarts_bitwise() {
         panic!("a homogeneous-flow scene");
     };
     let whole = in_process(1, move |comm| {
-        mesorheo::flow_scene::run_flow_case(&case, Path::new("flow"), comm, &RunOptions::default())
+        mesorheo::driver::run_flow_case(&case, Path::new("flow"), comm, &RunOptions::default())
             .map(|s| s.state_digest)
     })
     .expect("uninterrupted run");

@@ -6,8 +6,8 @@
 #![cfg(feature = "hdf5")]
 
 use mesorheo::config::{FlowCase, Scene, parse_scene};
+use mesorheo::driver::run_flow_case;
 use mesorheo::driver::{RunOptions, in_process, restart_case};
-use mesorheo::flow_scene::run_flow_case;
 use mesorheo::summary::Summary;
 use std::path::{Path, PathBuf};
 

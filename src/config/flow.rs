@@ -261,7 +261,7 @@ impl FlowCase {
     /// Names of the scalar observables this scene records (what `[[reference]]` may name).
     pub fn scalar_names(&self) -> Vec<String> {
         let d = self.dimension;
-        let mut names: Vec<String> = crate::diagnostics::tensor_components(d)
+        let mut names: Vec<String> = super::observables::tensor_components(d)
             .into_iter()
             .map(|(_, _, n)| format!("polymer_stress_{n}"))
             .collect();

@@ -6,6 +6,7 @@
 //! table, the structs and the document agree.
 
 pub mod flow;
+pub mod observables;
 pub mod reference;
 mod spans;
 mod tagged;

@@ -258,7 +258,8 @@ pub fn validate(case: &Case, ix: &SpanIndex) -> Result<(), CaseError> {
     // Time-step stability.
     match &case.fluid {
         FluidCfg::Dpd(dpd) => {
-            let limits = stability::dpd_limits(case, dpd);
+            let (n, m) = (case.particles.density, case.particles.mass);
+            let limits = stability::dpd_limits(dpd, dim, n, m);
             if gw.dt > limits.dissipative {
                 return err(
                     &["integrator", "dt"],
@@ -395,7 +396,7 @@ pub fn validate(case: &Case, ix: &SpanIndex) -> Result<(), CaseError> {
         }
     }
     // [[reference]]
-    let scalars = crate::diagnostics::scalar_names(case);
+    let scalars = super::observables::scalar_names(case);
     for (i, rf) in case.reference.iter().enumerate() {
         let at = |key: &str| vec![k("reference"), Segment::Index(i), k(key)];
         match rf {

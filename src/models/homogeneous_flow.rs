@@ -141,6 +141,28 @@ pub fn particle_moments(
         .collect()
 }
 
+/// Running sums, per particle of this rank, of every averaged observable (the `quantities` of [`crate::flow_scene`]) over the samples after
+/// equilibration. The time average of each particle is an independent estimate (independent
+/// noise, no interaction), so the spread between particles gives honest error bars whatever
+/// the time correlation of the stress (which block averages of short runs underestimate).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct ParticleAverages {
+    /// sums[k][i]: quantity i of this rank's particle k.
+    pub sums: Vec<Vec<f64>>,
+    /// Samples added.
+    pub samples: u64,
+}
+
+impl ParticleAverages {
+    /// Zero sums for `particles` particles and `width` quantities.
+    pub fn new(particles: usize, width: usize) -> Self {
+        Self {
+            sums: vec![vec![0.0; width]; particles],
+            samples: 0,
+        }
+    }
+}
+
 /// Particle `i`'s connectors in double precision: borrowed from f64 storage, widened from f32.
 fn widened<'a>(
     q: &'a [Vec<f64>],
@@ -194,7 +216,7 @@ impl<'c, const D: usize> HomogeneousEnsembles<'c, D> {
         seed: u64,
     ) -> Result<Self, String> {
         params.check()?;
-        let pool = crate::sim::worker_pool(comm, threads)?;
+        let pool = crate::workers::worker_pool(comm, threads)?;
         let gids: Vec<u64> = id_block(total, comm.size(), comm.rank()).collect();
         let spring = params.spring;
         let q = pool.install(|| {
@@ -259,7 +281,7 @@ impl<'c, const D: usize> HomogeneousEnsembles<'c, D> {
                 "another rank restored a wrong number of ensembles for its id block".to_owned()
             });
         }
-        let pool = crate::sim::worker_pool(comm, threads)?;
+        let pool = crate::workers::worker_pool(comm, threads)?;
         let (q, q_single) = match q {
             Connectors::Double(q) => (q, None),
             Connectors::Single(q) => (vec![Vec::new(); gids.len()], Some(q)),
@@ -470,7 +492,7 @@ impl<'c, const D: usize> HomogeneousEnsembles<'c, D> {
             if let Some(c) = &self.control {
                 words.extend(c[i].iter().map(|x| x.to_bits()));
             }
-            acc[0] = acc[0].wrapping_add(crate::sim::hash_words(&words));
+            acc[0] = acc[0].wrapping_add(crate::workers::hash_words(&words));
         }
         self.comm.allreduce_u64(&mut acc, crate::comm::U64Op::Sum);
         acc[0]

@@ -13,15 +13,16 @@
 //! Ranks hold contiguous id blocks, so each writes and reads its rows directly.
 
 use super::{
-    CheckpointError, SceneKind, agree, file_name, open, publish, read_series, series_hash,
-    text_hash, write_common_attributes, write_series,
+    CheckpointError, Common, SceneKind, agree, file_name, open, publish, read_series, series_hash,
+    text_hash, write_series,
 };
 use crate::comm::{Comm, U64Op};
 use crate::config::FlowCase;
 use crate::diagnostics::Series;
 use crate::domain::id_block;
-use crate::flow_scene::ParticleAverages;
-use crate::models::homogeneous_flow::{Connectors, ConnectorsRef, HomogeneousEnsembles};
+use crate::models::homogeneous_flow::{
+    Connectors, ConnectorsRef, HomogeneousEnsembles, ParticleAverages,
+};
 use crate::output::collective_ok;
 use crate::output::shared_file::{SharedFile, read_attr, read_attr_str, read_block};
 use crate::sim::hash_words;
@@ -138,17 +139,16 @@ pub fn write<const D: usize>(
     let mut f = SharedFile::create(&tmp, comm)?;
     let (n, width) = (total as usize, e.n_d * D);
     let (start, rows) = (block.start as usize, (block.end - block.start) as usize);
-    let scene = SceneKind::HomogeneousFlow;
-    write_common_attributes(
-        &mut f,
-        scene,
-        e.step,
-        e.time(),
-        e.params.dt,
-        D,
-        total,
-        e.seed,
-    )?;
+    let common = Common {
+        scene: SceneKind::HomogeneousFlow,
+        step: e.step,
+        time: e.time(),
+        dt: e.params.dt,
+        dimension: D,
+        particles: total,
+        seed: e.seed,
+    };
+    common.write(&mut f)?;
     f.attr("/", "per_particle", &(e.n_d as u64))?;
     f.attr_str("/", "precision", if single { "single" } else { "double" })?;
     f.attr_str("/", "case", &case_toml)?;
@@ -305,12 +305,12 @@ fn read_ensembles<const D: usize>(
     comm: &dyn Comm,
 ) -> Result<(RestoredFlow, u64, Vec<u64>), String> {
     let corrupt = |what: String| what;
-    let total: u64 = read_attr(&f, "/", "particles")?;
-    let step: u64 = read_attr(&f, "/", "step")?;
-    let n_d: u64 = read_attr(&f, "/", "per_particle")?;
-    let precision = read_attr_str(&f, "/", "precision")?;
-    let case_text = read_attr_str(&f, "/", "case")?;
-    let stored = read_attr_str(&f, "/", "checksum")?;
+    let total: u64 = read_attr(f, "/", "particles")?;
+    let step: u64 = read_attr(f, "/", "step")?;
+    let n_d: u64 = read_attr(f, "/", "per_particle")?;
+    let precision = read_attr_str(f, "/", "precision")?;
+    let case_text = read_attr_str(f, "/", "case")?;
+    let stored = read_attr_str(f, "/", "checksum")?;
     let stored = u64::from_str_radix(&stored, 16)
         .map_err(|_| corrupt(format!("checksum attribute {stored:?} is not hexadecimal")))?;
     if case.flow.particles != total || case.polymer.per_particle as u64 != n_d {
@@ -328,32 +328,32 @@ fn read_ensembles<const D: usize>(
     };
     let connectors = if single {
         Connectors::Single(rows_of(
-            read_block::<f32>(&f, "ensembles/connectors", &[start, 0], &[rows, width])?,
+            read_block::<f32>(f, "ensembles/connectors", &[start, 0], &[rows, width])?,
             width,
         ))
     } else {
         Connectors::Double(rows_of(
-            read_block::<f64>(&f, "ensembles/connectors", &[start, 0], &[rows, width])?,
+            read_block::<f64>(f, "ensembles/connectors", &[start, 0], &[rows, width])?,
             width,
         ))
     };
     let control = if case.polymer.variance_reduction {
         Some(rows_of(
-            read_block::<f64>(&f, "ensembles/control", &[start, 0], &[rows, width])?,
+            read_block::<f64>(f, "ensembles/control", &[start, 0], &[rows, width])?,
             width,
         ))
     } else {
         None
     };
-    let series = read_series(&f)?;
+    let series = read_series(f)?;
     let k = f
         .dataset("ensembles/averages")
         .map(|d| d.shape().get(1).copied().unwrap_or(0))
         .map_err(|e| corrupt(format!("ensembles/averages: {e}")))?;
-    let samples: u64 = read_attr(&f, "ensembles/averages", "samples")?;
+    let samples: u64 = read_attr(f, "ensembles/averages", "samples")?;
     let averages = ParticleAverages {
         sums: rows_of(
-            read_block::<f64>(&f, "ensembles/averages", &[start, 0], &[rows, k])?,
+            read_block::<f64>(f, "ensembles/averages", &[start, 0], &[rows, k])?,
             k,
         ),
         samples,

@@ -179,27 +179,31 @@ pub fn scene_of(path: &Path) -> Result<SceneKind, CheckpointError> {
     open(path).map(|o| o.scene)
 }
 
-/// The common attributes of every checkpoint, written by rank 0's view of the run.
-pub(crate) fn write_common_attributes(
-    f: &mut SharedFile,
-    scene: SceneKind,
-    step: u64,
-    time: f64,
-    dt: f64,
-    dimension: usize,
-    particles: u64,
-    seed: u64,
-) -> Result<(), String> {
-    f.attr_str("/", "format", FORMAT)?;
-    f.attr("/", "format_version", &FORMAT_VERSION)?;
-    f.attr_str("/", "scene", scene.name())?;
-    f.attr_str("/", "code_version", env!("CARGO_PKG_VERSION"))?;
-    f.attr("/", "step", &step)?;
-    f.attr("/", "time", &time)?;
-    f.attr("/", "dt", &dt)?;
-    f.attr("/", "dimension", &(dimension as u64))?;
-    f.attr("/", "particles", &particles)?;
-    f.attr("/", "seed", &seed)
+/// The attributes every checkpoint carries.
+pub(crate) struct Common {
+    pub scene: SceneKind,
+    pub step: u64,
+    pub time: f64,
+    pub dt: f64,
+    pub dimension: usize,
+    pub particles: u64,
+    pub seed: u64,
+}
+
+impl Common {
+    /// Writes them (with the format, its version and the code version) to the root group.
+    pub fn write(&self, f: &mut SharedFile) -> Result<(), String> {
+        f.attr_str("/", "format", FORMAT)?;
+        f.attr("/", "format_version", &FORMAT_VERSION)?;
+        f.attr_str("/", "scene", self.scene.name())?;
+        f.attr_str("/", "code_version", env!("CARGO_PKG_VERSION"))?;
+        f.attr("/", "step", &self.step)?;
+        f.attr("/", "time", &self.time)?;
+        f.attr("/", "dt", &self.dt)?;
+        f.attr("/", "dimension", &(self.dimension as u64))?;
+        f.attr("/", "particles", &self.particles)?;
+        f.attr("/", "seed", &self.seed)
+    }
 }
 
 /// File name of the checkpoint of `step`.

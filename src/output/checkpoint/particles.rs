@@ -19,8 +19,8 @@
 //! Fields derived anew every step (a summation density) are not written.
 
 use super::{
-    CheckpointError, SceneKind, agree, file_name, open, publish, read_series, series_hash,
-    text_hash, write_common_attributes, write_series,
+    CheckpointError, Common, SceneKind, agree, file_name, open, publish, read_series, series_hash,
+    text_hash, write_series,
 };
 use crate::comm::{Comm, U64Op};
 use crate::config::Case;
@@ -93,9 +93,16 @@ pub fn write<const D: usize>(
     let mut f = SharedFile::create(&tmp, comm)?;
     let n = total as usize;
     let (start, rows) = (block.start as usize, (block.end - block.start) as usize);
-    let (step, time, dt, seed) = (sim.step, sim.time(), sim.dt(), sim.case.seed);
-    let scene = SceneKind::Particles;
-    write_common_attributes(&mut f, scene, step, time, dt, D, total, seed)?;
+    let common = Common {
+        scene: SceneKind::Particles,
+        step: sim.step,
+        time: sim.time(),
+        dt: sim.dt(),
+        dimension: D,
+        particles: total,
+        seed: sim.case.seed,
+    };
+    common.write(&mut f)?;
     f.attr("/", "rebuild_step", &sim.rebuild_step())?;
     f.attr("/", "le_offset", &sim.sim_box.le_offset(sim.step, sim.dt()))?;
     f.attr_str("/", "case", &case_toml)?;
@@ -260,15 +267,15 @@ fn read_particles<const D: usize>(
     case: Case,
     comm: &dyn Comm,
 ) -> Result<(Restored<D>, Vec<u64>), String> {
-    let total: u64 = read_attr(&f, "/", "particles")?;
-    let step: u64 = read_attr(&f, "/", "step")?;
-    let rebuild_step: u64 = read_attr(&f, "/", "rebuild_step")?;
+    let total: u64 = read_attr(f, "/", "particles")?;
+    let step: u64 = read_attr(f, "/", "step")?;
+    let rebuild_step: u64 = read_attr(f, "/", "rebuild_step")?;
     let case_text = read_attr_str(f, "/", "case")?;
     let stored_checksum = read_attr_str(f, "/", "checksum")?;
     let block = id_block(total, comm.size(), comm.rank());
     let (start, rows) = (block.start as usize, (block.end - block.start) as usize);
     let mut p = Particles::<D>::default();
-    let ids: Vec<u64> = read_block(&f, "particles/id", &[start], &[rows])?;
+    let ids: Vec<u64> = read_block(f, "particles/id", &[start], &[rows])?;
     if !ids.iter().copied().eq(block.clone()) {
         return Err(format!(
             "{}: /particles/id is not 0..{total} in order: the file is corrupt",
@@ -276,7 +283,7 @@ fn read_particles<const D: usize>(
         ));
     }
     let vec_field = |name: &str| -> Result<Vec<[f64; D]>, String> {
-        let flat: Vec<f64> = read_block(&f, &format!("particles/{name}"), &[start, 0], &[rows, D])?;
+        let flat: Vec<f64> = read_block(f, &format!("particles/{name}"), &[start, 0], &[rows, D])?;
         Ok(flat
             .chunks_exact(D)
             .map(|c| {
@@ -291,7 +298,7 @@ fn read_particles<const D: usize>(
     p.vel = vec_field("velocity")?;
     p.force = vec_field("force")?;
     p.vel_half = vec_field("velocity_half")?;
-    let image: Vec<i32> = read_block(&f, "particles/image", &[start, 0], &[rows, D])?;
+    let image: Vec<i32> = read_block(f, "particles/image", &[start, 0], &[rows, D])?;
     p.image = image
         .chunks_exact(D)
         .map(|c| {
@@ -307,7 +314,7 @@ fn read_particles<const D: usize>(
             .group(group)
             .and_then(|g| g.member_names())
             .map_err(|e| format!("{}: {group}: {e}", path.display()))?;
-        let order = read_attr_str(&f, group, "order")?;
+        let order = read_attr_str(f, group, "order")?;
         let listed: Vec<String> = order
             .split('\n')
             .filter(|n| !n.is_empty())
@@ -341,17 +348,17 @@ fn read_particles<const D: usize>(
             return Err(format!("{}: {ds} is not [N, width]", path.display()));
         }
         let k = p.register_extra(&name, width);
-        p.extra[k].data = read_block(&f, &ds, &[start, 0], &[rows, width])?;
+        p.extra[k].data = read_block(f, &ds, &[start, 0], &[rows, width])?;
     }
     for name in names("particles/var")? {
         let base = format!("particles/var/{name}");
         let all_counts: Vec<u64> =
-            read_block(&f, &format!("{base}/count"), &[0], &[total as usize])?;
+            read_block(f, &format!("{base}/count"), &[0], &[total as usize])?;
         let offset: u64 = all_counts[..start].iter().sum();
         let counts = &all_counts[start..start + rows];
         let len: u64 = counts.iter().sum();
         let flat: Vec<f64> = read_block(
-            &f,
+            f,
             &format!("{base}/value"),
             &[offset as usize],
             &[len as usize],
@@ -367,7 +374,7 @@ fn read_particles<const D: usize>(
             })
             .collect();
     }
-    let series = read_series(&f)?;
+    let series = read_series(f)?;
     let scalars = vec![
         step,
         rebuild_step,

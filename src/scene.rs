@@ -1,0 +1,495 @@
+//! A scene, and the one step loop that runs every scene.
+//!
+//! A scene ([`Scene`]) is what the loop steps: the particle scene ([`ParticleScene`], a
+//! [`Simulation`] and its snapshot series) or the homogeneous-flow scene
+//! ([`crate::flow_scene::FlowScene`], dumbbell ensembles in an imposed flow). The loop
+//! ([`drive`]), its schedule of samples, snapshots and checkpoints, its signals and clean stops,
+//! and the common part of the summary are written once, here; [`crate::driver`] sets scenes up
+//! and restarts them.
+
+use crate::comm::Comm;
+use crate::config::{OutputCfg, RunCfg};
+use crate::diagnostics::Estimate;
+use crate::sim::{PhaseTimes, Simulation};
+use crate::summary::{ProfilePoint, Summary, Validation, validate};
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Instant;
+
+/// Options of one run.
+#[derive(Clone, Debug, Default)]
+pub struct RunOptions {
+    /// rayon threads per rank (0: all available).
+    pub threads: usize,
+    /// Override of the case's step count.
+    pub steps: Option<u64>,
+    /// Stop cleanly, with a checkpoint, when this step is reached.
+    pub until_step: Option<u64>,
+    /// Output directory for checkpoints and snapshots (`None`: no files).
+    pub out: Option<PathBuf>,
+}
+
+/// Set by SIGTERM / SIGUSR1: finish the step, checkpoint, stop.
+static STOP_REQUESTED: AtomicBool = AtomicBool::new(false);
+
+/// Asks every run of this process to stop cleanly after its current step (what the signal
+/// handlers do; tests call it directly).
+pub fn request_stop() {
+    STOP_REQUESTED.store(true, Ordering::SeqCst);
+}
+
+/// Clears a stop request.
+pub fn clear_stop() {
+    STOP_REQUESTED.store(false, Ordering::SeqCst);
+}
+
+pub(crate) fn threads_of(options: &RunOptions) -> usize {
+    if options.threads == 0 {
+        std::thread::available_parallelism().map_or(1, |n| n.get())
+    } else {
+        options.threads
+    }
+}
+
+/// What the step loop of [`drive`] needs of a scene.
+pub trait Scene {
+    /// The step reached.
+    fn step(&self) -> u64;
+    /// Simulated time.
+    fn time(&self) -> f64;
+    /// Run length and sampling of the case.
+    fn run(&self) -> &RunCfg;
+    /// Checkpoints and snapshots of the case.
+    fn output(&self) -> &OutputCfg;
+    /// Stores a new step count (`--steps`), so that later checkpoints keep it.
+    fn set_steps(&mut self, steps: u64);
+    /// What the set-up line of the log says: what is simulated, and how big.
+    fn describe(&self) -> String;
+    /// Advances one step and samples on the scene's schedule; any rank's stop request is
+    /// agreed within the step (collective).
+    fn advance(&mut self) -> Result<(), String>;
+    /// Marks that this rank was asked to stop.
+    fn request_stop(&mut self);
+    /// Whether any rank asked to stop before the last step (the same on every rank).
+    fn stop_agreed(&self) -> bool;
+    /// What the progress line says beside the step, the time and the ETA, at `steps_per_second`.
+    fn progress(&self, steps_per_second: f64) -> String;
+    /// Writes the checkpoint of the current step into `dir`, keeping the newest `keep`
+    /// (collective).
+    fn write_checkpoint(&mut self, dir: &Path, keep: usize) -> Result<PathBuf, String>;
+    /// Opens the scene's output series in `out` (continued after a restart).
+    fn open_outputs(&mut self, out: &Path, restarted: bool) -> Result<(), String>;
+    /// Writes what the series take at this step.
+    fn write_outputs(&mut self) -> Result<(), String>;
+    /// Closes the series and writes the scene's end-of-run files into `out`, if any.
+    fn close_outputs(&mut self, out: Option<&Path>) -> Result<(), String>;
+    /// The scene's part of the summary.
+    fn report(&mut self, completed: bool) -> Result<SceneReport, String>;
+    /// Phase timers.
+    fn times(&mut self) -> &mut PhaseTimes;
+}
+
+/// The part of the summary a scene fills in.
+pub struct SceneReport {
+    /// The case as run (with `--steps` applied).
+    pub case: serde_json::Value,
+    /// 2 or 3.
+    pub dimension: usize,
+    /// Total particle count.
+    pub particles: u64,
+    /// Dumbbells per step (homogeneous-flow scenes), for the dumbbell-steps rate.
+    pub dumbbells: Option<u64>,
+    /// Time averages with error bars.
+    pub observables: BTreeMap<String, Estimate>,
+    /// Binned velocity profile.
+    pub velocity_profile: Vec<ProfilePoint>,
+    /// Checks against the case's references (after a completed run).
+    pub validation: Vec<Validation>,
+    /// Warnings about the averages.
+    pub warnings: Vec<String>,
+    /// Digest of the final state.
+    pub state_digest: String,
+}
+
+/// A particle scene: the simulation and its snapshot series.
+pub struct ParticleScene<'c, const D: usize> {
+    /// The simulation.
+    pub sim: Simulation<'c, D>,
+    #[cfg(feature = "hdf5")]
+    snapshots: Option<crate::output::snapshot::SnapshotWriter>,
+}
+
+impl<'c, const D: usize> ParticleScene<'c, D> {
+    /// The scene of `sim`.
+    pub fn new(sim: Simulation<'c, D>) -> Self {
+        Self {
+            sim,
+            #[cfg(feature = "hdf5")]
+            snapshots: None,
+        }
+    }
+}
+
+impl<const D: usize> Scene for ParticleScene<'_, D> {
+    fn step(&self) -> u64 {
+        self.sim.step
+    }
+
+    fn time(&self) -> f64 {
+        self.sim.time()
+    }
+
+    fn run(&self) -> &RunCfg {
+        &self.sim.case.run
+    }
+
+    fn output(&self) -> &OutputCfg {
+        &self.sim.case.output
+    }
+
+    fn set_steps(&mut self, steps: u64) {
+        self.sim.case.run.steps = steps;
+    }
+
+    fn describe(&self) -> String {
+        format!(
+            "{} particles ({}D), {} owned here",
+            self.sim.total_particles, D, self.sim.particles.n_owned
+        )
+    }
+
+    fn advance(&mut self) -> Result<(), String> {
+        self.sim.advance()?;
+        if self.sim.is_sample_step() {
+            self.sim.sample();
+        }
+        Ok(())
+    }
+
+    fn request_stop(&mut self) {
+        self.sim.request_stop();
+    }
+
+    fn stop_agreed(&self) -> bool {
+        self.sim.stop_agreed()
+    }
+
+    fn progress(&self, steps_per_second: f64) -> String {
+        format!("{steps_per_second:.1} steps/s")
+    }
+
+    fn write_checkpoint(&mut self, dir: &Path, keep: usize) -> Result<PathBuf, String> {
+        #[cfg(feature = "hdf5")]
+        {
+            crate::output::checkpoint::write(&self.sim, dir, keep)
+        }
+        #[cfg(not(feature = "hdf5"))]
+        {
+            let _ = (dir, keep);
+            Err(NO_HDF5_CHECKPOINTS.into())
+        }
+    }
+
+    fn open_outputs(&mut self, out: &Path, restarted: bool) -> Result<(), String> {
+        if self.sim.case.output.snapshot_every == 0 {
+            return Ok(());
+        }
+        #[cfg(feature = "hdf5")]
+        {
+            let w = crate::output::snapshot::SnapshotWriter::open(&self.sim, out, restarted)?;
+            self.snapshots = Some(w);
+            Ok(())
+        }
+        #[cfg(not(feature = "hdf5"))]
+        {
+            let _ = (out, restarted);
+            Err("snapshots need HDF5: this mesorheo was built without the `hdf5` feature".into())
+        }
+    }
+
+    fn write_outputs(&mut self) -> Result<(), String> {
+        #[cfg(feature = "hdf5")]
+        if let Some(w) = &mut self.snapshots
+            && self
+                .sim
+                .step
+                .is_multiple_of(self.sim.case.output.snapshot_every)
+        {
+            let t = Instant::now();
+            w.write_frame(&self.sim)?;
+            self.sim.times.snapshots += t.elapsed().as_secs_f64();
+        }
+        Ok(())
+    }
+
+    fn close_outputs(&mut self, _out: Option<&Path>) -> Result<(), String> {
+        #[cfg(feature = "hdf5")]
+        if let Some(w) = &mut self.snapshots {
+            w.finish(&self.sim)?;
+        }
+        Ok(())
+    }
+
+    fn report(&mut self, completed: bool) -> Result<SceneReport, String> {
+        let sim = &self.sim;
+        let case = &sim.case;
+        let blocks = case.diagnostics.blocks;
+        let observables = sim.series.estimates(blocks);
+        let warnings = crate::diagnostics::block_warnings(&sim.series.scalars, blocks);
+        let ly = case.domain.lengths[1];
+        let nb = case.diagnostics.profile_bins as f64;
+        let velocity_profile: Vec<ProfilePoint> = (sim.series.profile_estimates(blocks).iter())
+            .enumerate()
+            .map(|(b, e): (usize, &Estimate)| {
+                let y = (b as f64 + 0.5) * ly / nb;
+                ProfilePoint {
+                    y,
+                    mean: e.mean,
+                    stderr: e.stderr,
+                    expected: sim.sim_box.streaming_velocity(y),
+                }
+            })
+            .collect();
+        let validation = if completed {
+            validate(case, &observables, &velocity_profile)
+        } else {
+            Vec::new()
+        };
+        Ok(SceneReport {
+            case: serde_json::to_value(case).map_err(|e| e.to_string())?,
+            dimension: D,
+            particles: sim.total_particles,
+            dumbbells: None,
+            observables,
+            velocity_profile,
+            validation,
+            warnings,
+            state_digest: sim.state_digest(),
+        })
+    }
+
+    fn times(&mut self) -> &mut PhaseTimes {
+        &mut self.sim.times
+    }
+}
+
+#[cfg(not(feature = "hdf5"))]
+const NO_HDF5_CHECKPOINTS: &str =
+    "checkpoints need HDF5: this mesorheo was built without the `hdf5` feature";
+
+/// Why a restart attempt did not give a summary.
+#[cfg(feature = "hdf5")]
+pub enum Restart {
+    /// The checkpoint is unusable: try an older one.
+    Refused(crate::output::checkpoint::CheckpointError),
+    /// The run itself failed after a good start.
+    Failed(String),
+}
+
+/// A fresh run into an output directory that holds checkpoints of an earlier run moves them to
+/// `checkpoints.previous/` (replacing an older one), so a later `restart OUT/checkpoints` can
+/// never continue the wrong run and nothing is deleted unasked (collective).
+pub(crate) fn set_aside_old_checkpoints(dir: &Path, comm: &dyn Comm) -> Result<(), String> {
+    let mut result = Ok(());
+    if comm.rank() == 0
+        && dir.is_dir()
+        && std::fs::read_dir(dir).is_ok_and(|mut d| d.next().is_some())
+    {
+        let previous = dir.with_file_name("checkpoints.previous");
+        result = (|| -> std::io::Result<()> {
+            if previous.exists() {
+                std::fs::remove_dir_all(&previous)?;
+            }
+            std::fs::rename(dir, &previous)
+        })()
+        .map_err(|e| format!("cannot move the earlier run's {} aside: {e}", dir.display()));
+        if result.is_ok() {
+            tracing::warn!(
+                "{} held checkpoints of an earlier run: moved to {}",
+                dir.display(),
+                previous.display()
+            );
+        }
+    }
+    let mut failed = [if result.is_err() { 1.0 } else { 0.0 }];
+    comm.allreduce_max(&mut failed);
+    match result {
+        Err(e) => Err(e),
+        Ok(()) if failed[0] > 0.0 => Err("cannot move old checkpoints aside (rank 0)".into()),
+        Ok(()) => Ok(()),
+    }
+}
+
+/// Writes a checkpoint of the current step, if output is on (collective).
+fn checkpoint(
+    scene: &mut impl Scene,
+    options: &RunOptions,
+    comm: &dyn Comm,
+) -> Result<Option<PathBuf>, String> {
+    let Some(out) = &options.out else {
+        return Ok(None);
+    };
+    let t = Instant::now();
+    let keep = scene.output().checkpoint_keep;
+    let path = scene.write_checkpoint(&out.join("checkpoints"), keep)?;
+    scene.times().checkpoints += t.elapsed().as_secs_f64();
+    if comm.rank() == 0 {
+        tracing::info!(
+            "checkpoint {} ({:.2} s)",
+            path.display(),
+            t.elapsed().as_secs_f64()
+        );
+    }
+    Ok(Some(path))
+}
+
+/// The step loop of every scene, with its schedule of samples, snapshots and checkpoints and
+/// its clean stops; then the summary.
+pub(crate) fn drive(
+    mut scene: impl Scene,
+    case_file: &Path,
+    restarted_from: Option<&Path>,
+    comm: &dyn Comm,
+    options: &RunOptions,
+    threads: usize,
+) -> Result<Summary, String> {
+    let wall = Instant::now();
+    let first_step = scene.step();
+    if let Some(n) = options.steps {
+        if n < first_step {
+            return Err(format!(
+                "--steps {n} is below the step {first_step} the run has already reached"
+            ));
+        }
+        // Stored in the case, so later checkpoints (and restarts from them) keep it.
+        scene.set_steps(n);
+    }
+    let last_step = scene.run().steps;
+    let stop_at = options.until_step.map_or(last_step, |k| k.min(last_step));
+    if stop_at <= first_step && first_step < last_step {
+        return Err(format!(
+            "--until-step {stop_at} is not after the current step {first_step}"
+        ));
+    }
+    let is_root = comm.rank() == 0;
+    if is_root {
+        tracing::info!(
+            ranks = comm.size(),
+            threads,
+            "{} {}: {} at step {first_step}",
+            if restarted_from.is_some() {
+                "continuing"
+            } else {
+                "set up"
+            },
+            case_file.display(),
+            scene.describe()
+        );
+    }
+    if let Some(out) = &options.out {
+        if restarted_from.is_none() {
+            set_aside_old_checkpoints(&out.join("checkpoints"), comm)?;
+        }
+        scene.open_outputs(out, restarted_from.is_some())?;
+    }
+    let every = scene.run().progress_seconds;
+    let checkpoint_every = scene.output().checkpoint_every;
+    let mut last_report = Instant::now();
+    let start = Instant::now();
+    let mut last_checkpoint: Option<PathBuf> = None;
+    let mut checkpointed_at = None;
+    let mut stopped_by_signal = false;
+    while scene.step() < stop_at {
+        if STOP_REQUESTED.load(Ordering::SeqCst) {
+            scene.request_stop();
+        }
+        scene.advance()?;
+        let step = scene.step();
+        if options.out.is_some() {
+            scene.write_outputs()?;
+        }
+        if checkpoint_every > 0 && step.is_multiple_of(checkpoint_every) && options.out.is_some() {
+            last_checkpoint = checkpoint(&mut scene, options, comm)?;
+            checkpointed_at = Some(step);
+        }
+        // Agreed within the step itself, so every rank stops after the same step.
+        if scene.stop_agreed() {
+            stopped_by_signal = true;
+            if is_root {
+                tracing::warn!("stop requested: stopping after step {step}");
+            }
+            break;
+        }
+        if is_root && every > 0.0 && last_report.elapsed().as_secs_f64() >= every {
+            last_report = Instant::now();
+            let rate = (step - first_step) as f64 / start.elapsed().as_secs_f64();
+            let eta = (stop_at - step) as f64 / rate.max(1e-12);
+            tracing::info!(
+                "step {step}/{last_step} t = {:.4} {} ETA {eta:.0} s",
+                scene.time(),
+                scene.progress(rate),
+            );
+        }
+    }
+    let loop_seconds = start.elapsed().as_secs_f64();
+    let completed = scene.step() >= last_step;
+    let wants_final = scene.output().checkpoint_at_end || !completed;
+    if wants_final && options.out.is_some() && checkpointed_at != Some(scene.step()) {
+        last_checkpoint = checkpoint(&mut scene, options, comm)?;
+    }
+    if stopped_by_signal || !completed {
+        tracing::info!(
+            "stopped at step {} of {last_step}; restart from {}",
+            scene.step(),
+            last_checkpoint
+                .as_deref()
+                .map_or("(no checkpoint: no output directory)".into(), |p| p
+                    .display()
+                    .to_string())
+        );
+    }
+    scene.close_outputs(options.out.as_deref())?;
+    let report = scene.report(completed)?;
+    for w in &report.warnings {
+        tracing::warn!("{w}");
+    }
+    let steps_run = (scene.step() - first_step) as f64;
+    let rate = |n: f64| n * steps_run / loop_seconds.max(1e-300);
+    Ok(Summary {
+        version: env!("CARGO_PKG_VERSION").to_owned(),
+        case: report.case,
+        case_file: case_file.display().to_string(),
+        ranks: comm.size(),
+        threads,
+        dimension: report.dimension,
+        particles: report.particles,
+        steps: scene.step(),
+        completed,
+        restarted_from: restarted_from.map(|p| p.display().to_string()),
+        last_checkpoint: last_checkpoint.map(|p| p.display().to_string()),
+        time: scene.time(),
+        wall_seconds: wall.elapsed().as_secs_f64(),
+        loop_seconds,
+        particle_steps_per_second: rate(report.particles as f64),
+        dumbbell_steps_per_second: report.dumbbells.map(|n| rate(n as f64)),
+        observables: report.observables,
+        velocity_profile: report.velocity_profile,
+        validation: report.validation,
+        warnings: report.warnings,
+        state_digest: report.state_digest,
+        phase_seconds: scene.times().clone(),
+    })
+}
+
+/// Rank 0's log line after a restart has read its checkpoint.
+#[cfg(feature = "hdf5")]
+pub(crate) fn log_restart(comm: &dyn Comm, path: &Path, step: u64) {
+    if comm.rank() == 0 {
+        tracing::info!(
+            "restarted from {} at step {step} on {} rank(s)",
+            path.display(),
+            comm.size()
+        );
+    }
+}

@@ -1,0 +1,31 @@
+//! What every part of a rank shares and that is no part of the physics: its worker-thread pool
+//! (started collectively) and the word hash of digests and checksums.
+
+use crate::comm::Comm;
+
+/// This rank's `threads` rayon workers (0: all cores it may use). Collective: a rank that
+/// cannot start its threads stops every rank, so none waits for it in a later collective.
+pub fn worker_pool(comm: &dyn Comm, threads: usize) -> Result<rayon::ThreadPool, String> {
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build();
+    let mut failed = [if pool.is_err() { 1.0 } else { 0.0 }];
+    comm.allreduce_max(&mut failed);
+    match pool {
+        Err(e) => Err(format!("cannot start {threads} worker threads: {e}")),
+        Ok(_) if failed[0] > 0.0 => Err("another rank could not start its worker threads".into()),
+        Ok(p) => Ok(p),
+    }
+}
+
+/// splitmix64-style mixing of a word sequence.
+pub fn hash_words(words: &[u64]) -> u64 {
+    let mut h: u64 = 0x6A09_E667_F3BC_C909;
+    for &w in words {
+        h ^= w;
+        h = h.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = h;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        h = z ^ (z >> 31);
+    }
+    h
+}
