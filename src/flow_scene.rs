@@ -1,7 +1,7 @@
 //! The homogeneous-flow scene (`[flow]` + `[polymer] kind = "dumbbells"`): set-up or restart
 //! of the ensembles, their step and the sampling of the polymer stress, its checkpoint, the
 //! stress time series and its part of the summary. The step loop, signals and checkpoint
-//! schedule are the one driver's ([`crate::driver::drive`]).
+//! schedule are the one driver's ([`crate::scene::drive`]).
 //!
 //! Observables (stresses in units of `polymer.modulus` G). Each sample takes every particle's
 //! ensemble average; the series (`polymer_stress.csv`) holds their mean over particles with the

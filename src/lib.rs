@@ -2,11 +2,26 @@
 //!
 //! An MPI domain-decomposed particle solver for polymeric and viscoelastic flows.
 //!
-//! Architecture (see `../shared/DESIGN.md`): a case file ([`config`]) describes a scene; the
-//! [`sim::Simulation`] owns the state of one rank and steps it: migration and halo exchange
-//! ([`domain`], over a [`comm::Comm`]), neighbour lists ([`neighbour`]), models
-//! ([`models`]), integration, and diagnostics ([`diagnostics`]). Physics never sees MPI; the
-//! same code runs on one rank talking to itself, on P in-process ranks, and under `mpirun`.
+//! Architecture (see `../shared/DESIGN.md`). Module map, from the top down:
+//!
+//! - [`driver`] sets a case up (fresh, or restarted from a checkpoint with the fallback to
+//!   older ones) and hands it to the one step loop of [`scene`], which runs every scene — the
+//!   particle scene ([`scene::ParticleScene`]) and the homogeneous-flow scene ([`flow_scene`]) —
+//!   with the same schedule of samples, snapshots, checkpoints and clean stops.
+//! - [`sim::Simulation`] owns one rank's particle state and steps it: the integrator
+//!   ([`integrators`]), migration and halo exchange ([`domain`], over a [`comm::Comm`]),
+//!   neighbour lists ([`neighbour`]), and the models' pair passes with the ghost-field
+//!   refreshes between them.
+//! - [`models`]: every model implements [`models::ParticleModel`] (the guide to adding one is
+//!   [`models::interface`]); pair passes gather ([`models::gather`]) or, for DPD, scatter
+//!   ([`models::pair_loop`]) into exact sums ([`fixed_sum`]).
+//! - [`config`] parses and validates case files (it knows the models' parameter types; no model
+//!   imports it); [`diagnostics`] and [`summary`] average and report; [`output`] writes
+//!   checkpoints and snapshots; [`check`] and [`stability`] say what a case costs and whether
+//!   its time step is safe.
+//!
+//! Physics never sees MPI; the same code runs on one rank talking to itself, on P in-process
+//! ranks, and under `mpirun`.
 
 // Index loops over the D components of `[f64; D]` arrays read like the equations they implement
 // (and compile to the same code as iterator chains).

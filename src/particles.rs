@@ -323,8 +323,13 @@ impl<const D: usize> Particles<D> {
         for f in &mut self.extra {
             apply(&mut f.data, order, f.width);
         }
+        // Ensembles are moved, not cloned: no second copy of the largest state.
         for f in &mut self.var {
-            apply(&mut f.data, order, 1);
+            let mut old = std::mem::take(&mut f.data);
+            f.data = order
+                .iter()
+                .map(|&o| std::mem::take(&mut old[o as usize]))
+                .collect();
         }
     }
 

@@ -346,7 +346,7 @@ fn checkpoint(
 
 /// The step loop of every scene, with its schedule of samples, snapshots and checkpoints and
 /// its clean stops; then the summary.
-pub(crate) fn drive(
+pub fn drive(
     mut scene: impl Scene,
     case_file: &Path,
     restarted_from: Option<&Path>,

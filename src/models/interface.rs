@@ -4,7 +4,7 @@
 //!
 //! A model is one file in `src/models/` and one registration (a variant of
 //! [`crate::config::FluidCfg`] with its parameter struct, defined in the model's file, and the
-//! line of [`crate::sim::build_model`] that constructs it). The file implements
+//! line of [`crate::sim::build_fluid`] that constructs it). The file implements
 //! [`ParticleModel`]:
 //!
 //! 1. **Fields** ([`ParticleModel::fields`]): every per-particle quantity it keeps, each with its
