@@ -51,7 +51,7 @@ fn main() {
         let mut path = PathBuf::new();
         for _ in 0..3 {
             let t = Instant::now();
-            path = checkpoint::write(&sim, dir.path(), 1).expect("write");
+            path = checkpoint::write(&mut sim, dir.path(), 1).expect("write");
             times.push(t.elapsed().as_secs_f64());
         }
         times.sort_by(f64::total_cmp);

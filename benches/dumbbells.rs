@@ -219,7 +219,7 @@ fn rates<const D: usize>(spring: Spring, scheme: Scheme, threads: usize) -> [(f6
         for s in step..step + STEPS {
             pool.install(|| {
                 q_new.par_iter_mut().enumerate().for_each(|(g, q)| {
-                    step_ensemble::<D>(q, &kappa, &p, &mut noise_stream(1, g as u64, s));
+                    step_ensemble::<D>(q, &kappa, &p, &mut noise_stream(1, g as u64, s, 0));
                 })
             });
         }
@@ -253,7 +253,7 @@ fn generator_rates(dim: usize) -> [(f64, f64); 2] {
         times[0].push(t.elapsed().as_secs_f64());
         let t = Instant::now();
         for g in 0..PARTICLES {
-            noise_stream(1, g, rep).fill_normals(&mut buf);
+            noise_stream(1, g, rep, 0).fill_normals(&mut buf);
             sink += std::hint::black_box(&buf)[g as usize];
         }
         times[1].push(t.elapsed().as_secs_f64());

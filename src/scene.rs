@@ -182,7 +182,7 @@ impl<const D: usize> Scene for ParticleScene<'_, D> {
     fn write_checkpoint(&mut self, dir: &Path, keep: usize) -> Result<PathBuf, String> {
         #[cfg(feature = "hdf5")]
         {
-            crate::output::checkpoint::write(&self.sim, dir, keep)
+            crate::output::checkpoint::write(&mut self.sim, dir, keep)
         }
         #[cfg(not(feature = "hdf5"))]
         {

@@ -354,11 +354,13 @@ impl<'c, const D: usize> Simulation<'c, D> {
     }
 
     /// Owned particles (no ghosts) with the list-build positions as the extra field
-    /// [`LIST_REFERENCE_FIELD`]: everything a checkpoint must hold.
-    /// Fields derived anew every step ([`crate::particles::FieldFlags::checkpointed`] unset)
-    /// are left out.
-    pub fn checkpoint_particles(&self) -> Particles<D> {
-        let src = &self.particles;
+    /// [`LIST_REFERENCE_FIELD`]: everything a checkpoint must hold. Fields derived anew every
+    /// step ([`crate::particles::FieldFlags::checkpointed`] unset) are left out. The
+    /// variable-length fields (dumbbell ensembles, the largest state) are *moved* out, not
+    /// copied, so a checkpoint never doubles them in memory: hand the particles back with
+    /// [`Self::return_checkpoint_particles`] before the next step.
+    pub fn lend_checkpoint_particles(&mut self) -> Particles<D> {
+        let src = &mut self.particles;
         let n = src.n_owned;
         let mut p = src.owned_core();
         for f in src.extra.iter().filter(|f| f.flags.checkpointed) {
@@ -368,12 +370,17 @@ impl<'c, const D: usize> Simulation<'c, D> {
                 ..*f
             });
         }
-        p.var = src.var.clone();
+        p.var = std::mem::take(&mut src.var);
         let k = p.register_extra(LIST_REFERENCE_FIELD, D);
         for (i, x) in self.list.build_pos.iter().enumerate() {
             p.extra[k].data[i * D..(i + 1) * D].copy_from_slice(x);
         }
         p
+    }
+
+    /// Takes back the variable-length fields lent by [`Self::lend_checkpoint_particles`].
+    pub fn return_checkpoint_particles(&mut self, lent: Particles<D>) {
+        self.particles.var = lent.var;
     }
 
     /// Marks that this rank was asked to stop; [`Self::stop_agreed`] tells every rank after the

@@ -250,7 +250,7 @@ fn model_run(
     let steps = to_step - sim.step;
     sim.run_steps(steps, |_| {})?;
     if let Some(dir) = save_to {
-        checkpoint::write(&sim, dir, 2)?;
+        checkpoint::write(&mut sim, dir, 2)?;
     }
     Ok(sim.state_digest())
 }

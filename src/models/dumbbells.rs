@@ -417,10 +417,14 @@ pub fn sample_equilibrium<const D: usize>(q: &mut [f64], spring: Spring, rng: &m
     }
 }
 
-/// The noise stream of particle `gid` at `step`.
+/// The noise stream of particle `gid` at `step`, for the `stage`-th update of its ensemble
+/// within that step. The engine advances every ensemble once per step, with stage 0 (the key
+/// of every run so far: the stage is the stream's second id word, 0 before it existed); a
+/// multi-stage coupling that advances an ensemble again within a step must use stage 1, 2, …,
+/// so no two updates reuse the same noise.
 #[inline]
-pub fn noise_stream(seed: u64, gid: u64, step: u64) -> NormalStream {
-    NormalStream::new(seed, Purpose::DumbbellNoise, step, gid, 0)
+pub fn noise_stream(seed: u64, gid: u64, step: u64, stage: u8) -> NormalStream {
+    NormalStream::new(seed, Purpose::DumbbellNoise, step, gid, u64::from(stage))
 }
 
 /// The stream of particle `gid`'s initial state.
@@ -518,6 +522,20 @@ pub fn hookean_discrete_moment<const D: usize>(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Stage 0 is the key every checkpoint and digest so far was made with; another stage of
+    /// the same particle and step draws other numbers.
+    #[test]
+    fn stage_zero_keeps_the_key_and_other_stages_draw_other_noise() {
+        let mut a = [0.0; 64];
+        let mut b = [0.0; 64];
+        noise_stream(3, 17, 40, 0).fill_normals(&mut a);
+        NormalStream::new(3, Purpose::DumbbellNoise, 40, 17, 0).fill_normals(&mut b);
+        assert_eq!(a, b);
+        noise_stream(3, 17, 40, 1).fill_normals(&mut b);
+        let same = a.iter().zip(&b).filter(|(x, y)| x == y).count();
+        assert_eq!(same, 0);
+    }
 
     #[test]
     fn fene_length_solves_the_corrector_inside_the_ball() {

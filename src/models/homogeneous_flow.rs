@@ -369,7 +369,7 @@ impl<'c, const D: usize> HomogeneousEnsembles<'c, D> {
                     |wide: &mut Vec<f64>, (q, &g)| {
                         wide.clear();
                         wide.extend(q.iter().map(|&x| f64::from(x)));
-                        step_ensemble::<D>(wide, &kappa, &p, &mut noise_stream(seed, g, step));
+                        step_ensemble::<D>(wide, &kappa, &p, &mut noise_stream(seed, g, step, 0));
                         for (s, w) in q.iter_mut().zip(wide.iter()) {
                             *s = *w as f32;
                         }
@@ -379,7 +379,7 @@ impl<'c, const D: usize> HomogeneousEnsembles<'c, D> {
         } else {
             self.pool.install(|| {
                 q.par_iter_mut().zip(gids.par_iter()).for_each(|(q, &g)| {
-                    step_ensemble::<D>(q, &kappa, &p, &mut noise_stream(seed, g, step));
+                    step_ensemble::<D>(q, &kappa, &p, &mut noise_stream(seed, g, step, 0));
                 })
             });
         }
@@ -388,7 +388,7 @@ impl<'c, const D: usize> HomogeneousEnsembles<'c, D> {
             self.pool.install(|| {
                 c.par_iter_mut().zip(gids.par_iter()).for_each(|(q, &g)| {
                     // The same key, hence the same normals as the flowing copy.
-                    step_ensemble::<D>(q, &rest, &p, &mut noise_stream(seed, g, step));
+                    step_ensemble::<D>(q, &rest, &p, &mut noise_stream(seed, g, step, 0));
                 })
             });
         }

@@ -66,14 +66,19 @@ fn checksum<const D: usize>(p: &Particles<D>, comm: &dyn Comm, scalars: &[u64]) 
 /// Writes the checkpoint of the current step into `dir` and keeps the newest `keep`
 /// (collective). Returns the path.
 pub fn write<const D: usize>(
-    sim: &Simulation<'_, D>,
+    sim: &mut Simulation<'_, D>,
     dir: &Path,
     keep: usize,
 ) -> Result<PathBuf, String> {
+    let total = sim.total_particles;
+    // The ensembles are lent, not copied: only the id-ordered copy exists beside them.
+    let lent = sim.lend_checkpoint_particles();
+    let mine = crate::output::id_ordered(&lent, total, sim.comm());
+    sim.return_checkpoint_particles(lent);
+    let mine = mine?;
+    let sim = &*sim;
     let comm = sim.comm();
     let (rank, size) = (comm.rank(), comm.size());
-    let total = sim.total_particles;
-    let mine = crate::output::id_ordered(&sim.checkpoint_particles(), total, comm)?;
     let block = id_block(total, size, rank);
     let case_toml = toml::to_string(&sim.case).map_err(|e| format!("cannot echo the case: {e}"))?;
     let scalars = [
