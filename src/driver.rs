@@ -222,7 +222,7 @@ fn restore_and_drive<const D: usize>(
     threads: usize,
 ) -> Result<Summary, Restart> {
     let r = crate::output::checkpoint::read::<D>(path, comm).map_err(Restart::Refused)?;
-    let sim = Simulation::<D>::from_checkpoint(
+    let mut sim = Simulation::<D>::from_checkpoint(
         &r.case,
         comm,
         threads,
@@ -233,6 +233,9 @@ fn restore_and_drive<const D: usize>(
         r.series,
     )
     .map_err(Restart::Failed)?;
+    if let Some(table) = r.species {
+        sim.restore_species(table).map_err(Restart::Failed)?;
+    }
     log_restart(comm, path, r.step);
     let scene = ParticleScene::new(sim);
     drive(scene, &loaded.path, Some(path), comm, options, threads).map_err(Restart::Failed)

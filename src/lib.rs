@@ -46,6 +46,7 @@ pub mod rng;
 pub mod scene;
 pub mod sim;
 pub mod simd;
+pub mod species;
 pub mod stability;
 pub mod summary;
 pub mod workers;

@@ -79,6 +79,10 @@ pub struct Particles<const D: usize> {
     pub vel_half: Vec<[f64; D]>,
     /// Periodic crossings of owned particles.
     pub image: Vec<[i32; D]>,
+    /// Species of owned particles and ghosts (an index into the scene's species table), or
+    /// `None` when the scene has one species, which then costs nothing: no storage, no word in
+    /// migration or halo messages, nothing in the digest.
+    pub species: Option<Vec<u8>>,
     /// Registered fixed-width fields.
     pub extra: Vec<ExtraField>,
     /// Registered variable-length fields.
@@ -117,6 +121,7 @@ impl<const D: usize> Particles<D> {
                     data: Vec::new(),
                 })
                 .collect(),
+            species: self.species.as_ref().map(|_| Vec::new()),
             ..Self::default()
         }
     }
@@ -133,9 +138,23 @@ impl<const D: usize> Particles<D> {
             force: self.force[..n].to_vec(),
             vel_half: self.vel_half[..n].to_vec(),
             image: self.image[..n].to_vec(),
+            species: self.species.as_ref().map(|s| s[..n].to_vec()),
             extra: Vec::new(),
             var: Vec::new(),
         }
+    }
+
+    /// Species of particle `i` (owned or ghost): 0 in a one-species scene.
+    #[inline]
+    pub fn species_of(&self, i: usize) -> u8 {
+        self.species.as_ref().map_or(0, |s| s[i])
+    }
+
+    /// Gives the owned particles species (no ghosts may exist: the next halo build sends them
+    /// to the ghosts).
+    pub fn assign_species(&mut self, species_of: impl Fn(usize) -> u8) {
+        assert_eq!(self.n_owned, self.len(), "ghosts must be dropped first");
+        self.species = Some((0..self.n_owned).map(species_of).collect());
     }
 
     /// Index of the fixed-width field called `name`.
@@ -197,6 +216,9 @@ impl<const D: usize> Particles<D> {
         self.force.push([0.0; D]);
         self.vel_half.push(vel);
         self.image.push([0; D]);
+        if let Some(s) = &mut self.species {
+            s.push(0);
+        }
         for f in &mut self.extra {
             f.data.extend(std::iter::repeat_n(0.0, f.width));
         }
@@ -212,6 +234,9 @@ impl<const D: usize> Particles<D> {
         self.gid.truncate(n);
         self.pos.truncate(n);
         self.vel.truncate(n);
+        if let Some(s) = &mut self.species {
+            s.truncate(n);
+        }
         for f in &mut self.extra {
             f.data.truncate(n * f.width);
         }
@@ -219,10 +244,13 @@ impl<const D: usize> Particles<D> {
 
     /// Appends a ghost; its registered fields start at zero (a pass that reads them asks the
     /// halo to refresh them first).
-    pub fn push_ghost(&mut self, gid: u64, pos: [f64; D], vel: [f64; D]) {
+    pub fn push_ghost(&mut self, gid: u64, pos: [f64; D], vel: [f64; D], species: u8) {
         self.gid.push(gid);
         self.pos.push(pos);
         self.vel.push(vel);
+        if let Some(s) = &mut self.species {
+            s.push(species);
+        }
         for f in &mut self.extra {
             f.data.extend(std::iter::repeat_n(0.0, f.width));
         }
@@ -234,7 +262,7 @@ impl<const D: usize> Particles<D> {
             .filter(|f| f.flags.migrates)
             .map(|f| f.width)
             .sum();
-        1 + 4 * D + D + migrating + self.var.len()
+        1 + 4 * D + D + usize::from(self.species.is_some()) + migrating + self.var.len()
     }
 
     /// Serialises owned particle `i` with everything that must travel when it migrates (the
@@ -246,6 +274,9 @@ impl<const D: usize> Particles<D> {
         out.extend_from_slice(&self.force[i]);
         out.extend_from_slice(&self.vel_half[i]);
         out.extend(self.image[i].iter().map(|&k| f64::from(k)));
+        if let Some(s) = &self.species {
+            out.push(f64::from(s[i]));
+        }
         for f in self.extra.iter().filter(|f| f.flags.migrates) {
             out.extend_from_slice(&f.data[i * f.width..(i + 1) * f.width]);
         }
@@ -280,6 +311,10 @@ impl<const D: usize> Particles<D> {
             }
             self.image.push(img);
             let mut off = 1 + 5 * D;
+            if let Some(s) = &mut self.species {
+                s.push(rec[off] as u8);
+                off += 1;
+            }
             for f in &mut self.extra {
                 if f.flags.migrates {
                     f.data.extend_from_slice(&rec[off..off + f.width]);
@@ -320,6 +355,9 @@ impl<const D: usize> Particles<D> {
         apply(&mut self.force, order, 1);
         apply(&mut self.vel_half, order, 1);
         apply(&mut self.image, order, 1);
+        if let Some(s) = &mut self.species {
+            apply(s, order, 1);
+        }
         for f in &mut self.extra {
             apply(&mut f.data, order, f.width);
         }
@@ -359,6 +397,9 @@ impl<const D: usize> Particles<D> {
         filter(&mut self.force, keep, 1);
         filter(&mut self.vel_half, keep, 1);
         filter(&mut self.image, keep, 1);
+        if let Some(s) = &mut self.species {
+            filter(s, keep, 1);
+        }
         for f in &mut self.extra {
             filter(&mut f.data, keep, f.width);
         }

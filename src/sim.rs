@@ -31,6 +31,7 @@ use crate::neighbour::{NeighbourList, spatial_order};
 use crate::particles::Particles;
 use crate::rng::{Purpose, StreamKey};
 use crate::simd::Isa;
+use crate::species::{Motion, Species};
 pub use crate::workers::{hash_words, worker_pool};
 use std::time::{Duration, Instant};
 
@@ -80,6 +81,8 @@ pub struct Simulation<'c, const D: usize> {
     pass_names: Vec<Vec<&'static str>>,
     /// The time integrator.
     integrator: Box<dyn Integrator<D>>,
+    /// The species (one, the fluid, unless [`Self::set_species`] gave more).
+    species: Vec<Species>,
     /// The largest interaction range of the models.
     cutoff: f64,
     /// Whether a model gathers over the full list.
@@ -93,7 +96,6 @@ pub struct Simulation<'c, const D: usize> {
     /// Current step.
     pub step: u64,
     dt: f64,
-    mass: f64,
     skin: f64,
     /// Total particle count.
     pub total_particles: u64,
@@ -120,10 +122,20 @@ pub fn build_fluid<const D: usize>(case: &Case) -> Box<dyn ParticleModel<D>> {
     }
 }
 
-/// The integrator the case names.
-pub fn build_integrator<const D: usize>(case: &Case) -> Box<dyn Integrator<D>> {
+/// The integrator the case names, for the species `species` (a one-species scene: `&[]`).
+pub fn build_integrator<const D: usize>(
+    case: &Case,
+    species: &[Species],
+) -> Box<dyn Integrator<D>> {
     match &case.integrator {
-        IntegratorCfg::GrootWarren(gw) => Box::new(GrootWarren::new(gw, case.particles.mass)),
+        IntegratorCfg::GrootWarren(gw) => {
+            let integrator = GrootWarren::new(gw, case.particles.mass);
+            if species.is_empty() {
+                Box::new(integrator)
+            } else {
+                Box::new(integrator.with_species(species))
+            }
+        }
     }
 }
 
@@ -255,7 +267,7 @@ impl<'c, const D: usize> Simulation<'c, D> {
         total: u64,
         restarted: bool,
     ) -> Result<Self, String> {
-        let integrator = build_integrator::<D>(case);
+        let integrator = build_integrator::<D>(case, &[]);
         let pool = worker_pool(comm, threads)?;
         let mut sim = Simulation {
             case: case.clone(),
@@ -271,13 +283,13 @@ impl<'c, const D: usize> Simulation<'c, D> {
             pass_names: Vec::new(),
             dt: integrator.dt(),
             integrator,
+            species: vec![Species::fluid(case.particles.mass)],
             cutoff: 0.0,
             wants_full_list: false,
             restarted,
             virial: None,
             virial_scope: virial_scope(&case.diagnostics.observables),
             step: 0,
-            mass: case.particles.mass,
             skin: case.neighbour.skin,
             total_particles: total,
             series: Series::default(),
@@ -351,6 +363,79 @@ impl<'c, const D: usize> Simulation<'c, D> {
         self.wants_full_list |= model.uses_full_list();
         self.models.push(model);
         Ok(())
+    }
+
+    /// Gives the particles species (walls, inclusions: boundary particles that are frozen or
+    /// move at a prescribed velocity; [`crate::species`]): `table` lists them, `assign` gives
+    /// each particle's index into it from its id and initial position. Call it on a fresh run
+    /// before the first step (a restart brings the species back from its checkpoint). Rebuilds
+    /// the halo, so the ghosts carry their species, and recomputes the forces. Collective.
+    pub fn set_species(
+        &mut self,
+        table: Vec<Species>,
+        assign: impl Fn(u64, &[f64; D]) -> u8,
+    ) -> Result<(), String> {
+        let bad_table = if table.is_empty() || table.len() > 256 {
+            Some(format!("{} species; 1 to 256 are supported", table.len()))
+        } else {
+            table
+                .iter()
+                .find(|s| !(s.mass.is_finite() && s.mass > 0.0))
+                .map(|s| format!("species {}: mass {} must be > 0", s.name, s.mass))
+        };
+        if let Some(e) = bad_table {
+            return Err(e);
+        }
+        let p = &mut self.particles;
+        p.clear_ghosts();
+        let given: Vec<u8> = (0..p.n_owned)
+            .map(|i| assign(p.gid[i], &p.pos[i]))
+            .collect();
+        let beyond = given.iter().position(|&s| s as usize >= table.len());
+        let mut failed = [if beyond.is_some() { 1.0 } else { 0.0 }];
+        self.comm.allreduce_max(&mut failed);
+        if let Some(i) = beyond {
+            return Err(format!(
+                "particle {} was given species {}, but the table has {}",
+                p.gid[i],
+                given[i],
+                table.len()
+            ));
+        }
+        if failed[0] > 0.0 {
+            return Err("another rank gave a particle a species beyond the table".into());
+        }
+        p.assign_species(|i| given[i]);
+        // Boundary particles start with their own motion, not the fluid's Maxwellian.
+        for i in 0..p.n_owned {
+            let v = match table[given[i] as usize].motion {
+                Motion::Free => continue,
+                Motion::Frozen => [0.0; D],
+                Motion::Prescribed(u) => std::array::from_fn(|d| u[d]),
+            };
+            p.vel[i] = v;
+            p.vel_half[i] = v;
+        }
+        self.integrator = build_integrator::<D>(&self.case, &table);
+        self.species = table;
+        self.rebuild()?;
+        self.compute_forces(self.virial_scope)
+    }
+
+    /// Takes the species table of a restarted run (its particles brought their species from
+    /// the checkpoint).
+    pub fn restore_species(&mut self, table: Vec<Species>) -> Result<(), String> {
+        if self.particles.species.is_none() {
+            return Err("a species table without the particles' species".into());
+        }
+        self.integrator = build_integrator::<D>(&self.case, &table);
+        self.species = table;
+        Ok(())
+    }
+
+    /// The species table.
+    pub fn species(&self) -> &[Species] {
+        &self.species
     }
 
     /// Owned particles (no ghosts) with the list-build positions as the extra field
@@ -629,6 +714,9 @@ impl<'c, const D: usize> Simulation<'c, D> {
         let n = self.particles.n_owned;
         let p = &mut self.particles;
         for i in 0..n {
+            if !self.species[p.species_of(i) as usize].is_fluid() {
+                continue;
+            }
             for &a in &walls {
                 let l = self.sim_box.lengths[a];
                 let x = &mut p.pos[i][a];
@@ -676,8 +764,10 @@ impl<'c, const D: usize> Simulation<'c, D> {
         let bin_of =
             |y: f64| -> usize { ((y / ly * bins as f64).floor().max(0.0) as usize).min(bins - 1) };
         let n = self.particles.n_owned;
-        let m = self.mass;
         let (pos, vel) = (&self.particles.pos[..n], &self.particles.vel[..n]);
+        // Boundary particles (walls, inclusions) are not fluid: left out of every average.
+        let (particles, species) = (&self.particles, &self.species);
+        let fluid = |k: usize| species[particles.species_of(k) as usize].is_fluid();
         // Every sum below is accumulated exactly ([`FixedSum`]) and reduced exactly over the
         // ranks, so the observables are bitwise the same for any decomposition, like the state.
         // Pass 1: bin counts and momenta → mean velocity per bin.
@@ -685,6 +775,9 @@ impl<'c, const D: usize> Simulation<'c, D> {
         for (k, (x, v)) in pos.iter().zip(vel).enumerate() {
             if k % 2048 == 2047 {
                 first.iter_mut().for_each(FixedSum::normalize);
+            }
+            if !fluid(k) {
+                continue;
             }
             let b = bin_of(x[GRADIENT]);
             first[b].add(1.0);
@@ -738,6 +831,10 @@ impl<'c, const D: usize> Simulation<'c, D> {
             if k % 2048 == 2047 {
                 second.iter_mut().for_each(FixedSum::normalize);
             }
+            if !fluid(k) {
+                continue;
+            }
+            let m = species[particles.species_of(k) as usize].mass;
             let u = &local_mean(x[GRADIENT]);
             for a in 0..D {
                 let va = v[a] - u[a];
@@ -765,7 +862,12 @@ impl<'c, const D: usize> Simulation<'c, D> {
         }
         let total: Vec<f64> = (0..dd).map(|i| parts.iter().map(|p| p[i]).sum()).collect();
         let trace_k: f64 = (0..D).map(|a| kinetic[a * D + a]).sum();
-        let dof = (D as f64) * (self.total_particles as f64 - bins as f64);
+        let fluid_particles = if self.particles.species.is_none() {
+            self.total_particles as f64
+        } else {
+            first[..bins].iter().sum::<f64>()
+        };
+        let dof = (D as f64) * (fluid_particles - bins as f64);
         let mut out = Measurement::default();
         let pt = |a: usize, b: usize| total[a * D + b];
         for o in &case.diagnostics.observables {
@@ -821,6 +923,9 @@ impl<'c, const D: usize> Simulation<'c, D> {
             words.extend(p.vel[i].iter().map(|x| x.to_bits()));
             words.extend(p.force[i].iter().map(|x| x.to_bits()));
             words.extend(p.image[i].iter().map(|&k| k as u32 as u64));
+            if p.species.is_some() {
+                words.push(u64::from(p.species_of(i)));
+            }
             for f in &p.extra {
                 words.extend(
                     f.data[i * f.width..(i + 1) * f.width]

@@ -95,9 +95,12 @@ impl HaloPlan {
                 plan.send_down.push(i as u32);
             }
         }
-        let (from_down, from_up) = plan.exchange(particles, sim_box, slab, comm, offset);
-        plan.recv_from_down = from_down.len();
-        plan.recv_from_up = from_up.len();
+        let with_species = particles.species.is_some();
+        let (from_down, from_up) =
+            plan.exchange(particles, sim_box, slab, comm, offset, with_species);
+        let width = 1 + 2 * D + usize::from(with_species);
+        plan.recv_from_down = from_down.len() / width;
+        plan.recv_from_up = from_up.len() / width;
         plan.unpack(particles, &from_down, &from_up);
 
         // Local images along the other periodic axes, in the fixed axis order.
@@ -119,7 +122,8 @@ impl HaloPlan {
                         let mut p = particles.pos[src];
                         let mut v = particles.vel[src];
                         sim_box.apply_image(&mut p, &mut v, axis, k, offset);
-                        particles.push_ghost(particles.gid[src], p, v);
+                        let species = particles.species_of(src);
+                        particles.push_ghost(particles.gid[src], p, v, species);
                     }
                 }
             }
@@ -127,6 +131,9 @@ impl HaloPlan {
         plan
     }
 
+    /// The records of the particles `list` imaged by `k` boxes along `axis`: id, position,
+    /// velocity, and at a build (`with_species`) the species of a many-species scene.
+    #[allow(clippy::too_many_arguments)]
     fn pack<const D: usize>(
         &self,
         particles: &Particles<D>,
@@ -135,8 +142,9 @@ impl HaloPlan {
         axis: usize,
         k: i32,
         offset: f64,
+        with_species: bool,
     ) -> Vec<f64> {
-        let mut buf = Vec::with_capacity(list.len() * (1 + 2 * D));
+        let mut buf = Vec::with_capacity(list.len() * (2 + 2 * D));
         for &i in list {
             let i = i as usize;
             let mut p = particles.pos[i];
@@ -147,6 +155,9 @@ impl HaloPlan {
             buf.push(f64::from_bits(particles.gid[i]));
             buf.extend_from_slice(&p);
             buf.extend_from_slice(&v);
+            if with_species {
+                buf.push(f64::from(particles.species_of(i)));
+            }
         }
         buf
     }
@@ -158,21 +169,37 @@ impl HaloPlan {
         slab: &Slab,
         comm: &dyn Comm,
         offset: f64,
+        with_species: bool,
     ) -> (Vec<f64>, Vec<f64>) {
         let a = slab.axis;
-        let up = self.pack(particles, &self.send_up, sim_box, a, self.k_up, offset);
+        let w = with_species;
+        let up = self.pack(particles, &self.send_up, sim_box, a, self.k_up, offset, w);
         let from_down = comm.sendrecv(up, slab.up(), slab.down(), tags::HALO_UP);
-        let down = self.pack(particles, &self.send_down, sim_box, a, self.k_down, offset);
+        let down = self.pack(
+            particles,
+            &self.send_down,
+            sim_box,
+            a,
+            self.k_down,
+            offset,
+            w,
+        );
         let from_up = comm.sendrecv(down, slab.down(), slab.up(), tags::HALO_DOWN);
         (from_down, from_up)
     }
 
     /// Appends received ghosts (build time).
     fn unpack<const D: usize>(&self, particles: &mut Particles<D>, a: &[f64], b: &[f64]) {
+        let with_species = particles.species.is_some();
         for buf in [a, b] {
-            for rec in buf.chunks_exact(1 + 2 * D) {
+            for rec in buf.chunks_exact(1 + 2 * D + usize::from(with_species)) {
                 let (p, v) = split_record::<D>(rec);
-                particles.push_ghost(rec[0].to_bits(), p, v);
+                let species = if with_species {
+                    rec[1 + 2 * D] as u8
+                } else {
+                    0
+                };
+                particles.push_ghost(rec[0].to_bits(), p, v, species);
             }
         }
     }
@@ -189,7 +216,7 @@ impl HaloPlan {
         dt: f64,
     ) {
         let offset = self.offset_at(sim_box, step, dt);
-        let (from_down, from_up) = self.exchange(particles, sim_box, slab, comm, offset);
+        let (from_down, from_up) = self.exchange(particles, sim_box, slab, comm, offset, false);
         let mut slot = particles.n_owned;
         for buf in [&from_down, &from_up] {
             for rec in buf.chunks_exact(1 + 2 * D) {

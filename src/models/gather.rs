@@ -271,7 +271,7 @@ mod tests {
         for (g, x) in [(3u64, 0.0), (4, 0.5), (5, 1.0)] {
             p.push_owned(g, [x, 0.0], [0.0; 2]);
         }
-        p.push_ghost(3, [1.4, 0.0], [0.0; 2]);
+        p.push_ghost(3, [1.4, 0.0], [0.0; 2], 0);
         let list = NeighbourList::build(&p, 0.6, 0.6);
         (p, list)
     }

@@ -509,7 +509,7 @@ mod tests {
                 let mut pos = p.pos[i];
                 pos[0] += 6.0;
                 let (gid, vel) = (p.gid[i], p.vel[i]);
-                p.push_ghost(gid, pos, vel);
+                p.push_ghost(gid, pos, vel, 0);
             }
         }
         p

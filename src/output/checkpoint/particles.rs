@@ -81,7 +81,14 @@ pub fn write<const D: usize>(
     let (rank, size) = (comm.rank(), comm.size());
     let block = id_block(total, size, rank);
     let case_toml = toml::to_string(&sim.case).map_err(|e| format!("cannot echo the case: {e}"))?;
-    let scalars = [
+    // A several-species scene also stores its species table (JSON), in the checksum too.
+    let species_table = match &mine.species {
+        Some(_) => {
+            Some(serde_json::to_string(sim.species()).map_err(|e| format!("species table: {e}"))?)
+        }
+        None => None,
+    };
+    let mut scalars = vec![
         sim.step,
         sim.rebuild_step(),
         total,
@@ -90,6 +97,7 @@ pub fn write<const D: usize>(
         text_hash(&case_toml),
         series_hash(&sim.series),
     ];
+    scalars.extend(species_table.as_deref().map(text_hash));
     let sum = checksum(&mine, comm, &scalars);
     crate::output::create_dir_collective(dir, comm)?;
     let path = dir.join(file_name(sim.step));
@@ -117,6 +125,12 @@ pub fn write<const D: usize>(
     f.group("particles/var")?;
     f.dataset::<u64>("particles/id", &[n], false)?;
     f.write("particles/id", &[start], &[rows], &mine.gid)?;
+    if let (Some(table), Some(species)) = (&species_table, &mine.species) {
+        f.attr_str("/", "species_table", table)?;
+        let words: Vec<u64> = species.iter().map(|&s| u64::from(s)).collect();
+        f.dataset::<u64>("particles/species", &[n], false)?;
+        f.write("particles/species", &[start], &[rows], &words)?;
+    }
     let vectors: [(&str, &Vec<[f64; D]>); 4] = [
         ("position", &mine.pos),
         ("velocity", &mine.vel),
@@ -204,6 +218,9 @@ pub struct Restored<const D: usize> {
     pub rebuild_step: u64,
     /// Sampled series up to the checkpoint.
     pub series: Series,
+    /// The species table of a several-species scene (the particles' species are in
+    /// `particles.species`).
+    pub species: Option<Vec<crate::species::Species>>,
 }
 
 /// The case echoed in a particle scene's checkpoint (any rank, independent).
@@ -229,7 +246,9 @@ pub fn read_case(path: &Path) -> Result<Case, CheckpointError> {
 pub fn read<const D: usize>(path: &Path, comm: &dyn Comm) -> Result<Restored<D>, CheckpointError> {
     let (restored, scalars) = agree(read_local::<D>(path, comm), path, comm)?;
     // Checksum (collective); the stored value travels as the last scalar.
-    let (stored, scalars) = scalars.split_last().expect("read_local returns 8 scalars");
+    let (stored, scalars) = scalars
+        .split_last()
+        .expect("read_local returns the checksum last");
     let sum = checksum(&restored.particles, comm, scalars);
     if sum != *stored {
         return Err(CheckpointError::damaged(
@@ -380,7 +399,19 @@ fn read_particles<const D: usize>(
             .collect();
     }
     let series = read_series(f)?;
-    let scalars = vec![
+    let species_table = read_attr_str(f, "/", "species_table").ok();
+    let species = match &species_table {
+        Some(text) => {
+            let words: Vec<u64> = read_block(f, "particles/species", &[start], &[rows])?;
+            p.species = Some(words.iter().map(|&w| w as u8).collect());
+            Some(
+                serde_json::from_str::<Vec<crate::species::Species>>(text)
+                    .map_err(|e| format!("species table: {e}"))?,
+            )
+        }
+        None => None,
+    };
+    let mut scalars = vec![
         step,
         rebuild_step,
         total,
@@ -388,13 +419,14 @@ fn read_particles<const D: usize>(
         version,
         text_hash(&case_text),
         series_hash(&series),
-        u64::from_str_radix(&stored_checksum, 16).map_err(|_| {
-            format!(
-                "{}: checksum attribute {stored_checksum:?} is not hexadecimal",
-                path.display()
-            )
-        })?,
     ];
+    scalars.extend(species_table.as_deref().map(text_hash));
+    scalars.push(u64::from_str_radix(&stored_checksum, 16).map_err(|_| {
+        format!(
+            "{}: checksum attribute {stored_checksum:?} is not hexadecimal",
+            path.display()
+        )
+    })?);
     Ok((
         Restored {
             case,
@@ -403,6 +435,7 @@ fn read_particles<const D: usize>(
             step,
             rebuild_step,
             series,
+            species,
         },
         scalars,
     ))
