@@ -175,7 +175,7 @@ fn median_and_best(mut t: Vec<f64>) -> (f64, f64) {
 /// repetitions).
 fn rates<const D: usize>(spring: Spring, scheme: Scheme, threads: usize) -> [(f64, f64); 3] {
     let p = params(spring, scheme);
-    let kappa = Flow::SimpleShear { rate: 1.0 }.kappa::<D>(0.0);
+    let kappa = mesorheo::particles::tensor_rows(&Flow::SimpleShear { rate: 1.0 }.kappa::<D>(0.0));
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()

@@ -128,7 +128,7 @@ fn run(pt: &Point, seed: u64) -> Result {
     let eta: Vec<f64> = xy.iter().map(|x| x / k / pt.wi).collect();
     let psi: Vec<f64> = n1.iter().map(|x| x / k / (2.0 * pt.wi * pt.wi)).collect();
     let expected = (pt.spring == Spring::Hookean).then(|| {
-        let kappa = flow.kappa::<3>(0.0);
+        let kappa = mesorheo::particles::tensor_rows(&flow.kappa::<3>(0.0));
         let (mut a, mut b) = (0.0, 0.0);
         for &n in &sample_steps {
             let c = hookean_discrete_moment::<3>(&kappa, &p, n);

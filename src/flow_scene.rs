@@ -25,6 +25,7 @@ use crate::config::{FlowCase, OutputCfg, RunCfg};
 use crate::diagnostics::{Series, tensor_components};
 use crate::domain::id_block;
 use crate::models::homogeneous_flow::{HomogeneousEnsembles, ParticleAverages, particle_moments};
+use crate::particles::tensor_rows;
 use crate::scene::{Scene, SceneReport};
 use crate::sim::PhaseTimes;
 use crate::summary::check_value;
@@ -172,7 +173,7 @@ fn sample<const D: usize>(
     let per = e.particle_stresses();
     let st = e.stress_of(&per);
     let g = case.polymer.modulus;
-    let kappa = case.flow_model().kappa::<D>(e.time());
+    let kappa = tensor_rows(&case.flow_model().kappa::<D>(e.time()));
     series.steps.push(e.step);
     let mut put = |name: &str, value: f64, stderr: f64| {
         series.push(name, value);

@@ -7,6 +7,19 @@
 //! every step, such as an SPH density, does neither); fixed-width fields are sent to ghosts
 //! when a model's pass asks for them ([`crate::domain::HaloPlan::refresh_fields`]).
 
+/// A D × D tensor (a velocity gradient κ_αβ = ∂v_α/∂x_β, a stress, a conformation tensor).
+/// Fields store it row-major in D² plain numbers (so it migrates, checkpoints and travels to
+/// ghosts like any field); kernels read and write it as this type through
+/// [`Particles::tensor`] and [`Particles::set_tensor`] (the same bytes, no cost in release
+/// builds; rust-stack.md §1.3).
+pub type Tensor<const D: usize> = nalgebra::SMatrix<f64, D, D>;
+
+/// The rows of a [`Tensor`], κ[α][β] = κ_αβ: the form of the hot loops that index components
+/// directly (the dumbbell drift, benchmarked as such in `benches/dumbbells.rs`).
+pub fn tensor_rows<const D: usize>(t: &Tensor<D>) -> [[f64; D]; D] {
+    std::array::from_fn(|a| std::array::from_fn(|b| t[(a, b)]))
+}
+
 /// How the engine treats a registered fixed-width field.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct FieldFlags {
@@ -155,6 +168,26 @@ impl<const D: usize> Particles<D> {
     pub fn assign_species(&mut self, species_of: impl Fn(usize) -> u8) {
         assert_eq!(self.n_owned, self.len(), "ghosts must be dropped first");
         self.species = Some((0..self.n_owned).map(species_of).collect());
+    }
+
+    /// Particle `i`'s value of the tensor field `field` (D² numbers, row-major).
+    #[inline]
+    pub fn tensor(&self, field: usize, i: usize) -> Tensor<D> {
+        let f = &self.extra[field];
+        debug_assert_eq!(f.width, D * D);
+        Tensor::<D>::from_row_slice(&f.data[i * D * D..(i + 1) * D * D])
+    }
+
+    /// Sets particle `i`'s value of the tensor field `field` (stored row-major).
+    #[inline]
+    pub fn set_tensor(&mut self, field: usize, i: usize, t: &Tensor<D>) {
+        let f = &mut self.extra[field];
+        debug_assert_eq!(f.width, D * D);
+        for a in 0..D {
+            for b in 0..D {
+                f.data[i * D * D + a * D + b] = t[(a, b)];
+            }
+        }
     }
 
     /// Index of the fixed-width field called `name`.
@@ -413,6 +446,21 @@ impl<const D: usize> Particles<D> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A tensor field holds κ_αβ at row-major position αD + β, whatever nalgebra's own
+    /// (column-major) storage.
+    #[test]
+    fn tensor_fields_are_row_major() {
+        let mut p = Particles::<3>::default();
+        p.push_owned(0, [0.0; 3], [0.0; 3]);
+        let k = p.register_extra("kappa", 9);
+        let kappa = Tensor::<3>::new(0.0, 2.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, -1.0);
+        p.set_tensor(k, 0, &kappa);
+        assert_eq!(p.extra[k].data[1], 2.0); // κ_xy
+        assert_eq!(p.extra[k].data[8], -1.0); // κ_zz
+        assert_eq!(p.tensor(k, 0), kappa);
+        assert_eq!(tensor_rows(&kappa)[0][1], 2.0);
+    }
 
     #[test]
     fn pack_unpack_round_trip_with_fields() {

@@ -16,6 +16,7 @@ use mesorheo::models::dumbbells::{
     DumbbellParams, Scheme, Spring, hookean_discrete_moment, kramers_stress,
 };
 use mesorheo::models::homogeneous_flow::{Flow, HomogeneousEnsembles};
+use mesorheo::particles::tensor_rows;
 
 /// Mean and standard error of independent samples.
 fn mean_se(v: &[f64]) -> (f64, f64) {
@@ -349,7 +350,7 @@ fn discrete_moment_path(flow: Flow, p: &DumbbellParams, steps: u64) -> Vec<M3> {
     let mut c = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
     let mut out = vec![c];
     for n in 0..steps {
-        let kappa = flow.kappa::<3>(n as f64 * p.dt);
+        let kappa = tensor_rows(&flow.kappa::<3>(n as f64 * p.dt));
         let (m, nn) = scheme_matrices(p.scheme, &kappa, p.dt);
         let noise = mul(&nn, &transpose(&nn));
         c = lin(&mul(&mul(&m, &c), &transpose(&m)), &noise, p.dt / p.lambda);
@@ -376,7 +377,7 @@ fn hookean_shear_reversal_follows_the_exact_moments_and_ucm_at_wi_1_and_5() {
         let path = discrete_moment_path(flow, &p, last);
         // The propagator agrees with the library's constant-κ oracle before the reversal.
         let r_steps = (t_r / dt).round() as u64;
-        let c_lib = hookean_discrete_moment::<3>(&flow.kappa::<3>(0.0), &p, r_steps);
+        let c_lib = hookean_discrete_moment::<3>(&tensor_rows(&flow.kappa::<3>(0.0)), &p, r_steps);
         for i in 0..3 {
             for j in 0..3 {
                 assert!((c_lib[i][j] - path[r_steps as usize][i][j]).abs() < 1e-12);
@@ -386,7 +387,8 @@ fn hookean_shear_reversal_follows_the_exact_moments_and_ucm_at_wi_1_and_5() {
         for scheme in [Scheme::EulerMaruyama, Scheme::SemiImplicit] {
             let q = DumbbellParams { scheme, ..p };
             let mine = discrete_moment_path(flow, &q, r_steps);
-            let lib = hookean_discrete_moment::<3>(&flow.kappa::<3>(0.0), &q, r_steps);
+            let lib =
+                hookean_discrete_moment::<3>(&tensor_rows(&flow.kappa::<3>(0.0)), &q, r_steps);
             for i in 0..3 {
                 for j in 0..3 {
                     let d = (lib[i][j] - mine[r_steps as usize][i][j]).abs();

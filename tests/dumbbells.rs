@@ -11,6 +11,7 @@ use mesorheo::comm::Comm;
 use mesorheo::driver::in_process;
 use mesorheo::models::dumbbells::{DumbbellParams, Scheme, Spring, hookean_discrete_moment};
 use mesorheo::models::homogeneous_flow::{Flow, HomogeneousEnsembles};
+use mesorheo::particles::tensor_rows;
 
 fn params(scheme: Scheme, dt: f64) -> DumbbellParams {
     DumbbellParams {
@@ -50,7 +51,7 @@ fn shear_start_up<const D: usize>(wi: f64) {
             e.advance();
         }
         let s = e.stress();
-        let c = hookean_discrete_moment::<D>(&flow.kappa::<D>(0.0), &p, steps);
+        let c = hookean_discrete_moment::<D>(&tensor_rows(&flow.kappa::<D>(0.0)), &p, steps);
         let (xy, n1) = ucm_shear(wi, t);
         // The discrete oracle is within 0.1 % (of the steady value) of the continuous solution.
         assert!(
@@ -149,7 +150,7 @@ fn steady_shear_viscometric_functions_of_hookean_dumbbells() {
         (m, (var / v.len() as f64).sqrt())
     };
     // Discrete steady state at this Δt (oracle after 15λ) vs the continuous values.
-    let c = hookean_discrete_moment::<3>(&flow.kappa::<3>(0.0), &p, 1500);
+    let c = hookean_discrete_moment::<3>(&tensor_rows(&flow.kappa::<3>(0.0)), &p, 1500);
     assert!((c[0][1] - 1.0).abs() < 1e-3 && ((c[0][0] - c[1][1]) / 2.0 - 1.0).abs() < 1e-3);
     // Within 3 standard errors, and 3 standard errors ≤ 1 % (η_p, Ψ₁) or 0.01 Gλ² (Ψ₂).
     for (name, v, want) in [
@@ -182,7 +183,7 @@ fn uniaxial_elongation_below_the_coil_stretch_transition() {
         // c_yy: dc/dt = −ε̇ c − (c − 1)/λ → 1/(1+Wi) + (1 − 1/(1+Wi)) e^{−(1+Wi)t}.
         let b = 1.0 / (1.0 + wi);
         let cyy = b + (1.0 - b) * (-(1.0 + wi) * t).exp();
-        let c = hookean_discrete_moment::<3>(&flow.kappa::<3>(0.0), &p, steps);
+        let c = hookean_discrete_moment::<3>(&tensor_rows(&flow.kappa::<3>(0.0)), &p, steps);
         assert!((c[0][0] - cxx).abs() < 1e-3 && (c[1][1] - cyy).abs() < 1e-3);
         let s = e.stress();
         within(
@@ -216,7 +217,7 @@ fn weak_order_one_for_euler_and_two_for_heun() {
             .iter()
             .map(|&dt| {
                 let c = hookean_discrete_moment::<2>(
-                    &flow.kappa::<2>(0.0),
+                    &tensor_rows(&flow.kappa::<2>(0.0)),
                     &params(scheme, dt),
                     (1.0 / dt).round() as u64,
                 );
@@ -263,7 +264,7 @@ fn weak_order_one_for_euler_and_two_for_heun() {
         e.advance();
     }
     let s = e.stress();
-    let c = hookean_discrete_moment::<2>(&flow.kappa::<2>(0.0), &p, 10);
+    let c = hookean_discrete_moment::<2>(&tensor_rows(&flow.kappa::<2>(0.0)), &p, 10);
     within(
         s.mean[0][0],
         s.stderr[0][0],
@@ -409,7 +410,7 @@ fn control_variates_cut_the_error_bar_without_bias() {
         let p = params(Scheme::Heun, dt);
         let flow = Flow::SimpleShear { rate: wi };
         let steps = (1.0 / dt).round() as u64;
-        let c = hookean_discrete_moment::<2>(&flow.kappa::<2>(0.0), &p, steps);
+        let c = hookean_discrete_moment::<2>(&tensor_rows(&flow.kappa::<2>(0.0)), &p, steps);
         let mut se = [0.0; 2];
         for (k, cv) in [false, true].into_iter().enumerate() {
             let mut e =

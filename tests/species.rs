@@ -1,7 +1,8 @@
 //! Particle species: a DPD fluid between two walls of boundary particles (frozen below, moving
 //! at a prescribed velocity above — a Couette cell) runs bitwise identically on 1–3 ranks ×
 //! 1–2 threads and across a restart; frozen particles never move, prescribed ones move at
-//! their velocity; the walls are not counted as fluid in the temperature.
+//! their velocity; the walls are not counted as fluid in the temperature; and the channel may
+//! be cut into slabs along its length (x) as well as across it.
 
 mod common;
 use common::case_from_str;
@@ -115,8 +116,19 @@ fn walls_of_boundary_particles_are_bitwise_identical_on_1_to_3_ranks_and_1_to_2_
             seen.push((ranks, threads, format!("{digest} {temperature:e}")));
         }
     }
+    // A channel may also be cut across its length: slabs along x (no shear), walls and all.
+    let along_x = text.replace("[run]", "[decomposition]\naxis = \"x\"\n[run]");
+    for ranks in [2, 3] {
+        let t = along_x.clone();
+        let (digest, temperature) = in_process(ranks, move |c| run(c, &t, 1, None))
+            .unwrap_or_else(|e| panic!("{ranks} slabs along x: {e}"));
+        seen.push((ranks, 0, format!("{digest} {temperature:e}")));
+    }
     for (r, t, d) in &seen {
-        assert_eq!(d, &seen[0].2, "{r} ranks × {t} threads differs from 1 × 1");
+        assert_eq!(
+            d, &seen[0].2,
+            "{r} ranks × {t} threads (0: slabs along x) differs from 1 × 1"
+        );
     }
 }
 

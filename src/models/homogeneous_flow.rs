@@ -24,6 +24,7 @@ use super::dumbbells::{
 use crate::comm::Comm;
 use crate::domain::id_block;
 use crate::fixed_sum::FixedSum;
+use crate::particles::{Tensor, tensor_rows};
 use rayon::prelude::*;
 
 /// An imposed homogeneous flow.
@@ -57,20 +58,20 @@ pub enum Flow {
 
 impl Flow {
     /// κ(t).
-    pub fn kappa<const D: usize>(&self, t: f64) -> [[f64; D]; D] {
-        let mut k = [[0.0; D]; D];
+    pub fn kappa<const D: usize>(&self, t: f64) -> Tensor<D> {
+        let mut k = Tensor::<D>::zeros();
         match *self {
             Flow::Rest => {}
-            Flow::SimpleShear { rate } => k[0][1] = rate,
-            Flow::ShearReversal { rate, at } => k[0][1] = if t < at { rate } else { -rate },
+            Flow::SimpleShear { rate } => k[(0, 1)] = rate,
+            Flow::ShearReversal { rate, at } => k[(0, 1)] = if t < at { rate } else { -rate },
             Flow::PlanarElongation { rate } => {
-                k[0][0] = rate;
-                k[1][1] = -rate;
+                k[(0, 0)] = rate;
+                k[(1, 1)] = -rate;
             }
             Flow::UniaxialElongation { rate } => {
-                k[0][0] = rate;
+                k[(0, 0)] = rate;
                 for d in 1..D {
-                    k[d][d] = -rate / 2.0;
+                    k[(d, d)] = -rate / 2.0;
                 }
             }
         }
@@ -359,7 +360,8 @@ impl<'c, const D: usize> HomogeneousEnsembles<'c, D> {
 
     /// Advances every ensemble by one step (κ frozen at the start of the step).
     pub fn advance(&mut self) {
-        let kappa = self.flow.kappa::<D>(self.time());
+        // As rows for the per-dumbbell kernel (one conversion per step).
+        let kappa = tensor_rows(&self.flow.kappa::<D>(self.time()));
         let (p, seed, step) = (self.params, self.seed, self.step);
         let (q, gids) = (&mut self.q, &self.gids);
         if let Some(single) = &mut self.q_single {
