@@ -7,8 +7,8 @@ use mesorheo::comm::SerialComm;
 use mesorheo::config;
 use mesorheo::models::{FieldKind, FieldSpec, ParticleModel};
 use mesorheo::output::checkpoint;
-use mesorheo::particles::FieldFlags;
 use mesorheo::particles::Particles;
+use mesorheo::particles::{FieldFlags, Precision};
 use mesorheo::sim::Simulation;
 use std::path::PathBuf;
 use std::time::Instant;
@@ -22,7 +22,7 @@ impl<const D: usize> ParticleModel<D> for Ensembles {
     fn fields(&self) -> Vec<FieldSpec> {
         vec![FieldSpec {
             name: "dumbbells",
-            kind: FieldKind::Ensemble,
+            kind: FieldKind::Ensemble(Precision::Double),
             flags: FieldFlags::STATE,
         }]
     }
@@ -30,7 +30,8 @@ impl<const D: usize> ParticleModel<D> for Ensembles {
         let k = p.var.len() - 1;
         for i in 0..p.n_owned {
             let g = p.gid[i] as f64;
-            p.var[k].data[i] = (0..3 * self.0).map(|j| g + j as f64 * 1e-3).collect();
+            let rows = p.var[k].data.double_mut().expect("f64 storage");
+            rows[i] = (0..3 * self.0).map(|j| g + j as f64 * 1e-3).collect();
         }
         Ok(())
     }

@@ -66,13 +66,161 @@ pub struct ExtraField {
     pub data: Vec<f64>,
 }
 
+/// Storage precision of a variable-length field.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Precision {
+    /// f64.
+    Double,
+    /// f32: half the memory of the largest state (dumbbell ensembles); a kernel widens a row to
+    /// f64, works in f64 and rounds back, so the storage adds a relative error of 2⁻²⁴ per step.
+    Single,
+}
+
+/// The rows of a variable-length field, one per owned particle, in its storage precision.
+#[derive(Clone, Debug, PartialEq)]
+pub enum VarData {
+    /// f64 rows.
+    Double(Vec<Vec<f64>>),
+    /// f32 rows.
+    Single(Vec<Vec<f32>>),
+}
+
+impl Default for VarData {
+    fn default() -> Self {
+        VarData::Double(Vec::new())
+    }
+}
+
+impl VarData {
+    /// No rows, in `precision`.
+    pub fn empty(precision: Precision) -> Self {
+        match precision {
+            Precision::Double => VarData::Double(Vec::new()),
+            Precision::Single => VarData::Single(Vec::new()),
+        }
+    }
+
+    /// The storage precision.
+    pub fn precision(&self) -> Precision {
+        match self {
+            VarData::Double(_) => Precision::Double,
+            VarData::Single(_) => Precision::Single,
+        }
+    }
+
+    /// Number of rows.
+    pub fn len(&self) -> usize {
+        match self {
+            VarData::Double(r) => r.len(),
+            VarData::Single(r) => r.len(),
+        }
+    }
+
+    /// Whether there are no rows.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// Length of row `i`.
+    pub fn row_len(&self, i: usize) -> usize {
+        match self {
+            VarData::Double(r) => r[i].len(),
+            VarData::Single(r) => r[i].len(),
+        }
+    }
+
+    /// Row `i` widened to f64 (exact), appended to `out`.
+    pub fn extend_f64(&self, i: usize, out: &mut Vec<f64>) {
+        match self {
+            VarData::Double(r) => out.extend_from_slice(&r[i]),
+            VarData::Single(r) => out.extend(r[i].iter().map(|&x| f64::from(x))),
+        }
+    }
+
+    /// Appends a row given in f64 (narrowed for single storage: exact for values that came
+    /// from f32 storage, as migrated rows do).
+    pub fn push_f64(&mut self, row: &[f64]) {
+        match self {
+            VarData::Double(r) => r.push(row.to_vec()),
+            VarData::Single(r) => r.push(row.iter().map(|&x| x as f32).collect()),
+        }
+    }
+
+    /// Appends an empty row.
+    pub fn push_empty(&mut self) {
+        match self {
+            VarData::Double(r) => r.push(Vec::new()),
+            VarData::Single(r) => r.push(Vec::new()),
+        }
+    }
+
+    /// The bit patterns of row `i` (digests and checksums).
+    pub fn extend_bits(&self, i: usize, out: &mut Vec<u64>) {
+        match self {
+            VarData::Double(r) => out.extend(r[i].iter().map(|x| x.to_bits())),
+            VarData::Single(r) => out.extend(r[i].iter().map(|x| u64::from(x.to_bits()))),
+        }
+    }
+
+    /// The f64 rows, if stored in double precision.
+    pub fn double(&self) -> Option<&Vec<Vec<f64>>> {
+        match self {
+            VarData::Double(r) => Some(r),
+            VarData::Single(_) => None,
+        }
+    }
+
+    /// The f64 rows, mutably, if stored in double precision.
+    pub fn double_mut(&mut self) -> Option<&mut Vec<Vec<f64>>> {
+        match self {
+            VarData::Double(r) => Some(r),
+            VarData::Single(_) => None,
+        }
+    }
+
+    /// The f32 rows, mutably, if stored in single precision.
+    pub fn single_mut(&mut self) -> Option<&mut Vec<Vec<f32>>> {
+        match self {
+            VarData::Single(r) => Some(r),
+            VarData::Double(_) => None,
+        }
+    }
+
+    /// Reorders the rows: new row k is old row `order[k]` (moved, not cloned).
+    fn permute(&mut self, order: &[u32]) {
+        fn moved<T: Default>(rows: &mut Vec<T>, order: &[u32]) {
+            let mut old = std::mem::take(rows);
+            *rows = order
+                .iter()
+                .map(|&o| std::mem::take(&mut old[o as usize]))
+                .collect();
+        }
+        match self {
+            VarData::Double(r) => moved(r, order),
+            VarData::Single(r) => moved(r, order),
+        }
+    }
+
+    /// Keeps the rows for which `keep` is true.
+    fn retain(&mut self, keep: &[bool]) {
+        fn kept<T>(rows: &mut Vec<T>, keep: &[bool]) {
+            let mut k = keep.iter();
+            rows.retain(|_| *k.next().expect("one flag per row"));
+        }
+        match self {
+            VarData::Double(r) => kept(r, keep),
+            VarData::Single(r) => kept(r, keep),
+        }
+    }
+}
+
 /// A variable-length per-particle field, owned particles only.
 #[derive(Clone, Debug, PartialEq, Default)]
 pub struct VarField {
     /// Name (appears in outputs).
     pub name: String,
-    /// One array per owned particle.
-    pub data: Vec<Vec<f64>>,
+    /// One row per owned particle.
+    pub data: VarData,
 }
 
 /// All particles a rank holds.
@@ -131,7 +279,7 @@ impl<const D: usize> Particles<D> {
                 .iter()
                 .map(|f| VarField {
                     name: f.name.clone(),
-                    data: Vec::new(),
+                    data: VarData::empty(f.data.precision()),
                 })
                 .collect(),
             species: self.species.as_ref().map(|_| Vec::new()),
@@ -231,11 +379,21 @@ impl<const D: usize> Particles<D> {
         Ok(self.extra.len() - 1)
     }
 
-    /// Registers a variable-length field (empty arrays); returns its index.
+    /// Registers a variable-length f64 field (empty rows); returns its index.
     pub fn register_var(&mut self, name: &str) -> usize {
+        self.register_var_in(name, Precision::Double)
+    }
+
+    /// Registers a variable-length field stored in `precision` (empty rows); returns its
+    /// index.
+    pub fn register_var_in(&mut self, name: &str, precision: Precision) -> usize {
+        let mut data = VarData::empty(precision);
+        for _ in 0..self.n_owned {
+            data.push_empty();
+        }
         self.var.push(VarField {
             name: name.to_owned(),
-            data: vec![Vec::new(); self.n_owned],
+            data,
         });
         self.var.len() - 1
     }
@@ -256,7 +414,7 @@ impl<const D: usize> Particles<D> {
             f.data.extend(std::iter::repeat_n(0.0, f.width));
         }
         for f in &mut self.var {
-            f.data.push(Vec::new());
+            f.data.push_empty();
         }
         self.n_owned += 1;
     }
@@ -314,10 +472,10 @@ impl<const D: usize> Particles<D> {
             out.extend_from_slice(&f.data[i * f.width..(i + 1) * f.width]);
         }
         for f in &self.var {
-            out.push(f.data[i].len() as f64);
+            out.push(f.data.row_len(i) as f64);
         }
         for f in &self.var {
-            out.extend_from_slice(&f.data[i]);
+            f.data.extend_f64(i, out);
         }
     }
 
@@ -363,7 +521,7 @@ impl<const D: usize> Particles<D> {
                 .collect();
             at += fixed;
             for (f, len) in self.var.iter_mut().zip(lens) {
-                f.data.push(buf[at..at + len].to_vec());
+                f.data.push_f64(&buf[at..at + len]);
                 at += len;
             }
             self.n_owned += 1;
@@ -396,11 +554,7 @@ impl<const D: usize> Particles<D> {
         }
         // Ensembles are moved, not cloned: no second copy of the largest state.
         for f in &mut self.var {
-            let mut old = std::mem::take(&mut f.data);
-            f.data = order
-                .iter()
-                .map(|&o| std::mem::take(&mut old[o as usize]))
-                .collect();
+            f.data.permute(order);
         }
     }
 
@@ -437,7 +591,7 @@ impl<const D: usize> Particles<D> {
             filter(&mut f.data, keep, f.width);
         }
         for f in &mut self.var {
-            filter(&mut f.data, keep, 1);
+            f.data.retain(keep);
         }
         self.n_owned = self.gid.len();
     }
@@ -472,7 +626,8 @@ mod tests {
             p.image[g as usize] = [g as i32 - 2, 1, 0];
             let w = p.extra[0].width;
             p.extra[0].data[g as usize * w] = g as f64 * 3.0;
-            p.var[0].data[g as usize] = (0..g).map(|x| x as f64 * 0.1).collect();
+            p.var[0].data.double_mut().unwrap()[g as usize] =
+                (0..g).map(|x| x as f64 * 0.1).collect();
         }
         let mut buf = Vec::new();
         for i in [3, 1] {
@@ -485,10 +640,10 @@ mod tests {
         assert_eq!(q.gid, vec![13, 11]);
         assert_eq!(q.image[0], [1, 1, 0]);
         assert_eq!(q.extra[0].data[9], 3.0);
-        assert_eq!(q.var[0].data[0].len(), 3);
+        assert_eq!(q.var[0].data.row_len(0), 3);
         p.retain_owned(&[true, false, true, false]);
         assert_eq!(p.gid, vec![10, 12]);
-        assert_eq!(p.var[0].data[1].len(), 2);
+        assert_eq!(p.var[0].data.row_len(1), 2);
         assert_eq!(p.extra[0].data[9], 6.0);
     }
 }

@@ -311,7 +311,7 @@ impl<'c, const D: usize> Simulation<'c, D> {
             let name = spec.name;
             if self.restarted && spec.flags.checkpointed {
                 let present = match spec.kind {
-                    FieldKind::Ensemble => p.var.iter().any(|f| f.name == name),
+                    FieldKind::Ensemble(_) => p.var.iter().any(|f| f.name == name),
                     _ => p.extra_index(name).is_some(),
                 };
                 if !present {
@@ -322,11 +322,20 @@ impl<'c, const D: usize> Simulation<'c, D> {
                 }
             }
             match spec.kind {
-                FieldKind::Ensemble => {
-                    if !p.var.iter().any(|f| f.name == name) {
-                        p.register_var(name);
+                FieldKind::Ensemble(precision) => match p.var.iter().find(|f| f.name == name) {
+                    None => {
+                        p.register_var_in(name, precision);
                     }
-                }
+                    Some(f) if f.data.precision() != precision => {
+                        return Err(format!(
+                            "the field `{name}` of the model {} is stored in {:?} precision, \
+                             {precision:?} declared",
+                            model.name(),
+                            f.data.precision()
+                        ));
+                    }
+                    Some(_) => {}
+                },
                 kind => {
                     let width = kind.width(D);
                     if spec.flags.velocity_like && width != D {
@@ -934,8 +943,8 @@ impl<'c, const D: usize> Simulation<'c, D> {
                 );
             }
             for f in &p.var {
-                words.push(f.data[i].len() as u64);
-                words.extend(f.data[i].iter().map(|x| x.to_bits()));
+                words.push(f.data.row_len(i) as u64);
+                f.data.extend_bits(i, &mut words);
             }
             let h = hash_words(&words);
             acc[0] = acc[0].wrapping_add(h);

@@ -12,8 +12,8 @@ use mesorheo::comm::Comm;
 use mesorheo::driver::{CHECKPOINT_REFUSED, RunOptions, in_process, restart_case, run_case};
 use mesorheo::models::{FieldKind, FieldSpec, ParticleModel};
 use mesorheo::output::checkpoint;
-use mesorheo::particles::FieldFlags;
 use mesorheo::particles::Particles;
+use mesorheo::particles::{FieldFlags, Precision};
 use mesorheo::sim::Simulation;
 use mesorheo::summary::Summary;
 use std::path::{Path, PathBuf};
@@ -151,8 +151,9 @@ impl<const D: usize> ParticleModel<D> for TensorAndArray {
         vec![
             spec("tensor", FieldKind::Tensor),
             spec("a_scalar", FieldKind::Scalar),
-            spec("history", FieldKind::Ensemble),
-            spec("aa_log", FieldKind::Ensemble),
+            spec("history", FieldKind::Ensemble(Precision::Double)),
+            // Single-precision storage, like a dumbbell ensemble with precision = "single".
+            spec("aa_log", FieldKind::Ensemble(Precision::Single)),
         ]
     }
 
@@ -181,8 +182,10 @@ impl<const D: usize> ParticleModel<D> for TensorAndArray {
                 p.extra[k].data[i * D * D + c] = (g % 13) as f64 + c as f64 * 0.25;
             }
             p.extra[s].data[i] = g as f64;
-            p.var[v].data[i] = (0..g % 4).map(|j| j as f64 + 0.5).collect();
-            p.var[l].data[i] = vec![-(g as f64); (g % 3) as usize];
+            let history = p.var[v].data.double_mut().expect("f64 storage");
+            history[i] = (0..g % 4).map(|j| j as f64 + 0.5).collect();
+            let log = p.var[l].data.single_mut().expect("f32 storage");
+            log[i] = vec![-(g as f32) / 3.0; (g % 3) as usize];
         }
         Ok(())
     }
@@ -200,7 +203,7 @@ impl<const D: usize> ParticleModel<D> for TensorAndArray {
                 let t = &mut p.extra[k].data[i * D * D + c];
                 *t = 0.9 * *t + 0.1 * x[c % D] * (c + 1) as f64;
             }
-            let h = &mut p.var[v].data[i];
+            let h = &mut p.var[v].data.double_mut().expect("f64 storage")[i];
             if (p.gid[i] + step).is_multiple_of(5) {
                 h.push(x[0] - x[1]);
             }
@@ -216,7 +219,8 @@ impl<const D: usize> ParticleModel<D> for TensorAndArray {
                 .expect("registered");
             if step.is_multiple_of(7) {
                 let t = p.extra[k].data[i * D * D];
-                p.var[l].data[i].push(t);
+                let log = p.var[l].data.single_mut().expect("f32 storage");
+                log[i].push(t as f32);
             }
         }
     }

@@ -75,7 +75,8 @@ mod tests {
                         let i = p.n_owned;
                         p.push_owned(g, [g as f64, 0.5], [0.0, -(g as f64)]);
                         p.extra[0].data[4 * i + 3] = g as f64 * 2.0;
-                        p.var[0].data[i] = vec![g as f64; g as usize % 4];
+                        p.var[0].data.double_mut().expect("f64")[i] =
+                            vec![g as f64; g as usize % 4];
                     }
                     let mut q = redistribute(&p, &comm, |i| {
                         let g = p.gid[i];
@@ -90,7 +91,10 @@ mod tests {
                         assert_eq!(q.pos[i], [g as f64, 0.5]);
                         assert_eq!(q.vel[i], [0.0, -(g as f64)]);
                         assert_eq!(q.extra[0].data[4 * i + 3], g as f64 * 2.0);
-                        assert_eq!(q.var[0].data[i], vec![g as f64; g as usize % 4]);
+                        assert_eq!(
+                            q.var[0].data.double().expect("f64")[i],
+                            vec![g as f64; g as usize % 4]
+                        );
                     }
                 })
             })

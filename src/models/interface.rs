@@ -38,7 +38,7 @@
 
 use super::pair_loop::{Virial, VirialScope};
 use crate::neighbour::NeighbourList;
-use crate::particles::{FieldFlags, Particles};
+use crate::particles::{FieldFlags, Particles, Precision};
 use crate::simd::Isa;
 
 pub use super::gather::{FullList, GatherKernel, PairError};
@@ -54,9 +54,9 @@ pub enum FieldKind {
     Tensor,
     /// A fixed number of values (an MSPH moment matrix, a packed symmetric tensor).
     Values(usize),
-    /// A variable-length array per owned particle (a dumbbell ensemble); never sent to ghosts,
-    /// always migrated, checkpointed and digested.
-    Ensemble,
+    /// A variable-length array per owned particle (a dumbbell ensemble), stored in the given
+    /// precision; never sent to ghosts, always migrated, checkpointed and digested.
+    Ensemble(Precision),
 }
 
 impl FieldKind {
@@ -67,7 +67,7 @@ impl FieldKind {
             FieldKind::Vector => dimension,
             FieldKind::Tensor => dimension * dimension,
             FieldKind::Values(n) => n,
-            FieldKind::Ensemble => 0,
+            FieldKind::Ensemble(_) => 0,
         }
     }
 }

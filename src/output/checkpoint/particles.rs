@@ -28,7 +28,7 @@ use crate::diagnostics::Series;
 use crate::domain::id_block;
 use crate::output::collective_ok;
 use crate::output::shared_file::{SharedFile, read_attr, read_attr_str, read_block};
-use crate::particles::Particles;
+use crate::particles::{Particles, VarData};
 use crate::sim::{LIST_REFERENCE_FIELD, Simulation, hash_words};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -175,7 +175,9 @@ pub fn write<const D: usize>(
         f.write(&ds, &[start, 0], &[rows, field.width], &field.data)?;
     }
     for field in &mine.var {
-        let counts: Vec<u64> = field.data.iter().map(|v| v.len() as u64).collect();
+        let counts: Vec<u64> = (0..field.data.len())
+            .map(|i| field.data.row_len(i) as u64)
+            .collect();
         let my_len: u64 = counts.iter().sum();
         let all = comm.allgather(&[f64::from_bits(my_len)]);
         let lens: Vec<u64> = all.iter().map(|v| v[0].to_bits()).collect();
@@ -185,14 +187,20 @@ pub fn write<const D: usize>(
         f.group(&base)?;
         f.dataset::<u64>(&format!("{base}/count"), &[n], false)?;
         f.write(&format!("{base}/count"), &[start], &[rows], &counts)?;
-        f.dataset::<f64>(&format!("{base}/value"), &[grand as usize], false)?;
-        let flat: Vec<f64> = field.data.concat();
-        f.write(
-            &format!("{base}/value"),
-            &[offset as usize],
-            &[flat.len()],
-            &flat,
-        )?;
+        let value = format!("{base}/value");
+        let (at, len) = (&[offset as usize], &[my_len as usize]);
+        match &field.data {
+            VarData::Double(r) => {
+                f.dataset::<f64>(&value, &[grand as usize], false)?;
+                f.write(&value, at, len, &r.concat())?;
+            }
+            VarData::Single(r) => {
+                // Stored as it is held: f32 (the attribute tells the reader).
+                f.attr_str(&base, "precision", "single")?;
+                f.dataset::<f32>(&value, &[grand as usize], false)?;
+                f.write(&value, at, len, &r.concat())?;
+            }
+        }
     }
     write_series(&mut f, &sim.series, rank == 0)?;
     f.close()?;
@@ -381,22 +389,26 @@ fn read_particles<const D: usize>(
         let offset: u64 = all_counts[..start].iter().sum();
         let counts = &all_counts[start..start + rows];
         let len: u64 = counts.iter().sum();
-        let flat: Vec<f64> = read_block(
-            f,
-            &format!("{base}/value"),
-            &[offset as usize],
-            &[len as usize],
-        )?;
+        let value = format!("{base}/value");
+        let (at, len) = (&[offset as usize], &[len as usize]);
+        let single = read_attr_str(f, &base, "precision").is_ok_and(|p| p == "single");
+        fn rows_of<T: Copy>(flat: &[T], counts: &[u64]) -> Vec<Vec<T>> {
+            let mut at = 0usize;
+            counts
+                .iter()
+                .map(|&c| {
+                    let v = flat[at..at + c as usize].to_vec();
+                    at += c as usize;
+                    v
+                })
+                .collect()
+        }
         let k = p.register_var(&name);
-        let mut at = 0usize;
-        p.var[k].data = counts
-            .iter()
-            .map(|&c| {
-                let v = flat[at..at + c as usize].to_vec();
-                at += c as usize;
-                v
-            })
-            .collect();
+        p.var[k].data = if single {
+            VarData::Single(rows_of(&read_block::<f32>(f, &value, at, len)?, counts))
+        } else {
+            VarData::Double(rows_of(&read_block::<f64>(f, &value, at, len)?, counts))
+        };
     }
     let series = read_series(f)?;
     let species_table = read_attr_str(f, "/", "species_table").ok();
