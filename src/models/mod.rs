@@ -1,6 +1,7 @@
 //! Physical models. Each file opens with its equations as implemented and their source.
 
 pub mod dpd;
+pub mod dumbbell_ensemble;
 pub mod dumbbells;
 pub mod gather;
 pub mod homogeneous_flow;

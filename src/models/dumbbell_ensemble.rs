@@ -1,0 +1,209 @@
+//! Dumbbell ensembles carried by particles (the micro part of CONNFFESSIT; Laso & Öttinger
+//! 1993, spec `msph-dumbbells.md` §2): every particle holds N_d connector vectors Q, advanced
+//! once per step with *that particle's* velocity gradient κ, and reports its Kramers stress
+//!
+//! ```text
+//! dQ = [κ·Q − F(Q)/(2λ)] dt + √(dt/λ) dW,      τ_p = G (⟨Q F(Q)⟩ − I)
+//! ```
+//!
+//! (Hookean F = Q; FENE F = Q/(1 − Q²/b); the schemes of [`super::dumbbells`]). κ comes from a
+//! [`VelocityGradient`] source: imposed (a homogeneous flow, the same for every particle) or a
+//! tensor field of the particle that another model computes (the SPH or MSPH estimate of ∇v:
+//! the coupling of issue #16).
+//!
+//! Keys: the initial ensemble of particle g is drawn from the stream (seed, g) and the noise of
+//! step n from (seed, g, n, stage 0) — the keys of [`super::homogeneous_flow`], so a particle
+//! scene with an imposed flow reproduces a homogeneous-flow scene's connectors bit for bit
+//! (tested), on any decomposition, however the particles migrate.
+
+use super::dumbbells::{
+    DumbbellParams, init_stream, kramers_stress, noise_stream, sample_equilibrium, step_ensemble,
+};
+use super::homogeneous_flow::Flow;
+use super::interface::{FieldKind, FieldSpec, ParticleModel};
+use crate::particles::{FieldFlags, Particles, Precision, VarData, tensor_rows};
+use rayon::prelude::*;
+
+/// Where each particle's velocity gradient comes from.
+#[derive(Clone, Debug, PartialEq)]
+pub enum VelocityGradient {
+    /// The same imposed κ(t) for every particle.
+    Imposed(Flow),
+    /// The particle's own value of this tensor field (κ_αβ = ∂v_α/∂x_β, row-major), written by
+    /// another model before the state update.
+    Field(&'static str),
+}
+
+/// The connector field's name.
+pub const CONNECTORS: &str = "connectors";
+/// The polymer stress field's name (τ_p, D × D, row-major): derived from the connectors after
+/// every update, for the momentum equation of a coupled fluid.
+pub const POLYMER_STRESS: &str = "polymer_stress";
+
+/// Ensembles of `n_d` dumbbells per particle.
+pub struct DumbbellEnsemble<const D: usize> {
+    params: DumbbellParams,
+    n_d: usize,
+    modulus: f64,
+    seed: u64,
+    precision: Precision,
+    kappa: VelocityGradient,
+    /// Field indices: connectors (var), stress, κ (extra, when a field is the source).
+    connectors: usize,
+    stress: usize,
+    kappa_field: Option<usize>,
+}
+
+impl<const D: usize> DumbbellEnsemble<D> {
+    /// Ensembles of `n_d` dumbbells per particle with modulus G = `modulus`.
+    pub fn new(
+        params: DumbbellParams,
+        n_d: usize,
+        modulus: f64,
+        seed: u64,
+        precision: Precision,
+        kappa: VelocityGradient,
+    ) -> Result<Self, String> {
+        params.check()?;
+        Ok(Self {
+            params,
+            n_d,
+            modulus,
+            seed,
+            precision,
+            kappa,
+            connectors: usize::MAX,
+            stress: usize::MAX,
+            kappa_field: None,
+        })
+    }
+
+    /// τ_p of every owned particle from its connectors.
+    fn update_stress(&self, p: &mut Particles<D>) {
+        let (g, spring) = (self.modulus, self.params.spring);
+        let Particles { var, extra, .. } = p;
+        let rows = &var[self.connectors].data;
+        let stress = &mut extra[self.stress].data;
+        stress
+            .par_chunks_mut(D * D)
+            .take(rows.len())
+            .enumerate()
+            .for_each_init(Vec::new, |wide: &mut Vec<f64>, (i, out)| {
+                wide.clear();
+                rows.extend_f64(i, wide);
+                let s = kramers_stress::<D>(wide, spring);
+                for (o, x) in out.iter_mut().zip(&s[..D * D]) {
+                    *o = g * x;
+                }
+            });
+    }
+}
+
+impl<const D: usize> ParticleModel<D> for DumbbellEnsemble<D> {
+    fn name(&self) -> &'static str {
+        "dumbbell ensembles"
+    }
+
+    fn fields(&self) -> Vec<FieldSpec> {
+        vec![
+            FieldSpec {
+                name: CONNECTORS,
+                kind: FieldKind::Ensemble(self.precision),
+                flags: FieldFlags::STATE,
+            },
+            FieldSpec {
+                name: POLYMER_STRESS,
+                kind: FieldKind::Tensor,
+                flags: FieldFlags::DERIVED,
+            },
+        ]
+    }
+
+    fn attach(&mut self, p: &mut Particles<D>, restarted: bool) -> Result<(), String> {
+        self.connectors = (p.var.iter().position(|f| f.name == CONNECTORS))
+            .ok_or("the connector field is not registered")?;
+        self.stress = p.extra_index(POLYMER_STRESS).ok_or("no stress field")?;
+        self.kappa_field = match &self.kappa {
+            VelocityGradient::Imposed(_) => None,
+            VelocityGradient::Field(name) => {
+                let k = p.extra_index(name).ok_or_else(|| {
+                    format!("the velocity-gradient field `{name}` is not registered")
+                })?;
+                if p.extra[k].width != D * D {
+                    return Err(format!("the velocity-gradient field `{name}` is not D × D"));
+                }
+                Some(k)
+            }
+        };
+        if !restarted {
+            let (n_d, seed, spring) = (self.n_d, self.seed, self.params.spring);
+            let Particles { var, gid, .. } = p;
+            let fresh = |g: &u64| {
+                let mut q = vec![0.0; n_d * D];
+                sample_equilibrium::<D>(&mut q, spring, &mut init_stream(seed, *g));
+                q
+            };
+            let n = var[self.connectors].data.len();
+            var[self.connectors].data = match self.precision {
+                Precision::Double => VarData::Double(gid[..n].par_iter().map(fresh).collect()),
+                Precision::Single => VarData::Single(
+                    (gid[..n].par_iter())
+                        .map(|g| fresh(g).into_iter().map(|x| x as f32).collect())
+                        .collect(),
+                ),
+            };
+        }
+        self.update_stress(p);
+        Ok(())
+    }
+
+    /// One step of every owned particle's ensemble, with κ frozen at the start of the step
+    /// (time (step − 1) Δt) and the noise of step − 1, as in a homogeneous-flow scene.
+    fn update_state(&self, p: &mut Particles<D>, step: u64) {
+        let n = step - 1;
+        let (params, seed) = (self.params, self.seed);
+        let imposed = match &self.kappa {
+            VelocityGradient::Imposed(flow) => {
+                Some(tensor_rows(&flow.kappa::<D>(n as f64 * params.dt)))
+            }
+            VelocityGradient::Field(_) => None,
+        };
+        let Particles {
+            var, extra, gid, ..
+        } = p;
+        let kappa_of = |i: usize| -> [[f64; D]; D] {
+            match (imposed, self.kappa_field) {
+                (Some(k), _) => k,
+                (None, Some(f)) => {
+                    let v = &extra[f].data[i * D * D..(i + 1) * D * D];
+                    std::array::from_fn(|a| std::array::from_fn(|b| v[a * D + b]))
+                }
+                (None, None) => unreachable!("attach resolved the source"),
+            }
+        };
+        match &mut var[self.connectors].data {
+            VarData::Double(rows) => {
+                rows.par_iter_mut().enumerate().for_each(|(i, q)| {
+                    let mut noise = noise_stream(seed, gid[i], n, 0);
+                    step_ensemble::<D>(q, &kappa_of(i), &params, &mut noise);
+                });
+            }
+            VarData::Single(rows) => {
+                // Widened to f64, advanced with the same arithmetic, rounded back.
+                rows.par_iter_mut().enumerate().for_each_init(
+                    Vec::new,
+                    |wide: &mut Vec<f64>, (i, q)| {
+                        wide.clear();
+                        wide.extend(q.iter().map(|&x| f64::from(x)));
+                        let mut noise = noise_stream(seed, gid[i], n, 0);
+                        step_ensemble::<D>(wide, &kappa_of(i), &params, &mut noise);
+                        for (s, w) in q.iter_mut().zip(wide.iter()) {
+                            *s = *w as f32;
+                        }
+                    },
+                );
+            }
+        }
+        self.update_stress(p);
+    }
+}
