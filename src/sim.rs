@@ -146,6 +146,7 @@ impl<'c, const D: usize> Simulation<'c, D> {
         let (sim_box, slab) = Self::geometry(case, comm)?;
         let (particles, total) = initial_particles(case, &sim_box, &slab);
         let mut sim = Self::assemble(case, comm, threads, sim_box, slab, particles, total, false)?;
+        sim.attach(build_fluid::<D>(case))?;
         sim.rebuild()?;
         sim.compute_forces(sim.virial_scope)?;
         Ok(sim)
@@ -203,6 +204,9 @@ impl<'c, const D: usize> Simulation<'c, D> {
             p.pos[i].copy_from_slice(&current.data[i * D..(i + 1) * D]);
         }
         current.data.clear();
+        // The models register their fields now, after the list-build positions have left:
+        // the indices they keep stay valid.
+        sim.attach(build_fluid::<D>(case))?;
         // The list was built at the build positions, not at the current ones.
         sim.list.at_build_positions = false;
         sim.step = step;
@@ -298,7 +302,8 @@ impl<'c, const D: usize> Simulation<'c, D> {
             stop_requested_here: false,
             stop_agreed: false,
         };
-        sim.attach(build_fluid::<D>(case))?;
+        // The range the first list build needs; the attached models confirm or widen it.
+        sim.cutoff = case.cutoff();
         Ok(sim)
     }
 
@@ -370,6 +375,10 @@ impl<'c, const D: usize> Simulation<'c, D> {
             .push(passes.iter().map(|p| p.name).collect());
         self.cutoff = self.cutoff.max(model.cutoff());
         self.wants_full_list |= model.uses_full_list();
+        if self.wants_full_list && self.full.rows() != self.particles.n_owned {
+            // Attached after the list was built (a restart, a late model): its rows now.
+            self.full = FullList::from_half(&self.list, self.particles.n_owned);
+        }
         self.models.push(model);
         Ok(())
     }
