@@ -16,7 +16,7 @@ use super::{
     CheckpointError, Common, SceneKind, agree, file_name, open, publish, read_series, series_hash,
     text_hash, write_series,
 };
-use crate::comm::{Comm, U64Op};
+use crate::comm::Comm;
 use crate::config::FlowCase;
 use crate::diagnostics::Series;
 use crate::domain::id_block;
@@ -35,23 +35,14 @@ fn checksum(
     comm: &dyn Comm,
     scalars: &[u64],
 ) -> u64 {
-    let (mut sum, mut xor) = (0u64, 0u64);
     let mut words = Vec::new();
-    for (i, &g) in gids.iter().enumerate() {
+    let hashes = gids.iter().enumerate().map(|(i, &g)| {
         words.clear();
         words.push(g);
         rows(i, &mut words);
-        let h = hash_words(&words);
-        sum = sum.wrapping_add(h);
-        xor ^= h.rotate_left(29).wrapping_mul(0xD6E8_FEB8_6659_FD93);
-    }
-    let mut s = [sum];
-    let mut x = [xor];
-    comm.allreduce_u64(&mut s, U64Op::Sum);
-    comm.allreduce_u64(&mut x, U64Op::Xor);
-    let mut all = vec![s[0], x[0]];
-    all.extend_from_slice(scalars);
-    hash_words(&all)
+        hash_words(&words)
+    });
+    super::combine_checksum(hashes, comm, scalars)
 }
 
 /// The words of particle `i` (running sums, connectors, control copy) appended to `out`.

@@ -362,6 +362,29 @@ pub(crate) fn read_series(f: &hdf5::File) -> Result<Series, String> {
     Ok(series)
 }
 
+/// The checksum of a file: the particles' hashes (`hashes`, this rank's) combined in an
+/// order-independent way — a wrapping sum and an xor of rotated products, reduced over the
+/// ranks, so every decomposition gives the same — then hashed with the scalar metadata
+/// (collective).
+pub(crate) fn combine_checksum(
+    hashes: impl Iterator<Item = u64>,
+    comm: &dyn crate::comm::Comm,
+    scalars: &[u64],
+) -> u64 {
+    let (mut sum, mut xor) = (0u64, 0u64);
+    for h in hashes {
+        sum = sum.wrapping_add(h);
+        xor ^= h.rotate_left(29).wrapping_mul(0xD6E8_FEB8_6659_FD93);
+    }
+    let mut s = [sum];
+    let mut x = [xor];
+    comm.allreduce_u64(&mut s, crate::comm::U64Op::Sum);
+    comm.allreduce_u64(&mut x, crate::comm::U64Op::Xor);
+    let mut words = vec![s[0], x[0]];
+    words.extend_from_slice(scalars);
+    hash_words(&words)
+}
+
 /// The same verdict on every rank (collective): this rank's error, or
 /// [`CheckpointError::OtherRank`] if only another rank failed.
 pub(crate) fn agree<T>(

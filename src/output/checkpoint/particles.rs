@@ -22,7 +22,7 @@ use super::{
     CheckpointError, Common, SceneKind, agree, file_name, open, publish, read_series, series_hash,
     text_hash, write_series,
 };
-use crate::comm::{Comm, U64Op};
+use crate::comm::Comm;
 use crate::config::Case;
 use crate::diagnostics::Series;
 use crate::domain::id_block;
@@ -48,19 +48,8 @@ fn particle_hash<const D: usize>(p: &Particles<D>, i: usize, scratch: &mut Vec<f
 /// (collective).
 fn checksum<const D: usize>(p: &Particles<D>, comm: &dyn Comm, scalars: &[u64]) -> u64 {
     let mut scratch = Vec::new();
-    let (mut sum, mut xor) = (0u64, 0u64);
-    for i in 0..p.n_owned {
-        let h = particle_hash(p, i, &mut scratch);
-        sum = sum.wrapping_add(h);
-        xor ^= h.rotate_left(29).wrapping_mul(0xD6E8_FEB8_6659_FD93);
-    }
-    let mut s = [sum];
-    let mut x = [xor];
-    comm.allreduce_u64(&mut s, U64Op::Sum);
-    comm.allreduce_u64(&mut x, U64Op::Xor);
-    let mut words = vec![s[0], x[0]];
-    words.extend_from_slice(scalars);
-    hash_words(&words)
+    let hashes = (0..p.n_owned).map(|i| particle_hash(p, i, &mut scratch));
+    super::combine_checksum(hashes, comm, scalars)
 }
 
 /// Writes the checkpoint of the current step into `dir` and keeps the newest `keep`
