@@ -99,10 +99,17 @@ pub fn validate(
             ReferenceCfg::Value(v) => check_value(v, observables),
             ReferenceCfg::LinearShearProfile(p) => {
                 let scale = (case.domain.shear_rate * case.domain.lengths[1]).abs();
+                // A NaN bin makes the whole deviation NaN, which fails (f64::max would skip it).
                 let value = profile
                     .iter()
                     .map(|pt| (pt.mean - pt.expected).abs() / scale)
-                    .fold(0.0, f64::max);
+                    .fold(0.0, |m: f64, d| {
+                        if m.is_nan() || d.is_nan() {
+                            f64::NAN
+                        } else {
+                            m.max(d)
+                        }
+                    });
                 let value = if profile.is_empty() { f64::NAN } else { value };
                 Validation {
                     name: p.name.clone(),
@@ -187,4 +194,43 @@ pub fn render(summary: &Summary) -> String {
     }
     s.push_str(&format!("  state digest {}\n", summary.state_digest));
     s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The profile reference of `cases/dpd_shear_2d.toml` fails on a NaN bin, wherever it is.
+    #[test]
+    fn a_nan_bin_fails_the_profile_reference() {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("cases/dpd_shear_2d.toml");
+        let case = crate::config::load(&path).expect("stock case").case;
+        let ly = case.domain.lengths[1];
+        let bins = 10;
+        let exact: Vec<ProfilePoint> = (0..bins)
+            .map(|b| {
+                let y = (b as f64 + 0.5) * ly / bins as f64;
+                let u = case.domain.shear_rate * (y - 0.5 * ly);
+                ProfilePoint {
+                    y,
+                    mean: u,
+                    stderr: 0.0,
+                    expected: u,
+                }
+            })
+            .collect();
+        let profile_check = |profile: &[ProfilePoint]| {
+            validate(&case, &BTreeMap::new(), profile)
+                .into_iter()
+                .find(|v| v.metric.starts_with("max_bin"))
+                .expect("the case has a profile reference")
+        };
+        assert!(profile_check(&exact).pass);
+        for at in [0, 4, bins - 1] {
+            let mut bad = exact.clone();
+            bad[at].mean = f64::NAN;
+            let v = profile_check(&bad);
+            assert!(!v.pass && v.value.is_nan(), "NaN in bin {at}: {v:?}");
+        }
+    }
 }
