@@ -109,31 +109,6 @@ tolerance = 0.1
 source = "s"
 "#;
 
-/// The fluid keys of the summation gas (the rest of the case as small as allowed).
-const EVERY_GAS_KEY: &str = r#"
-dimension = 2
-[box]
-lengths = [8.0, 8.0]
-[particles]
-lattice = "cubic"
-density = 4.0
-temperature = 0.5
-[fluid]
-kind = "summation_gas"
-smoothing_length = 1.2
-sound_speed = 2.0
-[integrator]
-kind = "groot_warren"
-dt = 0.01
-[run]
-steps = 10
-sample_every = 1
-equilibration = 0
-[diagnostics]
-observables = ["temperature"]
-blocks = 2
-"#;
-
 fn paths(prefix: &str, v: &toml::Value, out: &mut BTreeSet<String>) {
     match v {
         toml::Value::Table(t) => {
@@ -172,7 +147,8 @@ fn documented_keys_are_exactly_the_parsed_keys() {
     };
     let text = toml::to_string(&flow).expect("serialise");
     paths("", &toml::from_str(&text).expect("re-parse"), &mut found);
-    let gas = case_from_str(EVERY_GAS_KEY, "gas.toml");
+    let every_gas_key = common::small_gas(2, 8.0, 0.0, "cubic", 100, "");
+    let gas = case_from_str(&every_gas_key, "gas.toml");
     let text = toml::to_string(&gas.case.fluid).expect("serialise");
     paths(
         "fluid",
@@ -192,7 +168,7 @@ fn documented_keys_are_exactly_the_parsed_keys() {
     );
     // The case itself uses every documented key.
     let mut in_text = BTreeSet::new();
-    for text in [EVERY_KEY, EVERY_FLOW_KEY, EVERY_GAS_KEY] {
+    for text in [EVERY_KEY, EVERY_FLOW_KEY, &every_gas_key] {
         paths(
             "",
             &toml::from_str::<toml::Value>(text).expect("toml"),

@@ -4,34 +4,19 @@
 //! so are the time-averaged observables (every diagnostic sum is exact).
 
 mod common;
-use common::{case_from_str, small_dpd};
+use common::{assert_all_equal, case_from_str, digests_on_1_to_4_ranks, small_dpd};
 use mesorheo::driver::run_in_process;
 
 fn digests(text: &str, name: &str) -> Vec<(usize, usize, String)> {
-    let loaded = case_from_str(text, name);
-    let mut out = Vec::new();
-    for ranks in 1..=4 {
-        for threads in 1..=2 {
-            let s = run_in_process(&loaded, ranks, threads, None)
-                .unwrap_or_else(|e| panic!("{name} on {ranks} ranks × {threads} threads: {e}"));
-            assert_eq!(s.steps, 200);
-            // The averaged observables too (exact reductions), compared to the last bit.
-            let observables = serde_json::to_string(&s.observables).expect("json");
-            assert!(observables.contains("temperature"), "{observables}");
-            out.push((ranks, threads, format!("{} {observables}", s.state_digest)));
-        }
-    }
-    out
-}
-
-fn assert_all_equal(name: &str, d: &[(usize, usize, String)]) {
-    let first = &d[0].2;
-    for (r, t, x) in d {
-        assert_eq!(
-            x, first,
-            "{name}: {r} ranks × {t} threads differs from 1 × 1"
+    digests_on_1_to_4_ranks(text, name, |s| {
+        assert_eq!(s.steps, 200);
+        // The averaged observables too (exact reductions), compared to the last bit.
+        assert!(
+            s.observables.contains_key("temperature"),
+            "{:?}",
+            s.observables
         );
-    }
+    })
 }
 
 #[test]

@@ -6,7 +6,7 @@
 //! velocity shift on velocity-like fields and on no others.
 
 mod common;
-use common::case_from_str;
+use common::{assert_all_equal, case_from_str, digests_on_1_to_4_ranks, small_gas};
 use mesorheo::comm::Comm;
 use mesorheo::driver::{in_process, run_in_process};
 use mesorheo::models::interface::{
@@ -16,60 +16,13 @@ use mesorheo::models::summation_gas::DENSITY;
 use mesorheo::particles::{FieldFlags, Particles};
 use mesorheo::sim::Simulation;
 
-/// A summation-gas case: `dimension`, cubic box of side `side`, shear rate `shear`.
+/// A summation-gas case (the shared one of the tests).
 fn gas_case(dimension: usize, side: f64, shear: f64, lattice: &str, steps: u64) -> String {
-    let lengths = vec![format!("{side}"); dimension].join(", ");
-    format!(
-        r#"
-dimension = {dimension}
-seed = 5
-[box]
-lengths = [{lengths}]
-shear_rate = {shear}
-[particles]
-lattice = "{lattice}"
-density = 4.0
-temperature = 0.5
-[fluid]
-kind = "summation_gas"
-smoothing_length = 1.2
-sound_speed = 2.0
-[integrator]
-kind = "groot_warren"
-dt = 0.01
-[neighbour]
-skin = 0.3
-[run]
-steps = {steps}
-sample_every = 5
-progress_seconds = 0
-[diagnostics]
-observables = ["temperature", "momentum"]
-"#
-    )
+    small_gas(dimension, side, shear, lattice, steps, "")
 }
 
 fn digests(text: &str, name: &str) -> Vec<(usize, usize, String)> {
-    let loaded = case_from_str(text, name);
-    let mut out = Vec::new();
-    for ranks in 1..=4 {
-        for threads in 1..=2 {
-            let s = run_in_process(&loaded, ranks, threads, None)
-                .unwrap_or_else(|e| panic!("{name} on {ranks} ranks × {threads} threads: {e}"));
-            let observables = serde_json::to_string(&s.observables).expect("json");
-            out.push((ranks, threads, format!("{} {observables}", s.state_digest)));
-        }
-    }
-    out
-}
-
-fn assert_all_equal(name: &str, d: &[(usize, usize, String)]) {
-    for (r, t, x) in d {
-        assert_eq!(
-            x, &d[0].2,
-            "{name}: {r} ranks × {t} threads differs from 1 × 1"
-        );
-    }
+    digests_on_1_to_4_ranks(text, name, |_| {})
 }
 
 #[test]

@@ -148,31 +148,14 @@ fn mpirun_two_ranks_until_a_step_then_one_rank_restart_equals_one_run() {
 fn mpirun_two_pass_model_is_the_same_on_one_and_two_ranks_and_across_a_restart() {
     let dir = tempfile::tempdir().expect("tempdir");
     let case = dir.path().join("gas.toml");
-    let text = r#"
-dimension = 2
-seed = 5
-[box]
-lengths = [8.0, 8.0]
-shear_rate = 0.5
-[particles]
-lattice = "random"
-density = 4.0
-temperature = 0.5
-[fluid]
-kind = "summation_gas"
-smoothing_length = 1.2
-sound_speed = 2.0
-[integrator]
-kind = "groot_warren"
-dt = 0.01
-[run]
-steps = 150
-progress_seconds = 0
-[diagnostics]
-observables = ["temperature", "momentum"]
-[output]
-checkpoint_every = 70
-"#;
+    let text = common::small_gas(
+        2,
+        8.0,
+        0.5,
+        "random",
+        150,
+        "[output]\ncheckpoint_every = 70",
+    );
     std::fs::write(&case, text).expect("write case");
     let one = dir.path().join("one");
     let o = mpirun(1, 1, &case, &one);

@@ -23,6 +23,38 @@ pub fn stock_case(name: &str) -> LoadedCase {
     config::load(&path).unwrap_or_else(|e| panic!("{e}"))
 }
 
+/// Runs `text` on 1–4 in-process ranks × 1–2 threads; `check` sees every summary. Returns, per
+/// run, the state digest and the averaged observables (exact reductions, so comparable to the
+/// last bit).
+pub fn digests_on_1_to_4_ranks(
+    text: &str,
+    name: &str,
+    check: impl Fn(&mesorheo::summary::Summary),
+) -> Vec<(usize, usize, String)> {
+    let loaded = case_from_str(text, name);
+    let mut out = Vec::new();
+    for ranks in 1..=4 {
+        for threads in 1..=2 {
+            let s = mesorheo::driver::run_in_process(&loaded, ranks, threads, None)
+                .unwrap_or_else(|e| panic!("{name} on {ranks} ranks × {threads} threads: {e}"));
+            check(&s);
+            let observables = serde_json::to_string(&s.observables).expect("json");
+            out.push((ranks, threads, format!("{} {observables}", s.state_digest)));
+        }
+    }
+    out
+}
+
+/// Every run of [`digests_on_1_to_4_ranks`] equals the first (1 rank × 1 thread).
+pub fn assert_all_equal(name: &str, d: &[(usize, usize, String)]) {
+    for (r, t, x) in d {
+        assert_eq!(
+            x, &d[0].2,
+            "{name}: {r} ranks × {t} threads differs from 1 × 1"
+        );
+    }
+}
+
 /// A small DPD case: `dimension`, cubic box of side `side`, optional shear.
 pub fn small_dpd(dimension: usize, side: f64, shear: f64, steps: u64, extra: &str) -> String {
     let lengths = vec![format!("{side}"); dimension].join(", ");
@@ -52,6 +84,48 @@ skin = 0.3
 steps = {steps}
 sample_every = 1
 progress_seconds = 0
+{extra}
+"#
+    )
+}
+
+/// A small case of the engine's two-pass test model (the summation gas): `dimension`, cubic
+/// box of side `side`, shear rate `shear`, `lattice`, `steps`; `extra` is appended.
+pub fn small_gas(
+    dimension: usize,
+    side: f64,
+    shear: f64,
+    lattice: &str,
+    steps: u64,
+    extra: &str,
+) -> String {
+    let lengths = vec![format!("{side}"); dimension].join(", ");
+    format!(
+        r#"
+dimension = {dimension}
+seed = 5
+[box]
+lengths = [{lengths}]
+shear_rate = {shear}
+[particles]
+lattice = "{lattice}"
+density = 4.0
+temperature = 0.5
+[fluid]
+kind = "summation_gas"
+smoothing_length = 1.2
+sound_speed = 2.0
+[integrator]
+kind = "groot_warren"
+dt = 0.01
+[neighbour]
+skin = 0.3
+[run]
+steps = {steps}
+sample_every = 5
+progress_seconds = 0
+[diagnostics]
+observables = ["temperature", "momentum"]
 {extra}
 "#
     )

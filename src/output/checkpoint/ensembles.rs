@@ -13,8 +13,8 @@
 //! Ranks hold contiguous id blocks, so each writes and reads its rows directly.
 
 use super::{
-    CheckpointError, Common, SceneKind, agree, file_name, open, publish, read_series, series_hash,
-    text_hash, write_series,
+    CheckpointError, Common, SceneKind, agree, file_name, open_scene, publish, read_series,
+    series_hash, text_hash, write_series,
 };
 use crate::comm::Comm;
 use crate::config::FlowCase;
@@ -218,17 +218,12 @@ pub struct RestoredFlow {
 
 /// The case echoed in a homogeneous-flow scene's checkpoint (any rank, independent).
 pub fn read_case(path: &Path) -> Result<FlowCase, CheckpointError> {
-    let opened = open(path)?;
-    if opened.scene != SceneKind::HomogeneousFlow {
-        return Err(CheckpointError::incompatible(
-            path,
-            format!("a checkpoint of a {} scene", opened.scene.name()),
-        ));
-    }
-    let text =
-        read_attr_str(&opened.file, "/", "case").map_err(|e| CheckpointError::damaged(path, e))?;
-    let echo = PathBuf::from(format!("{} (case echo)", path.display()));
-    match crate::config::parse_scene(&text, &echo) {
+    let (_, text, echo) = open_scene(path, SceneKind::HomogeneousFlow, None)?;
+    parse_echo(path, &text, &echo)
+}
+
+fn parse_echo(path: &Path, text: &str, echo: &Path) -> Result<FlowCase, CheckpointError> {
+    match crate::config::parse_scene(text, echo) {
         Ok(crate::config::Scene::HomogeneousFlow(c)) => Ok(*c),
         Ok(crate::config::Scene::Particles(_)) => Err(CheckpointError::damaged(
             path,
@@ -274,16 +269,9 @@ fn read_local<const D: usize>(
     path: &Path,
     comm: &dyn Comm,
 ) -> Result<(RestoredFlow, u64, Vec<u64>), CheckpointError> {
-    let case = read_case(path)?;
-    let opened = open(path)?;
+    let (opened, text, echo) = open_scene(path, SceneKind::HomogeneousFlow, Some(D))?;
+    let case = parse_echo(path, &text, &echo)?;
     let damaged = |e: String| CheckpointError::damaged(path, e);
-    let dim: u64 = read_attr(&opened.file, "/", "dimension").map_err(damaged)?;
-    if dim != D as u64 {
-        return Err(CheckpointError::incompatible(
-            path,
-            format!("the checkpoint is {dim}-dimensional"),
-        ));
-    }
     read_ensembles::<D>(&opened.file, opened.version, case, comm).map_err(damaged)
 }
 

@@ -174,6 +174,37 @@ pub(crate) fn open(path: &Path) -> Result<Opened, CheckpointError> {
     })
 }
 
+/// Opens `path` as a checkpoint of `scene` (a readable file of another scene, or of another
+/// dimension when `dimension` is given, is incompatible) and returns it with its case echo's
+/// text and the name to report the echo's errors under.
+pub(crate) fn open_scene(
+    path: &Path,
+    scene: SceneKind,
+    dimension: Option<usize>,
+) -> Result<(Opened, String, PathBuf), CheckpointError> {
+    let opened = open(path)?;
+    if opened.scene != scene {
+        return Err(CheckpointError::incompatible(
+            path,
+            format!("a checkpoint of a {} scene", opened.scene.name()),
+        ));
+    }
+    if let Some(d) = dimension {
+        let found: u64 = read_attr(&opened.file, "/", "dimension")
+            .map_err(|e| CheckpointError::damaged(path, e))?;
+        if found != d as u64 {
+            return Err(CheckpointError::incompatible(
+                path,
+                format!("the checkpoint is {found}-dimensional"),
+            ));
+        }
+    }
+    let text =
+        read_attr_str(&opened.file, "/", "case").map_err(|e| CheckpointError::damaged(path, e))?;
+    let echo = PathBuf::from(format!("{} (case echo)", path.display()));
+    Ok((opened, text, echo))
+}
+
 /// The scene a checkpoint continues (any rank, independent).
 pub fn scene_of(path: &Path) -> Result<SceneKind, CheckpointError> {
     open(path).map(|o| o.scene)

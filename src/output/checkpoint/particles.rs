@@ -19,8 +19,8 @@
 //! Fields derived anew every step (a summation density) are not written.
 
 use super::{
-    CheckpointError, Common, SceneKind, agree, file_name, open, publish, read_series, series_hash,
-    text_hash, write_series,
+    CheckpointError, Common, SceneKind, agree, file_name, open_scene, publish, read_series,
+    series_hash, text_hash, write_series,
 };
 use crate::comm::Comm;
 use crate::config::Case;
@@ -222,20 +222,13 @@ pub struct Restored<const D: usize> {
 
 /// The case echoed in a particle scene's checkpoint (any rank, independent).
 pub fn read_case(path: &Path) -> Result<Case, CheckpointError> {
-    let opened = open(path)?;
-    if opened.scene != SceneKind::Particles {
-        return Err(CheckpointError::incompatible(
-            path,
-            format!("a checkpoint of a {} scene", opened.scene.name()),
-        ));
-    }
-    let text =
-        read_attr_str(&opened.file, "/", "case").map_err(|e| CheckpointError::damaged(path, e))?;
-    crate::config::parse(
-        &text,
-        &PathBuf::from(format!("{} (case echo)", path.display())),
-    )
-    .map_err(|e| CheckpointError::damaged(path, format!("unreadable case echo: {e}")))
+    let (_, text, echo) = open_scene(path, SceneKind::Particles, None)?;
+    parse_echo(path, &text, &echo)
+}
+
+fn parse_echo(path: &Path, text: &str, echo: &Path) -> Result<Case, CheckpointError> {
+    crate::config::parse(text, echo)
+        .map_err(|e| CheckpointError::damaged(path, format!("unreadable case echo: {e}")))
 }
 
 /// Reads and verifies a checkpoint (collective; every rank returns the same verdict). Each rank
@@ -260,22 +253,9 @@ fn read_local<const D: usize>(
     path: &Path,
     comm: &dyn Comm,
 ) -> Result<(Restored<D>, Vec<u64>), CheckpointError> {
-    let opened = open(path)?;
-    if opened.scene != SceneKind::Particles {
-        return Err(CheckpointError::incompatible(
-            path,
-            format!("a checkpoint of a {} scene", opened.scene.name()),
-        ));
-    }
+    let (opened, text, echo) = open_scene(path, SceneKind::Particles, Some(D))?;
+    let case = parse_echo(path, &text, &echo)?;
     let damaged = |e: String| CheckpointError::damaged(path, e);
-    let dim: u64 = read_attr(&opened.file, "/", "dimension").map_err(damaged)?;
-    if dim != D as u64 {
-        return Err(CheckpointError::incompatible(
-            path,
-            format!("the checkpoint is {dim}-dimensional"),
-        ));
-    }
-    let case = read_case(path)?;
     read_particles::<D>(path, &opened.file, opened.version, case, comm).map_err(damaged)
 }
 
