@@ -47,6 +47,40 @@ pub fn report(case: &Case, ranks: usize) -> String {
     ));
     match &case.fluid {
         FluidCfg::Dpd(d) => dpd_report(case, d, density, &mut line),
+        FluidCfg::Sph(sph) => {
+            line(format!(
+                "SPH: {} kernel h = {} (support {}), ρ₀ = {}, c₀ = {}, η = {}, {:?} EOS, {:?} \
+                 density, {:?} viscous term",
+                sph.kernel.name(),
+                sph.smoothing_length,
+                sph.support(),
+                sph.rest_density,
+                sph.sound_speed,
+                sph.viscosity,
+                sph.equation_of_state,
+                sph.density,
+                sph.viscous_term
+            ));
+            let (binding, _) = crate::stability::sph_binding_limit(sph);
+            for (name, limit) in crate::stability::sph_limits(sph) {
+                line(format!(
+                    "time step Δt = {dt}: {name} = {limit:.4e} [{}{}]",
+                    if dt <= limit { "ok" } else { "VIOLATED" },
+                    if name == binding { ", binding" } else { "" }
+                ));
+            }
+            if let Some(w) = &case.walls {
+                let axis = w.axis.index();
+                let layers = crate::sim::wall_layer_count(case, axis);
+                line(format!(
+                    "walls along {}: {layers} boundary rows each side ({:?}), lower at {:?}, upper at {:?}",
+                    ["x", "y", "z"][axis],
+                    w.treatment,
+                    w.lower_velocity,
+                    w.upper_velocity
+                ));
+            }
+        }
         FluidCfg::SummationGas(g) => {
             let cfl = cfl_limit(g.smoothing_length, g.sound_speed);
             line(format!(

@@ -494,7 +494,8 @@ impl<const D: usize> Scene for FlowScene<'_, D> {
                 .iter()
                 .filter_map(|r| match r {
                     crate::config::ReferenceCfg::Value(v) => Some(check_value(v, &observables)),
-                    crate::config::ReferenceCfg::LinearShearProfile(_) => None,
+                    crate::config::ReferenceCfg::LinearShearProfile(_)
+                    | crate::config::ReferenceCfg::StartupProfile(_) => None,
                 })
                 .collect()
         } else {

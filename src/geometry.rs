@@ -107,12 +107,15 @@ impl<const D: usize> SimBox<D> {
     /// gradient axis first so the x-shift is wrapped too) and specular reflection at walls.
     /// `image` counts the periodic crossings so trajectories can be unfolded.
     /// Every velocity-like array of the particle (`vels`) gets the same shift or reflection.
+    /// A particle with `reflect` false (a boundary particle beyond a wall face) is left where
+    /// it is along wall axes.
     pub fn wrap(
         &self,
         pos: &mut [f64; D],
         vels: &mut [&mut [f64; D]],
         image: &mut [i32; D],
         offset: f64,
+        reflect: bool,
     ) {
         let order = axis_order::<D>();
         for &axis in &order {
@@ -137,6 +140,7 @@ impl<const D: usize> SimBox<D> {
                         }
                     }
                 }
+                Boundary::Wall if !reflect => {}
                 Boundary::Wall => {
                     if pos[axis] < 0.0 {
                         pos[axis] = -pos[axis];
@@ -188,14 +192,14 @@ mod tests {
         let mut x = [9.5, 8.25];
         let mut v = [2.0, 0.1];
         let mut img = [0, 0];
-        b.wrap(&mut x, &mut [&mut v], &mut img, s);
+        b.wrap(&mut x, &mut [&mut v], &mut img, s, true);
         assert!((x[1] - 0.25).abs() < 1e-12);
         assert!((x[0] - 6.5).abs() < 1e-12); // 9.5 − 3
         assert!((v[0] - (2.0 - 4.0)).abs() < 1e-12); // v_x − γ̇ L_y
         assert_eq!(img, [0, 1]);
         // and back through the bottom
         x[1] -= 0.5;
-        b.wrap(&mut x, &mut [&mut v], &mut img, s);
+        b.wrap(&mut x, &mut [&mut v], &mut img, s, true);
         assert!((x[0] - 9.5).abs() < 1e-12 && (v[0] - 2.0).abs() < 1e-12);
         assert_eq!(img, [0, 0]);
     }
@@ -210,7 +214,7 @@ mod tests {
         let mut x = [1.0, -0.1];
         let mut v = [0.0, -1.0];
         let mut img = [0; 2];
-        b.wrap(&mut x, &mut [&mut v], &mut img, 0.0);
+        b.wrap(&mut x, &mut [&mut v], &mut img, 0.0, true);
         assert!((x[1] - 0.1).abs() < 1e-15 && v[1] == 1.0);
     }
 }

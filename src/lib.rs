@@ -27,6 +27,7 @@
 // (and compile to the same code as iterator chains).
 #![allow(clippy::needless_range_loop)]
 
+pub mod analytic;
 pub mod check;
 pub mod comm;
 pub mod config;

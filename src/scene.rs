@@ -252,7 +252,16 @@ impl<const D: usize> Scene for ParticleScene<'_, D> {
             })
             .collect();
         let validation = if completed {
-            validate(case, &observables, &velocity_profile)
+            validate(
+                case,
+                &observables,
+                &velocity_profile,
+                Some(crate::summary::ProfileSeries {
+                    steps: &sim.series.steps,
+                    profiles: &sim.series.profile,
+                    dt: sim.dt(),
+                }),
+            )
         } else {
             Vec::new()
         };

@@ -21,11 +21,14 @@ use crate::diagnostics::{STRESS_PARTS, Series, tensor_components};
 use crate::domain::{HaloPlan, Slab, send_leavers, wrap_owned};
 use crate::fixed_sum::FixedSum;
 use crate::geometry::{GRADIENT, SimBox};
-use crate::integrators::{GrootWarren, Integrator};
+use crate::integrators::{
+    GrootWarren, IntegratedField, Integrator, KickDriftKick, TwoStage, TwoStageVariant,
+};
 use crate::models::dpd::DpdModel;
 use crate::models::gather::FullList;
 use crate::models::interface::{FieldKind, ParticleModel, PassContext};
 use crate::models::pair_loop::{Virial, VirialScope};
+use crate::models::sph::SphModel;
 use crate::models::summation_gas::SummationGas;
 use crate::neighbour::{NeighbourList, spatial_order};
 use crate::particles::Particles;
@@ -81,6 +84,8 @@ pub struct Simulation<'c, const D: usize> {
     pass_names: Vec<Vec<&'static str>>,
     /// The time integrator.
     integrator: Box<dyn Integrator<D>>,
+    /// The fields the models ask the integrator to advance.
+    integrated: Vec<IntegratedField>,
     /// The species (one, the fluid, unless [`Self::set_species`] gave more).
     species: Vec<Species>,
     /// The largest interaction range of the models.
@@ -119,6 +124,16 @@ pub fn build_fluid<const D: usize>(case: &Case) -> Box<dyn ParticleModel<D>> {
     match &case.fluid {
         FluidCfg::Dpd(d) => Box::new(DpdModel::<D>::new(d, case.integrator.dt(), case.seed)),
         FluidCfg::SummationGas(g) => Box::new(SummationGas::<D>::new(g, case.particles.mass)),
+        FluidCfg::Sph(s) => {
+            let lengths = std::array::from_fn(|d| case.domain.lengths[d]);
+            Box::new(SphModel::<D>::new(
+                s,
+                case.particles.mass,
+                &lengths,
+                case.lattice_spacing(),
+                case.walls.as_ref(),
+            ))
+        }
     }
 }
 
@@ -136,6 +151,27 @@ pub fn build_integrator<const D: usize>(
                 Box::new(integrator.with_species(species))
             }
         }
+        IntegratorCfg::KickDriftKick(k) => {
+            Box::new(KickDriftKick::new(k, case.particles.mass, species))
+        }
+        IntegratorCfg::Heun(t) => Box::new(TwoStage::new(
+            t,
+            TwoStageVariant::Heun,
+            case.particles.mass,
+            species,
+        )),
+        IntegratorCfg::Midpoint(t) => Box::new(TwoStage::new(
+            t,
+            TwoStageVariant::Midpoint,
+            case.particles.mass,
+            species,
+        )),
+        IntegratorCfg::ThesisPredictorCorrector(t) => Box::new(TwoStage::new(
+            t,
+            TwoStageVariant::ThesisPrinted,
+            case.particles.mass,
+            species,
+        )),
     }
 }
 
@@ -147,8 +183,24 @@ impl<'c, const D: usize> Simulation<'c, D> {
         let (particles, total) = initial_particles(case, &sim_box, &slab);
         let mut sim = Self::assemble(case, comm, threads, sim_box, slab, particles, total, false)?;
         sim.attach(build_fluid::<D>(case))?;
-        sim.rebuild()?;
-        sim.compute_forces(sim.virial_scope)?;
+        if let Some(walls) = &case.walls {
+            let table = crate::models::sph::wall_species::<D>(walls, case.particles.mass);
+            let axis = walls.axis.index();
+            let l = case.domain.lengths[axis];
+            sim.set_species(table, |_, x| {
+                use crate::models::sph::{FLUID, LOWER_WALL, UPPER_WALL};
+                if x[axis] < 0.0 {
+                    LOWER_WALL
+                } else if x[axis] >= l {
+                    UPPER_WALL
+                } else {
+                    FLUID
+                }
+            })?;
+        } else {
+            sim.rebuild()?;
+            sim.compute_forces(sim.virial_scope)?;
+        }
         Ok(sim)
     }
 
@@ -287,6 +339,7 @@ impl<'c, const D: usize> Simulation<'c, D> {
             pass_names: Vec::new(),
             dt: integrator.dt(),
             integrator,
+            integrated: Vec::new(),
             species: vec![Species::fluid(case.particles.mass)],
             cutoff: 0.0,
             wants_full_list: false,
@@ -373,6 +426,22 @@ impl<'c, const D: usize> Simulation<'c, D> {
         self.pass_fields.push(fields);
         self.pass_names
             .push(passes.iter().map(|p| p.name).collect());
+        for (state, rate) in model.integrated_fields() {
+            let index = |name: &str| {
+                p.extra_index(name).ok_or_else(|| {
+                    format!("the model {} integrates the unregistered field `{name}`", model.name())
+                })
+            };
+            let (state, rate) = (index(state)?, index(rate)?);
+            if p.extra[state].width != p.extra[rate].width {
+                return Err(format!(
+                    "the model {} integrates fields of unequal widths",
+                    model.name()
+                ));
+            }
+            self.integrated.push(IntegratedField { state, rate });
+        }
+        self.integrator.bind(p, &self.integrated);
         self.cutoff = self.cutoff.max(model.cutoff());
         self.wants_full_list |= model.uses_full_list();
         if self.wants_full_list && self.full.rows() != self.particles.n_owned {
@@ -435,6 +504,7 @@ impl<'c, const D: usize> Simulation<'c, D> {
             p.vel_half[i] = v;
         }
         self.integrator = build_integrator::<D>(&self.case, &table);
+        self.integrator.bind(&mut self.particles, &self.integrated);
         self.species = table;
         self.rebuild()?;
         self.compute_forces(self.virial_scope)
@@ -447,6 +517,7 @@ impl<'c, const D: usize> Simulation<'c, D> {
             return Err("a species table without the particles' species".into());
         }
         self.integrator = build_integrator::<D>(&self.case, &table);
+        self.integrator.bind(&mut self.particles, &self.integrated);
         self.species = table;
         Ok(())
     }
@@ -526,9 +597,11 @@ impl<'c, const D: usize> Simulation<'c, D> {
         let offset = self.sim_box.le_offset(self.step, self.dt);
         let range = self.range();
         let (particles, sim_box, slab) = (&mut self.particles, &self.sim_box, &self.slab);
+        // Boundary particles live beyond the wall faces: never reflected there.
+        let reflected: Vec<bool> = self.species.iter().map(Species::is_fluid).collect();
         let owners = self
             .pool
-            .install(|| wrap_owned(particles, sim_box, slab, offset));
+            .install(|| wrap_owned(particles, sim_box, slab, offset, &reflected));
         send_leavers(&mut self.particles, &self.slab, self.comm, &owners)?;
         // Spatial order for cache locality (results do not depend on the order).
         let order = self
@@ -646,19 +719,29 @@ impl<'c, const D: usize> Simulation<'c, D> {
         self.virial.as_ref().map_or_else(zero, |(_, v)| v.clone())
     }
 
-    /// Advances one time step.
+    /// Advances one time step: each of the integrator's stages moves the particles, brings
+    /// lists and ghosts up to date and evaluates the forces (the first stage also advances the
+    /// step counter and the models' per-particle state).
     pub fn advance(&mut self) -> Result<(), String> {
+        let stages = self.integrator.stages();
+        for stage in 0..stages {
+            self.advance_stage(stage, stage + 1 == stages)?;
+        }
+        Ok(())
+    }
+
+    fn advance_stage(&mut self, stage: usize, last: bool) -> Result<(), String> {
         let t0 = Instant::now();
         let dt = self.dt;
         // The positions move: the list's marks of the pairs within the cutoff no longer hold.
         self.list.at_build_positions = false;
         {
             let (integrator, p) = (&self.integrator, &mut self.particles);
-            self.pool.install(|| integrator.before_forces(p));
+            self.pool.install(|| integrator.before_forces(p, stage));
         }
         self.reflect_at_walls();
-        self.step += 1;
-        {
+        if stage == 0 {
+            self.step += 1;
             let (models, p, step) = (&self.models, &mut self.particles, self.step);
             self.pool.install(|| {
                 for model in models {
@@ -670,7 +753,7 @@ impl<'c, const D: usize> Simulation<'c, D> {
 
         let t1 = Instant::now();
         let (list, particles) = (&self.list, &self.particles);
-        // One reduction per step carries the displacement and any rank's stop request.
+        // One reduction per stage carries the displacement and any rank's stop request.
         let mut moved = [
             self.pool.install(|| list.max_displacement(particles)),
             if self.stop_requested_here { 1.0 } else { 0.0 },
@@ -706,7 +789,7 @@ impl<'c, const D: usize> Simulation<'c, D> {
             );
             self.times.halo += t1.elapsed().as_secs_f64();
         }
-        let scope = if self.is_sample_step() {
+        let scope = if last && self.is_sample_step() {
             self.virial_scope
         } else {
             VirialScope::Off
@@ -715,7 +798,7 @@ impl<'c, const D: usize> Simulation<'c, D> {
 
         let t2 = Instant::now();
         let (integrator, p) = (&self.integrator, &mut self.particles);
-        self.pool.install(|| integrator.after_forces(p));
+        self.pool.install(|| integrator.after_forces(p, stage));
         self.times.integrate += t2.elapsed().as_secs_f64();
         Ok(())
     }
@@ -773,7 +856,8 @@ impl<'c, const D: usize> Simulation<'c, D> {
         let virial = self.current_virial();
         let case = &self.case;
         let sheared = self.sim_box.sheared();
-        let bins = if sheared {
+        let walled = self.sim_box.boundaries.contains(&crate::geometry::Boundary::Wall);
+        let bins = if sheared || walled {
             case.diagnostics.profile_bins
         } else {
             1
@@ -944,7 +1028,7 @@ impl<'c, const D: usize> Simulation<'c, D> {
             if p.species.is_some() {
                 words.push(u64::from(p.species_of(i)));
             }
-            for f in &p.extra {
+            for f in p.extra.iter().filter(|f| f.flags.digested) {
                 words.extend(
                     f.data[i * f.width..(i + 1) * f.width]
                         .iter()
@@ -1039,6 +1123,10 @@ pub fn initial_particles<const D: usize>(
 ) -> (Particles<D>, u64) {
     let dim = D;
     let (cells, total) = case.lattice_counts();
+    let wall_layers = case.walls.as_ref().map(|w| {
+        let axis = w.axis.index();
+        (axis, wall_layer_count(case, axis))
+    });
     let mut positions: Vec<[f64; D]> = Vec::with_capacity(total as usize);
     match case.particles.lattice {
         Lattice::Random => {
@@ -1055,6 +1143,12 @@ pub fn initial_particles<const D: usize>(
             }
         }
         lattice => {
+            // Lattice sites at (k + 0.25) spacings; with walls, at (k + ½) along the wall axis,
+            // so that the boundary rows mirror the fluid rows about each face.
+            let mut offset = [0.25; D];
+            if let Some((axis, _)) = wall_layers {
+                offset[axis] = 0.5;
+            }
             let basis: Vec<[f64; 3]> = match (lattice, dim) {
                 (Lattice::Fcc, 3) => vec![
                     [0.0, 0.0, 0.0],
@@ -1077,13 +1171,40 @@ pub fn initial_particles<const D: usize>(
                     let mut x = [0.0; D];
                     for d in 0..D {
                         let spacing = sim_box.lengths[d] / cells[d] as f64;
-                        x[d] = (idx[d] as f64 + b[d] + 0.25) * spacing;
+                        x[d] = (idx[d] as f64 + b[d] + offset[d]) * spacing;
                     }
                     positions.push(x);
                 }
             }
+            // Boundary particles: the lattice continued beyond both faces of the wall axis,
+            // `layers` rows each side, after every fluid particle in id order.
+            if let Some((axis, layers)) = wall_layers {
+                let spacing = sim_box.lengths[axis] / cells[axis] as f64;
+                let across: usize = (0..D).filter(|&d| d != axis).map(|d| cells[d]).product();
+                for side in 0..2 {
+                    for layer in 0..layers {
+                        let depth = (layer as f64 + 0.5) * spacing;
+                        for c in 0..across {
+                            let mut x = [0.0; D];
+                            let mut rem = c;
+                            for d in (0..D).filter(|&d| d != axis) {
+                                let sp = sim_box.lengths[d] / cells[d] as f64;
+                                x[d] = ((rem % cells[d]) as f64 + offset[d]) * sp;
+                                rem /= cells[d];
+                            }
+                            x[axis] = if side == 0 {
+                                -depth
+                            } else {
+                                sim_box.lengths[axis] + depth
+                            };
+                            positions.push(x);
+                        }
+                    }
+                }
+            }
         }
     }
+    let total = positions.len() as u64;
     let key = StreamKey::new(case.seed, Purpose::InitialVelocity, 0);
     let m = case.particles.mass;
     let kt = case.particles.temperature;
@@ -1142,4 +1263,17 @@ pub fn initial_particles<const D: usize>(
         }
     }
     (particles, total)
+}
+
+/// Rows of boundary particles beyond each face of the wall axis: the wall thickness (default
+/// two kernel supports) in lattice spacings, rounded up.
+pub fn wall_layer_count(case: &Case, axis: usize) -> usize {
+    let (cells, _) = case.lattice_counts();
+    let spacing = case.domain.lengths[axis] / cells[axis].max(1) as f64;
+    let thickness = case
+        .walls
+        .as_ref()
+        .and_then(|w| w.thickness)
+        .unwrap_or(2.0 * case.cutoff());
+    (thickness / spacing - 1e-9).ceil().max(1.0) as usize
 }

@@ -17,8 +17,22 @@
 //!
 //! SPH (the summation gas): the acoustic CFL limit Δt < 0.25 h / c (Monaghan 1992; spec
 //! `sph-maxwell.md` §1).
+//!
+//! SPH (`kind = "sph"`, spec `sph-maxwell.md` §1.12), with r_s the kernel support:
+//!
+//! ```text
+//! acoustic (CFL, the thesis's criterion)   Δt ≤ r_s / c₀
+//! viscous (Morris et al. 1997)             Δt ≤ 0.125 r_s² ρ₀ / η
+//! force (Monaghan; the thesis's h/|F| is
+//!        dimensionally wrong)              Δt ≤ 0.25 √(r_s / |F|)     (F the body force)
+//! ```
+//!
+//! The acoustic limit is where kick–drift–kick stops being stable for the fastest lattice
+//! sound mode (θ = c₀ max|g| Δt ≈ 2 for Lucy at r_s = 2.5Δ, spec §1.6); the viscous limit is
+//! Morris's criterion for a direct Laplacian, conservative for the wider nested summation.
 
 use crate::models::dpd::DpdCfg;
+use crate::models::sph::SphCfg;
 
 /// Time-step limits of a DPD case.
 #[derive(Clone, Copy, Debug)]
@@ -71,4 +85,28 @@ pub fn dpd_limits(d: &DpdCfg, dimension: usize, n: f64, m: f64) -> DpdLimits {
             f64::INFINITY
         },
     }
+}
+
+/// Time-step limits of an SPH fluid, each with its name.
+pub fn sph_limits(s: &SphCfg) -> Vec<(&'static str, f64)> {
+    let support = s.support();
+    let mut limits = vec![("acoustic (CFL) r_s/c₀", support / s.sound_speed)];
+    if s.viscosity > 0.0 {
+        limits.push((
+            "viscous 0.125 r_s² ρ₀/η",
+            0.125 * support * support * s.rest_density / s.viscosity,
+        ));
+    }
+    let force = s.body_force.iter().map(|f| f * f).sum::<f64>().sqrt();
+    if force > 0.0 {
+        limits.push(("body force 0.25 √(r_s/|F|)", 0.25 * (support / force).sqrt()));
+    }
+    limits
+}
+
+/// The binding (smallest) SPH limit.
+pub fn sph_binding_limit(s: &SphCfg) -> (&'static str, f64) {
+    sph_limits(s)
+        .into_iter()
+        .fold(("none", f64::INFINITY), |a, b| if b.1 < a.1 { b } else { a })
 }

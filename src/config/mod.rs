@@ -15,6 +15,8 @@ mod validate;
 use crate::geometry::Boundary;
 pub use crate::integrators::groot_warren::GrootWarrenCfg;
 pub use crate::models::dpd::DpdCfg;
+pub use crate::integrators::sph_schemes::{KickDriftKickCfg, TwoStageCfg};
+pub use crate::models::sph::{SphCfg, WallsCfg};
 pub use crate::models::summation_gas::SummationGasCfg;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
@@ -46,6 +48,9 @@ pub struct Case {
     pub fluid: FluidCfg,
     /// Time integration.
     pub integrator: IntegratorCfg,
+    /// Boundary-particle walls (SPH channels).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub walls: Option<WallsCfg>,
     /// Neighbour lists.
     #[serde(default)]
     pub neighbour: NeighbourCfg,
@@ -252,6 +257,8 @@ pub enum FluidCfg {
     Dpd(DpdCfg),
     /// The engine's two-pass test model: an isothermal SPH gas with summation density.
     SummationGas(SummationGasCfg),
+    /// Weakly compressible SPH (Newtonian).
+    Sph(SphCfg),
 }
 
 impl FluidCfg {
@@ -260,6 +267,7 @@ impl FluidCfg {
         match self {
             FluidCfg::Dpd(d) => d.cutoff,
             FluidCfg::SummationGas(g) => g.smoothing_length,
+            FluidCfg::Sph(s) => s.support(),
         }
     }
 }
@@ -270,6 +278,14 @@ impl FluidCfg {
 pub enum IntegratorCfg {
     /// Groot–Warren modified velocity Verlet.
     GrootWarren(GrootWarrenCfg),
+    /// Symplectic kick–drift–kick (velocity Verlet with predicted velocities).
+    KickDriftKick(KickDriftKickCfg),
+    /// Heun's second-order predictor–corrector.
+    Heun(TwoStageCfg),
+    /// The explicit midpoint rule.
+    Midpoint(TwoStageCfg),
+    /// Ellero 2004's predictor–corrector as printed (first order; to reproduce the text).
+    ThesisPredictorCorrector(TwoStageCfg),
 }
 
 impl IntegratorCfg {
@@ -277,6 +293,16 @@ impl IntegratorCfg {
     pub fn dt(&self) -> f64 {
         match self {
             IntegratorCfg::GrootWarren(g) => g.dt,
+            IntegratorCfg::KickDriftKick(k) => k.dt,
+            IntegratorCfg::Heun(t) | IntegratorCfg::Midpoint(t) | IntegratorCfg::ThesisPredictorCorrector(t) => t.dt,
+        }
+    }
+
+    /// Force evaluations per step.
+    pub fn stages(&self) -> usize {
+        match self {
+            IntegratorCfg::GrootWarren(_) | IntegratorCfg::KickDriftKick(_) => 1,
+            _ => 2,
         }
     }
 }
@@ -417,6 +443,27 @@ pub enum ReferenceCfg {
     Value(ValueReference),
     /// The linear profile u_x = γ̇ (y − L_y/2) through the Lees–Edwards plane.
     LinearShearProfile(ProfileReference),
+    /// An analytic start-up profile u_x(y, t) of a channel, at given times.
+    StartupProfile(StartupProfileReference),
+}
+
+/// `[[reference]] kind = "startup_profile"`: the binned u_x(y) at each listed time against an
+/// analytic series solution ([`crate::analytic`]), with the walls at the faces of the wall
+/// axis. One check per time, each max_b |u_b − u(y_b, t)| / scale.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct StartupProfileReference {
+    /// Short name.
+    pub name: String,
+    /// Which solution.
+    pub solution: crate::analytic::StartupFlow,
+    /// Times (each a multiple of the sampling interval Δt · run.sample_every).
+    pub times: Vec<f64>,
+    /// Largest acceptable max_b |u_b − u(y_b, t)| / scale at every time.
+    pub tolerance: f64,
+    /// Where the solution comes from.
+    #[serde(default)]
+    pub source: String,
 }
 
 /// `[[reference]] kind = "value"`
@@ -656,6 +703,13 @@ impl Case {
             .map(|&c| c.min(usize::MAX as f64) as usize)
             .collect();
         (cells, to_count(total))
+    }
+
+    /// Lattice spacing of the initial arrangement (cubic and fcc lattices; for a random one,
+    /// the mean spacing n^(−1/D)).
+    pub fn lattice_spacing(&self) -> f64 {
+        let basis = self.particles.lattice.basis(self.dimension) as f64;
+        (basis / self.particles.density).powf(1.0 / self.dimension as f64)
     }
 
     /// Whether an observable was asked for.

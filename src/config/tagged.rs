@@ -6,7 +6,10 @@
 //! path tracking, so a wrong type or an unknown choice names its own key and line.
 
 use super::spans::{Segment, SpanIndex, segments};
-use super::{CaseError, DpdCfg, GrootWarrenCfg, ProfileReference, SummationGasCfg, ValueReference};
+use super::{
+    CaseError, DpdCfg, GrootWarrenCfg, KickDriftKickCfg, ProfileReference, SphCfg,
+    StartupProfileReference, SummationGasCfg, TwoStageCfg, ValueReference,
+};
 use serde::de::DeserializeOwned;
 
 type Check = fn(toml::Value) -> Result<(), serde_path_to_error::Error<toml::de::Error>>;
@@ -20,11 +23,19 @@ fn check<T: DeserializeOwned>(
 const FLUIDS: &[(&str, Check)] = &[
     ("dpd", check::<DpdCfg>),
     ("summation_gas", check::<SummationGasCfg>),
+    ("sph", check::<SphCfg>),
 ];
-const INTEGRATORS: &[(&str, Check)] = &[("groot_warren", check::<GrootWarrenCfg>)];
+const INTEGRATORS: &[(&str, Check)] = &[
+    ("groot_warren", check::<GrootWarrenCfg>),
+    ("kick_drift_kick", check::<KickDriftKickCfg>),
+    ("heun", check::<TwoStageCfg>),
+    ("midpoint", check::<TwoStageCfg>),
+    ("thesis_predictor_corrector", check::<TwoStageCfg>),
+];
 const REFERENCES: &[(&str, Check)] = &[
     ("value", check::<ValueReference>),
     ("linear_shear_profile", check::<ProfileReference>),
+    ("startup_profile", check::<StartupProfileReference>),
 ];
 
 /// Checks every tagged table present in the document.

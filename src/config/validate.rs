@@ -201,22 +201,59 @@ pub fn validate(case: &Case, ix: &SpanIndex) -> Result<(), CaseError> {
                 ));
             }
         }
+        FluidCfg::Sph(sph) => validate_sph(case, sph, ix)?,
     }
-    // [integrator]
-    let IntegratorCfg::GrootWarren(gw) = &case.integrator;
-    if !(gw.dt.is_finite() && gw.dt > 0.0) {
+    if case.walls.is_some() && !matches!(case.fluid, FluidCfg::Sph(_)) {
         return err(
-            &["integrator", "dt"],
-            format!("found {}; must be > 0", gw.dt),
+            &["walls"],
+            "boundary-particle walls belong to SPH fluids (kind = \"sph\"); for reflecting \
+             walls set box.boundaries"
+                .to_string(),
         );
     }
-    if !(gw.lambda.is_finite() && (0.0..=1.0).contains(&gw.lambda)) {
+    // [integrator]
+    let dt = case.integrator.dt();
+    if !(dt.is_finite() && dt > 0.0) {
+        return err(&["integrator", "dt"], format!("found {dt}; must be > 0"));
+    }
+    if let IntegratorCfg::GrootWarren(gw) = &case.integrator
+        && !(gw.lambda.is_finite() && (0.0..=1.0).contains(&gw.lambda))
+    {
         return err(
             &["integrator", "lambda"],
             format!(
                 "found {}; λ must lie in [0, 1] (0.5 plain velocity Verlet, 0.65 Groot–Warren)",
                 gw.lambda
             ),
+        );
+    }
+    let sph = matches!(case.fluid, FluidCfg::Sph(_));
+    let groot_warren = matches!(case.integrator, IntegratorCfg::GrootWarren(_));
+    if !sph && !groot_warren {
+        return err(
+            &["integrator", "kind"],
+            "the SPH integrators (kick_drift_kick, heun, midpoint, thesis_predictor_corrector) \
+             serve kind = \"sph\" fluids; use kind = \"groot_warren\" for this fluid"
+                .to_string(),
+        );
+    }
+    if let FluidCfg::Sph(s) = &case.fluid
+        && groot_warren
+        && s.density == crate::models::sph::DensityMethod::Continuity
+    {
+        return err(
+            &["integrator", "kind"],
+            "groot_warren does not integrate the continuity density; use kick_drift_kick, heun \
+             or midpoint"
+                .to_string(),
+        );
+    }
+    if case.integrator.stages() > 1 && case.domain.shear_rate != 0.0 {
+        return err(
+            &["integrator", "kind"],
+            "two-stage integrators are not supported under Lees–Edwards shear (the predicted \
+             stage would see the images at the wrong offset); use kick_drift_kick"
+                .to_string(),
         );
     }
     // [neighbour]
@@ -239,7 +276,7 @@ pub fn validate(case: &Case, ix: &SpanIndex) -> Result<(), CaseError> {
     }
     let cutoff_key = match &case.fluid {
         FluidCfg::Dpd(_) => "cutoff",
-        FluidCfg::SummationGas(_) => "smoothing_length",
+        FluidCfg::SummationGas(_) | FluidCfg::Sph(_) => "smoothing_length",
     };
     for (i, (l, b)) in lengths.iter().zip(&boundaries).enumerate() {
         if *b == Boundary::Periodic && range > 0.5 * l {
@@ -260,36 +297,52 @@ pub fn validate(case: &Case, ix: &SpanIndex) -> Result<(), CaseError> {
         FluidCfg::Dpd(dpd) => {
             let (n, m) = (case.particles.density, case.particles.mass);
             let limits = stability::dpd_limits(dpd, dim, n, m);
-            if gw.dt > limits.dissipative {
+            if dt > limits.dissipative {
                 return err(
                     &["integrator", "dt"],
                     format!(
                         "Δt = {} is beyond the explicit stability limit of the dissipative force, \
                          Δt < m / (γ Σ_j w_D) ≈ {:.4} for this density and γ; use a smaller time step",
-                        gw.dt, limits.dissipative
+                        dt, limits.dissipative
                     ),
                 );
             }
-            if gw.dt > limits.conservative {
+            if dt > limits.conservative {
                 return err(
                     &["integrator", "dt"],
                     format!(
                         "Δt = {} is beyond the velocity-Verlet stability limit of the conservative force, \
                          Δt < 2/ω ≈ {:.4} (ω² = a N_c / (r_c D m)); use a smaller time step or a softer a",
-                        gw.dt, limits.conservative
+                        dt, limits.conservative
                     ),
                 );
             }
         }
         FluidCfg::SummationGas(gas) => {
             let cfl = stability::cfl_limit(gas.smoothing_length, gas.sound_speed);
-            if gw.dt > cfl {
+            if dt > cfl {
                 return err(
                     &["integrator", "dt"],
                     format!(
-                        "Δt = {} is beyond the acoustic (CFL) limit 0.25 h/c = {cfl:.4e}; use a \
+                        "Δt = {dt} is beyond the acoustic (CFL) limit 0.25 h/c = {cfl:.4e}; use a \
+                         smaller time step"
+                    ),
+                );
+            }
+        }
+        FluidCfg::Sph(s) => {
+            let (name, limit) = stability::sph_binding_limit(s);
+            if dt > limit {
+                let all: Vec<String> = stability::sph_limits(s)
+                    .iter()
+                    .map(|(n, l)| format!("{n} = {l:.4e}"))
+                    .collect();
+                return err(
+                    &["integrator", "dt"],
+                    format!(
+                        "Δt = {dt} is beyond the {name} limit {limit:.4e} (limits: {}); use a \
                          smaller time step",
-                        gw.dt
+                        all.join(", ")
                     ),
                 );
             }
@@ -363,7 +416,8 @@ pub fn validate(case: &Case, ix: &SpanIndex) -> Result<(), CaseError> {
                 | Observable::SecondNormalStressDifference
                 | Observable::VelocityProfile
         );
-        if needs_shear && shear == 0.0 {
+        let walled_profile = *o == Observable::VelocityProfile && boundaries.contains(&Boundary::Wall);
+        if needs_shear && shear == 0.0 && !walled_profile {
             return Err(ix.error(
                 &[k("diagnostics"), k("observables"), Segment::Index(i)],
                 format!("\"{}\" needs shear; set box.shear_rate ≠ 0", o.name()),
@@ -377,11 +431,11 @@ pub fn validate(case: &Case, ix: &SpanIndex) -> Result<(), CaseError> {
                 | Observable::FirstNormalStressDifference
                 | Observable::SecondNormalStressDifference
         );
-        if needs_virial && matches!(case.fluid, FluidCfg::SummationGas(_)) {
+        if needs_virial && matches!(case.fluid, FluidCfg::SummationGas(_) | FluidCfg::Sph(_)) {
             return Err(ix.error(
                 &[k("diagnostics"), k("observables"), Segment::Index(i)],
                 format!(
-                    "\"{}\" needs the pair virial, which the summation gas does not compute \
+                    "\"{}\" needs the pair virial, which the SPH models do not compute yet \
                      (the default list has \"pressure\"); list only \"temperature\", \
                      \"momentum\" or \"velocity_profile\"",
                     o.name()
@@ -419,6 +473,192 @@ pub fn validate(case: &Case, ix: &SpanIndex) -> Result<(), CaseError> {
                     ));
                 }
             }
+            ReferenceCfg::StartupProfile(sp) => validate_startup_reference(case, sp, i, ix)?,
+        }
+    }
+    Ok(())
+}
+
+/// `[fluid] kind = "sph"` and `[walls]`.
+fn validate_sph(case: &Case, s: &crate::models::sph::SphCfg, ix: &SpanIndex) -> Result<(), CaseError> {
+    let fl = |key: &str| vec![k("fluid"), k(key)];
+    let positive = |key: &str, v: f64, what: &str| -> Result<(), CaseError> {
+        if v.is_finite() && v > 0.0 {
+            Ok(())
+        } else {
+            Err(ix.error(&fl(key), format!("found {v}; {what} must be > 0")))
+        }
+    };
+    positive("smoothing_length", s.smoothing_length, "the smoothing length")?;
+    positive("rest_density", s.rest_density, "the rest density ρ₀")?;
+    positive("sound_speed", s.sound_speed, "the speed of sound c₀")?;
+    if !(s.viscosity.is_finite() && s.viscosity >= 0.0) {
+        return Err(ix.error(
+            &fl("viscosity"),
+            format!("found {}; the viscosity η must be ≥ 0", s.viscosity),
+        ));
+    }
+    if !(s.morris_regularisation.is_finite() && s.morris_regularisation >= 0.0) {
+        return Err(ix.error(
+            &fl("morris_regularisation"),
+            format!("found {}; must be ≥ 0 (Morris et al. use 0.01)", s.morris_regularisation),
+        ));
+    }
+    let dim = case.dimension;
+    if !s.body_force.is_empty() && s.body_force.len() != dim {
+        return Err(ix.error(
+            &fl("body_force"),
+            format!("found {} components; give {dim} (or leave it out)", s.body_force.len()),
+        ));
+    }
+    if s.body_force.iter().any(|f| !f.is_finite()) {
+        return Err(ix.error(&fl("body_force"), "components must be finite".to_string()));
+    }
+    // The mass must make the lattice density ρ₀ (m = ρ₀/n), within 5 %.
+    let want = s.rest_density / case.particles.density;
+    let m = case.particles.mass;
+    if ((m - want) / want).abs() > 0.05 {
+        return Err(ix.error(
+            &[k("particles"), k("mass")],
+            format!(
+                "found {m}; an SPH particle carries m = fluid.rest_density / particles.density = \
+                 {want:.6e} (within 5 %), so that the initial lattice has density ρ₀"
+            ),
+        ));
+    }
+    let Some(w) = &case.walls else {
+        return Ok(());
+    };
+    let wk = |key: &str| vec![k("walls"), k(key)];
+    let axis = w.axis.index();
+    if axis >= dim {
+        return Err(ix.error(&wk("axis"), format!("a {dim}-dimensional case has no axis {axis}")));
+    }
+    if case.boundaries()[axis] != Boundary::Wall {
+        return Err(ix.error(
+            &wk("axis"),
+            format!(
+                "box.boundaries must be \"wall\" along the wall axis {}",
+                ["x", "y", "z"][axis]
+            ),
+        ));
+    }
+    if case.particles.lattice != Lattice::Cubic {
+        return Err(ix.error(
+            &[k("particles"), k("lattice")],
+            "walls continue a \"cubic\" lattice beyond the faces; use lattice = \"cubic\"".to_string(),
+        ));
+    }
+    if case.domain.shear_rate != 0.0 {
+        return Err(ix.error(
+            &[k("box"), k("shear_rate")],
+            "walls and Lees–Edwards shear do not mix; move the walls instead".to_string(),
+        ));
+    }
+    for key in ["lower_velocity", "upper_velocity"] {
+        let u = if key == "lower_velocity" { &w.lower_velocity } else { &w.upper_velocity };
+        if !u.is_empty() && u.len() != dim {
+            return Err(ix.error(
+                &wk(key),
+                format!("found {} components; give {dim} (or leave it out for a wall at rest)", u.len()),
+            ));
+        }
+        if u.iter().any(|x| !x.is_finite()) || u.get(axis).is_some_and(|&x| x != 0.0) {
+            return Err(ix.error(
+                &wk(key),
+                "a wall moves in its own plane: finite components, 0 along the wall axis".to_string(),
+            ));
+        }
+    }
+    if let Some(t) = w.thickness
+        && !(t.is_finite() && t >= s.support())
+    {
+        return Err(ix.error(
+            &wk("thickness"),
+            format!("found {t}; a wall must be at least one kernel support ({}) thick", s.support()),
+        ));
+    }
+    if !(w.morris_cap.is_finite() && w.morris_cap >= 1.0) {
+        return Err(ix.error(
+            &wk("morris_cap"),
+            format!("found {}; β_max must be ≥ 1 (1.5 is usual)", w.morris_cap),
+        ));
+    }
+    for (key, v) in [("repulsion_strength", w.repulsion_strength), ("repulsion_range", w.repulsion_range)] {
+        if let Some(v) = v
+            && !(v.is_finite() && v >= 0.0)
+        {
+            return Err(ix.error(&wk(key), format!("found {v}; must be ≥ 0")));
+        }
+    }
+    Ok(())
+}
+
+/// `[[reference]] kind = "startup_profile"`.
+fn validate_startup_reference(
+    case: &Case,
+    sp: &StartupProfileReference,
+    i: usize,
+    ix: &SpanIndex,
+) -> Result<(), CaseError> {
+    let at = |key: &str| vec![k("reference"), Segment::Index(i), k(key)];
+    let fail = |key: &str, msg: String| Err(ix.error(&at(key), msg));
+    let (FluidCfg::Sph(s), Some(w)) = (&case.fluid, &case.walls) else {
+        return fail("kind", "a startup_profile reference needs an SPH fluid with [walls]".into());
+    };
+    if w.axis != Axis::Y || !case.wants(Observable::VelocityProfile) {
+        return fail(
+            "kind",
+            "a startup_profile reference needs walls.axis = \"y\" and \"velocity_profile\" \
+             among diagnostics.observables"
+                .into(),
+        );
+    }
+    let x = |v: &[f64]| v.first().copied().unwrap_or(0.0);
+    let flow_ok = match sp.solution {
+        crate::analytic::StartupFlow::Couette => {
+            x(&w.upper_velocity) != 0.0 && x(&w.lower_velocity) == 0.0 && x(&s.body_force) == 0.0
+        }
+        crate::analytic::StartupFlow::Poiseuille => {
+            x(&s.body_force) != 0.0 && x(&w.upper_velocity) == 0.0 && x(&w.lower_velocity) == 0.0
+        }
+    };
+    if !flow_ok {
+        return fail(
+            "solution",
+            "\"couette\" needs walls.upper_velocity[0] ≠ 0, a lower wall at rest and no body \
+             force; \"poiseuille\" needs fluid.body_force[0] ≠ 0 and both walls at rest"
+                .into(),
+        );
+    }
+    if s.viscosity <= 0.0 {
+        return fail("solution", "the analytic start-up needs fluid.viscosity > 0".into());
+    }
+    if !(sp.tolerance.is_finite() && sp.tolerance > 0.0) {
+        return fail("tolerance", format!("found {}; must be > 0", sp.tolerance));
+    }
+    if sp.times.is_empty() {
+        return fail("times", "give at least one time".into());
+    }
+    let dt = case.integrator.dt();
+    let every = case.run.sample_every;
+    for &t in &sp.times {
+        let step = (t / dt).round();
+        let sampled = t.is_finite()
+            && t > 0.0
+            && (step * dt - t).abs() <= 1e-9 * t
+            && step as u64 % every == 0
+            && step as u64 > case.run.equilibration
+            && step as u64 <= case.run.steps;
+        if !sampled {
+            return fail(
+                "times",
+                format!(
+                    "t = {t} is not a sampled time: each must be a multiple of Δt · \
+                     run.sample_every = {} after run.equilibration and within run.steps",
+                    dt * every as f64
+                ),
+            );
         }
     }
     Ok(())

@@ -18,17 +18,20 @@ pub fn migrate<const D: usize>(
     comm: &dyn Comm,
     offset: f64,
 ) -> Result<(), String> {
-    let owners = wrap_owned(particles, sim_box, slab, offset);
+    let owners = wrap_owned(particles, sim_box, slab, offset, &[]);
     send_leavers(particles, slab, comm, &owners)
 }
 
 /// Drops the ghosts, wraps every owned particle back into the box and returns the rank that
-/// owns each. Per particle and independent, so parallel (on the current rayon pool).
+/// owns each. `reflected[s]` says whether particles of species s are reflected at walls
+/// (boundary particles, which live beyond the wall faces, are not; empty: all are). Per
+/// particle and independent, so parallel (on the current rayon pool).
 pub fn wrap_owned<const D: usize>(
     particles: &mut Particles<D>,
     sim_box: &SimBox<D>,
     slab: &Slab,
     offset: f64,
+    reflected: &[bool],
 ) -> Vec<usize> {
     particles.clear_ghosts();
     let n = particles.n_owned;
@@ -37,16 +40,21 @@ pub fn wrap_owned<const D: usize>(
         vel,
         vel_half,
         image,
+        species,
         ..
     } = &mut *particles;
+    let species = species.as_deref();
     pos[..n]
         .par_iter_mut()
         .zip(vel[..n].par_iter_mut())
         .zip(vel_half[..n].par_iter_mut())
         .zip(image[..n].par_iter_mut())
+        .enumerate()
         .with_min_len(2048)
-        .map(|(((p, v), vh), im)| {
-            sim_box.wrap(p, &mut [v, vh], im, offset);
+        .map(|(i, (((p, v), vh), im))| {
+            let s = species.map_or(0, |s| s[i] as usize);
+            let reflect = reflected.get(s).copied().unwrap_or(true);
+            sim_box.wrap(p, &mut [v, vh], im, offset, reflect);
             slab.owner_of(p[slab.axis])
         })
         .collect()

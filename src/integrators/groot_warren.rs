@@ -100,7 +100,7 @@ impl<const D: usize> Integrator<D> for GrootWarren {
         self.dt
     }
 
-    fn before_forces(&self, p: &mut Particles<D>) {
+    fn before_forces(&self, p: &mut Particles<D>, _stage: usize) {
         if !self.species.is_empty() {
             return self.before_forces_by_species(p);
         }
@@ -121,7 +121,7 @@ impl<const D: usize> Integrator<D> for GrootWarren {
             });
     }
 
-    fn after_forces(&self, p: &mut Particles<D>) {
+    fn after_forces(&self, p: &mut Particles<D>, _stage: usize) {
         let (dt, inv_m) = (self.dt, self.inv_mass);
         let n = p.n_owned;
         if let Some(species) = p.species.as_deref() {

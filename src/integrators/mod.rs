@@ -1,14 +1,40 @@
 //! Time integrators, chosen in the case (`[integrator] kind = …`): components of the step
-//! loop, which calls [`Integrator::before_forces`], evaluates the models' passes at the new
-//! positions, then calls [`Integrator::after_forces`].
+//! loop. A step has one or more *stages*; in each, the loop calls
+//! [`Integrator::before_forces`], brings the ghosts up to date, evaluates the models' passes at
+//! the new state, then calls [`Integrator::after_forces`].
+//!
+//! Besides positions and velocities, an integrator advances the fields the models declare as
+//! integrated ([`crate::models::interface::ParticleModel::integrated_fields`]: a continuity
+//! density with its rate, a stress with its constitutive rate), with the same scheme as the
+//! velocity.
+//!
+//! | kind | stages | order | use |
+//! |---|---|---|---|
+//! | `groot_warren` | 1 | 2 (λ = ½) | DPD |
+//! | `kick_drift_kick` | 1 | 2 | SPH: symplectic for the conservative part, neutrally stable sound waves |
+//! | `heun` | 2 | 2 | SPH: predictor Δt, averaged corrector |
+//! | `midpoint` | 2 | 2 | SPH: predictor Δt/2, corrector with the midpoint rate |
+//! | `thesis_predictor_corrector` | 2 | 1 | Ellero 2004 Eqs. 2.49–2.50 as printed, to reproduce the text |
 
 pub mod groot_warren;
+pub mod sph_schemes;
 
 use crate::particles::Particles;
 
 pub use groot_warren::GrootWarren;
+pub use sph_schemes::{KickDriftKick, KickDriftKickCfg, TwoStage, TwoStageCfg, TwoStageVariant};
 
-/// A two-half-step integrator of the owned particles' positions and velocities.
+/// A state field the integrator advances: `state` with `rate`, both extra fields of equal
+/// width (indices into [`Particles::extra`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct IntegratedField {
+    /// The state's field index.
+    pub state: usize,
+    /// Its rate's field index.
+    pub rate: usize,
+}
+
+/// An integrator of the owned particles' positions, velocities and integrated fields.
 pub trait Integrator<const D: usize>: Send + Sync {
     /// Name (for logs).
     fn name(&self) -> &'static str;
@@ -16,10 +42,24 @@ pub trait Integrator<const D: usize>: Send + Sync {
     /// Time step Δt.
     fn dt(&self) -> f64;
 
-    /// From t to t + Δt: moves the owned particles and sets the velocities the new forces
-    /// will see, using the forces of t (in `particles.force`). Runs on the rank's worker pool.
-    fn before_forces(&self, particles: &mut Particles<D>);
+    /// Force evaluations per step (default 1).
+    fn stages(&self) -> usize {
+        1
+    }
 
-    /// Completes the step with the forces of t + Δt. Runs on the rank's worker pool.
-    fn after_forces(&self, particles: &mut Particles<D>);
+    /// Learns the integrated fields and registers any scratch fields it keeps per particle
+    /// (they must migrate with their particle: a rebuild may fall between two stages). Called
+    /// once the models are attached, and again whenever the integrator is rebuilt.
+    fn bind(&mut self, particles: &mut Particles<D>, integrated: &[IntegratedField]) {
+        let _ = (particles, integrated);
+    }
+
+    /// Stage `stage` of the step from t to t + Δt: moves the owned particles and sets the
+    /// velocities (and integrated fields) the stage's forces will see, using the forces and
+    /// rates in the particles. Runs on the rank's worker pool.
+    fn before_forces(&self, particles: &mut Particles<D>, stage: usize);
+
+    /// Completes stage `stage` with the forces and rates just evaluated. Runs on the rank's
+    /// worker pool.
+    fn after_forces(&self, particles: &mut Particles<D>, stage: usize);
 }

@@ -91,6 +91,13 @@ pub trait GatherKernel<const D: usize>: Sync {
     /// holds garbage on entry), with r_ij = r_i − r_j and r = |r_ij| < cutoff.
     fn pair(&self, p: &Particles<D>, i: usize, j: usize, r_ij: &[f64; D], r: f64, out: &mut [f64]);
 
+    /// Whether particle `i`'s sums are wanted at all (default: yes). An inactive row is all
+    /// zeros and costs nothing (the momentum pass of a boundary particle, which never moves).
+    fn active(&self, p: &Particles<D>, i: usize) -> bool {
+        let _ = (p, i);
+        true
+    }
+
     /// Writes particle `i`'s contribution to itself into `out` and returns true, or returns
     /// false when there is none (the default).
     fn self_term(&self, p: &Particles<D>, i: usize, out: &mut [f64]) -> bool {
@@ -157,6 +164,10 @@ pub fn gather<const D: usize, K: GatherKernel<D>>(
         .try_for_each_init(
             || (vec![FixedSum::ZERO; width], vec![0.0; width]),
             |(sums, term), (i, sums_out)| {
+                if !kernel.active(p, i) {
+                    sums_out.fill(0.0);
+                    return Ok(());
+                }
                 sums.fill(FixedSum::ZERO);
                 let add = |sums: &mut [FixedSum], term: &[f64], j: usize| {
                     for (q, (s, &x)) in sums.iter_mut().zip(term).enumerate() {

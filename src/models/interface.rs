@@ -160,6 +160,15 @@ pub trait ParticleModel<const D: usize>: Send + Sync {
         Err(format!("{} declares no pass {pass}", self.name()))
     }
 
+    /// The fields the integrator advances with the particles, as (state, rate) pairs of
+    /// scalar or fixed-width fields of equal width: ṡ = rate, integrated by the case's scheme
+    /// exactly like the velocity with the acceleration (a continuity density with its dρ/dt, a
+    /// stress with its constitutive rate). The model's passes write the rates; the integrator
+    /// owns the time stepping.
+    fn integrated_fields(&self) -> Vec<(&'static str, &'static str)> {
+        Vec::new()
+    }
+
     /// Advances the owned particles' own state to `step`, after the integrator has moved them
     /// (once per step). Runs on the rank's worker pool.
     fn update_state(&self, particles: &mut Particles<D>, step: u64) {

@@ -7,6 +7,7 @@ pub mod gather;
 pub mod homogeneous_flow;
 pub mod interface;
 pub mod pair_loop;
+pub mod sph;
 pub mod summation_gas;
 
 pub use interface::{FieldKind, FieldSpec, ParticleModel, PassContext, PassOutput, PassSpec};

@@ -1,0 +1,865 @@
+//! Weakly compressible SPH for Newtonian fluids (`[fluid] kind = "sph"`), with walls of
+//! boundary particles (`[walls]`). Ellero 2004, ch. 2, as distilled with its printed errors
+//! corrected in spec `sph-maxwell.md` §1–§2; notation x_ij = x_i − x_j, v_ij = v_i − v_j,
+//! ∇_i W_ij = W'(r_ij) x_ij / r_ij.
+//!
+//! ```text
+//! density, summation (Eq. 2.29)    ρ_i = Σ_j m_j W_ij              (j = i included)
+//! density, continuity (Eq. 2.31)   dρ_i/dt = Σ_j m_j v_ij · ∇_i W_ij
+//! quadratic EOS (Eq. 2.35)         p = c₀² ρ² / (2 ρ₀)            (p/ρ² = c₀²/(2ρ₀), constant)
+//! Tait EOS (Eq. 2.38)              p = (c₀² ρ₀ / 7) ((ρ/ρ₀)⁷ − 1)
+//! velocity gradient (Eq. 3.7 × 2)  G_i^{ab} = ∂v^a/∂x^b ≈ Σ_j (m_j/ρ_j)(v_j^a − v_i^a) ∂_b W_ij
+//! Newtonian stress (Eq. 2.40)      σ̄_i = η (G_i + G_iᵀ − (2/d) tr G_i I)        (ζ = 0)
+//! momentum (Eq. 2.20, corrected)   dv_i^a/dt = Σ_j m_j [(σ̄_i^{ab}/ρ_i² + σ̄_j^{ab}/ρ_j²)
+//!                                                 − (p_i/ρ_i² + p_j/ρ_j²) δ^{ab}] ∂_b W_ij + F^a
+//! Morris viscosity (alternative)   dv_i/dt += Σ_j m_j (2η/(ρ_i ρ_j)) (x_ij·∇_i W_ij)/(r_ij² + 0.01h²) v_ij
+//! ```
+//!
+//! Departures from the printed text (spec §1.2, §1.12, §2.2): the momentum equation contracts
+//! the stress with ∂_b W (the thesis prints ∂_a); the wall repulsion is made to repel; the
+//! thesis's first-order predictor–corrector is only one of the integrators
+//! ([`crate::integrators`]).
+//!
+//! The "nested summation" is two gather passes: pass 1 estimates G_i and stores σ̄_i, the
+//! engine refreshes the ghosts' σ̄, pass 2 forms the momentum equation. Morris's direct term
+//! needs no gradient pass. With summation density a density pass comes first; with continuity
+//! density ρ is integrated state ([`ParticleModel::integrated_fields`]).
+//!
+//! Every pair term is exactly antisymmetric (force) or symmetric (density, dρ/dt) under i ↔ j,
+//! so momentum is conserved pair by pair, and every sum is exact ([`crate::fixed_sum`]), so
+//! the results are the same bits on any number of ranks and threads.
+//!
+//! # Walls (`[walls]`, thesis method B and Morris's images)
+//! Layers of boundary particles continue the lattice beyond the two faces of the wall axis, at
+//! least one kernel support thick (default two, so that every boundary particle a fluid
+//! particle sees has a complete summation density). They are species of their own
+//! ([`crate::species`]): frozen, or moving at the wall velocity; they enter every sum, are
+//! never integrated and never counted as fluid. Their density is summed like the fluid's (or
+//! stays ρ₀ under continuity); with the nested summation they carry the stress of their own
+//! velocity-gradient estimate. Two treatments of the velocity a fluid particle i sees for a
+//! boundary particle j of a wall moving at U:
+//!
+//! - `layers` (method B): v_j = U;
+//! - `morris` (Morris, Fox & Zhu 1997): v_j = U − (d_j/d_i)(v_i − U), i.e. v_i − v_j = β (v_i − U)
+//!   with β = min(1 + d_j/d_i, β_max), d_i ≥ Δ/2 the distances from the wall plane (spec §2.3).
+//!
+//! A Lennard-Jones-like repulsion between fluid and boundary particles closer than r₀ (spec
+//! §2.2, Eq. 2.47, with the sign that repels), a_i = D [(r₀/r)⁴ − (r₀/r)²] x_ij / r², keeps
+//! fluid out of the wall; r₀ defaults to the lattice spacing (the initial fluid–wall distance,
+//! where the force vanishes) and D to c₀².
+
+pub mod kernels;
+
+use crate::fixed_sum::Scale;
+use crate::models::gather::{FullList, GatherKernel, gather};
+use crate::models::interface::{
+    FieldKind, FieldSpec, ParticleModel, PassContext, PassOutput, PassSpec,
+};
+use crate::particles::{FieldFlags, Particles};
+use crate::species::{Motion, Species};
+use crate::with_kernel;
+use kernels::{Kernel, KernelKind};
+use serde::{Deserialize, Serialize};
+
+/// `[fluid] kind = "sph"`
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct SphCfg {
+    /// Smoothing kernel.
+    #[serde(default)]
+    pub kernel: KernelKind,
+    /// Smoothing length h (the support is h for Lucy, 2h for the cubic spline and Wendland C2,
+    /// 3h for the quintic spline).
+    pub smoothing_length: f64,
+    /// Rest density ρ₀.
+    #[serde(default = "one")]
+    pub rest_density: f64,
+    /// Reference speed of sound c₀.
+    pub sound_speed: f64,
+    /// Equation of state.
+    #[serde(default)]
+    pub equation_of_state: EquationOfState,
+    /// How the density is obtained.
+    #[serde(default)]
+    pub density: DensityMethod,
+    /// Dynamic (shear) viscosity η.
+    pub viscosity: f64,
+    /// Discretisation of the viscous stress.
+    #[serde(default)]
+    pub viscous_term: ViscousTerm,
+    /// Body force per unit mass F (D components; Poiseuille flow), default none.
+    #[serde(default)]
+    pub body_force: Vec<f64>,
+    /// Regularisation ε of 1/(r² + ε h²) in Morris's viscous term (default 0, as LAMMPS's
+    /// `sph/taitwater/morris`). Every kernel offered has a finite W'(r)/r at r = 0, so nothing
+    /// needs regularising; Morris et al. (1997) use 0.01 with h the smoothing length of a
+    /// quintic of support 3h. With Lucy, whose h *is* the support, ε = 0.01 weakens the
+    /// nearest-neighbour coupling at h = 2.5Δ by 6 % and the measured viscosity by ~4 %.
+    #[serde(default)]
+    pub morris_regularisation: f64,
+}
+
+fn one() -> f64 {
+    1.0
+}
+
+/// `[fluid] equation_of_state`
+#[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq, Eq, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum EquationOfState {
+    /// p = c₀² ρ² / (2 ρ₀) (the thesis's Eq. 2.35).
+    #[default]
+    Quadratic,
+    /// p = (c₀² ρ₀ / 7)((ρ/ρ₀)⁷ − 1) (Tait, γ = 7).
+    Tait,
+}
+
+/// `[fluid] density`
+#[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq, Eq, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum DensityMethod {
+    /// ρ_i = Σ_j m_j W_ij, every evaluation (the thesis's default; mass exactly conserved).
+    #[default]
+    Summation,
+    /// dρ_i/dt = Σ_j m_j v_ij · ∇_i W_ij, integrated (ρ starts at ρ₀).
+    Continuity,
+}
+
+/// `[fluid] viscous_term`
+#[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq, Eq, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum ViscousTerm {
+    /// The thesis's two-pass scheme: σ̄ from the velocity-gradient estimate, then its divergence.
+    #[default]
+    NestedSummation,
+    /// Morris, Fox & Zhu (1997): one pass, a direct approximation of η∇²v.
+    Morris,
+}
+
+/// `[walls]`: boundary-particle walls at the two faces of one axis.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct WallsCfg {
+    /// The wall axis (its box boundaries must be "wall").
+    #[serde(default = "axis_y")]
+    pub axis: crate::config::Axis,
+    /// Thickness of each boundary layer (default: two kernel supports).
+    #[serde(default)]
+    pub thickness: Option<f64>,
+    /// Velocity of the wall at 0 (D components; default at rest).
+    #[serde(default)]
+    pub lower_velocity: Vec<f64>,
+    /// Velocity of the wall at L (D components; default at rest).
+    #[serde(default)]
+    pub upper_velocity: Vec<f64>,
+    /// The velocity fluid particles see for boundary particles.
+    #[serde(default)]
+    pub treatment: WallTreatment,
+    /// Cap β_max of Morris's extrapolation factor β = 1 + d_j/d_i.
+    #[serde(default = "beta_max")]
+    pub morris_cap: f64,
+    /// Strength D of the fluid–wall repulsion (default c₀²).
+    #[serde(default)]
+    pub repulsion_strength: Option<f64>,
+    /// Range r₀ of the fluid–wall repulsion (default: the lattice spacing).
+    #[serde(default)]
+    pub repulsion_range: Option<f64>,
+}
+
+fn axis_y() -> crate::config::Axis {
+    crate::config::Axis::Y
+}
+fn beta_max() -> f64 {
+    1.5
+}
+
+/// `[walls] treatment`
+#[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq, Eq, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum WallTreatment {
+    /// Boundary particles carry the wall velocity (thesis method B).
+    #[default]
+    Layers,
+    /// Morris's extrapolated image velocity, v_j = U − (d_j/d_i)(v_i − U), capped.
+    Morris,
+}
+
+impl SphCfg {
+    /// The kernel support (the interaction cutoff).
+    pub fn support(&self) -> f64 {
+        self.kernel.support_factor() * self.smoothing_length
+    }
+
+    /// p/ρ² at density ρ.
+    #[inline(always)]
+    fn pressure_over_rho2(eos: EquationOfState, c2: f64, rho0: f64, rho: f64) -> f64 {
+        match eos {
+            EquationOfState::Quadratic => c2 / (2.0 * rho0),
+            EquationOfState::Tait => {
+                let x = rho / rho0;
+                let x2 = x * x;
+                let x7 = x2 * x2 * x2 * x;
+                c2 * rho0 / 7.0 * (x7 - 1.0) / (rho * rho)
+            }
+        }
+    }
+
+    /// Pressure at density ρ.
+    pub fn pressure(&self, rho: f64) -> f64 {
+        let c2 = self.sound_speed * self.sound_speed;
+        Self::pressure_over_rho2(self.equation_of_state, c2, self.rest_density, rho) * rho * rho
+    }
+}
+
+/// Field names.
+pub const DENSITY: &str = "density";
+/// dρ/dt (continuity density).
+pub const DENSITY_RATE: &str = "density_rate";
+/// σ̄ (nested summation), D×D row-major.
+pub const VISCOUS_STRESS: &str = "viscous_stress";
+
+/// Species indices of a walled scene: the fluid, the wall at 0, the wall at L.
+pub const FLUID: u8 = 0;
+/// The wall at the lower face.
+pub const LOWER_WALL: u8 = 1;
+/// The wall at the upper face.
+pub const UPPER_WALL: u8 = 2;
+
+/// The species of a walled scene (fluid, lower wall, upper wall), every particle of mass
+/// `mass`; a wall at rest is frozen (never integrated).
+pub fn wall_species<const D: usize>(walls: &WallsCfg, mass: f64) -> Vec<Species> {
+    let motion = |u: &[f64]| {
+        if u.iter().all(|&x| x == 0.0) {
+            Motion::Frozen
+        } else {
+            let mut v = [0.0; 3];
+            v[..u.len().min(3)].copy_from_slice(&u[..u.len().min(3)]);
+            Motion::Prescribed(v)
+        }
+    };
+    vec![
+        Species::fluid(mass),
+        Species {
+            name: "lower wall".into(),
+            mass,
+            motion: motion(&walls.lower_velocity),
+        },
+        Species {
+            name: "upper wall".into(),
+            mass,
+            motion: motion(&walls.upper_velocity),
+        },
+    ]
+}
+
+/// The walls as the pair kernels see them.
+#[derive(Clone, Copy, Debug)]
+struct WallGeometry<const D: usize> {
+    axis: usize,
+    /// Coordinates of the lower and upper wall planes.
+    planes: [f64; 2],
+    /// Velocities of the lower and upper walls.
+    velocity: [[f64; D]; 2],
+    morris: bool,
+    beta_max: f64,
+    /// Floor of a fluid particle's distance to the wall (Δ/2).
+    min_distance: f64,
+    /// D and r₀ of the repulsion.
+    strength: f64,
+    range: f64,
+}
+
+impl<const D: usize> WallGeometry<D> {
+    /// The velocity fluid particle i sees for boundary particle j (species `sj`).
+    #[inline(always)]
+    fn seen_velocity(&self, p: &Particles<D>, i: usize, j: usize, sj: u8) -> [f64; D] {
+        if !self.morris {
+            return p.vel[j];
+        }
+        let w = (sj - LOWER_WALL) as usize;
+        let u = self.velocity[w];
+        let (di, dj) = if w == 0 {
+            (
+                p.pos[i][self.axis] - self.planes[0],
+                self.planes[0] - p.pos[j][self.axis],
+            )
+        } else {
+            (
+                self.planes[1] - p.pos[i][self.axis],
+                p.pos[j][self.axis] - self.planes[1],
+            )
+        };
+        let beta = (1.0 + dj / di.max(self.min_distance)).min(self.beta_max);
+        std::array::from_fn(|d| p.vel[i][d] - beta * (p.vel[i][d] - u[d]))
+    }
+}
+
+/// Pass: summation density, m_j W_ij and the self term m_i W(0).
+struct DensityKernel<K> {
+    kernel: K,
+    mass: f64,
+    scales: [Scale; 1],
+}
+
+impl<const D: usize, K: Kernel> GatherKernel<D> for DensityKernel<K> {
+    fn scales(&self) -> &[Scale] {
+        &self.scales
+    }
+    fn cutoff(&self) -> f64 {
+        self.kernel.support()
+    }
+    #[inline(always)]
+    fn pair(&self, _: &Particles<D>, _: usize, _: usize, _: &[f64; D], r: f64, out: &mut [f64]) {
+        out[0] = self.mass * self.kernel.w(r);
+    }
+    fn self_term(&self, _: &Particles<D>, _: usize, out: &mut [f64]) -> bool {
+        out[0] = self.mass * self.kernel.w(0.0);
+        true
+    }
+}
+
+/// Pass: the velocity gradient G_i^{ab} = Σ_j (m_j/ρ_j)(v_j^a − v_i^a) W'_ij x_ij^b / r_ij.
+struct GradientKernel<'a, K, const D: usize> {
+    kernel: K,
+    mass: f64,
+    density: &'a [f64],
+    walls: Option<WallGeometry<D>>,
+    scales: Vec<Scale>,
+}
+
+impl<K: Kernel, const D: usize> GatherKernel<D> for GradientKernel<'_, K, D> {
+    fn scales(&self) -> &[Scale] {
+        &self.scales
+    }
+    fn cutoff(&self) -> f64 {
+        self.kernel.support()
+    }
+    #[inline(always)]
+    fn pair(&self, p: &Particles<D>, i: usize, j: usize, x: &[f64; D], r: f64, out: &mut [f64]) {
+        let vj = match &self.walls {
+            Some(w) if p.species_of(i) == FLUID && p.species_of(j) != FLUID => {
+                w.seen_velocity(p, i, j, p.species_of(j))
+            }
+            _ => p.vel[j],
+        };
+        let s = self.mass / self.density[j] * self.kernel.dw(r) / r;
+        for a in 0..D {
+            let dv = s * (vj[a] - p.vel[i][a]);
+            for b in 0..D {
+                out[a * D + b] = dv * x[b];
+            }
+        }
+    }
+}
+
+/// Pass: the momentum equation (and dρ/dt under continuity), per unit mass times m_i.
+struct MomentumKernel<'a, K, const D: usize> {
+    kernel: K,
+    mass: f64,
+    density: &'a [f64],
+    /// p/ρ² of every particle (owned and ghosts).
+    p_over_rho2: &'a [f64],
+    /// σ̄ (D² per particle) with the nested summation.
+    stress: Option<&'a [f64]>,
+    /// 2η (Morris's term), or 0.
+    two_eta_morris: f64,
+    /// 0.01 h².
+    regulariser: f64,
+    continuity: bool,
+    walls: Option<WallGeometry<D>>,
+    scales: Vec<Scale>,
+}
+
+impl<K: Kernel, const D: usize> GatherKernel<D> for MomentumKernel<'_, K, D> {
+    fn scales(&self) -> &[Scale] {
+        &self.scales
+    }
+    fn cutoff(&self) -> f64 {
+        self.kernel.support()
+    }
+    fn active(&self, p: &Particles<D>, i: usize) -> bool {
+        p.species_of(i) == FLUID
+    }
+    #[inline(always)]
+    fn pair(&self, p: &Particles<D>, i: usize, j: usize, x: &[f64; D], r: f64, out: &mut [f64]) {
+        let (si, sj) = (p.species_of(i), p.species_of(j));
+        let boundary_pair = si != sj && (si == FLUID || sj == FLUID);
+        // v_ij, with the velocity the fluid end sees for a boundary end.
+        let vij: [f64; D] = match &self.walls {
+            Some(w) if boundary_pair && si == FLUID => {
+                let vj = w.seen_velocity(p, i, j, sj);
+                std::array::from_fn(|d| p.vel[i][d] - vj[d])
+            }
+            Some(w) if boundary_pair => {
+                let vi = w.seen_velocity(p, j, i, si);
+                std::array::from_fn(|d| vi[d] - p.vel[j][d])
+            }
+            _ => std::array::from_fn(|d| p.vel[i][d] - p.vel[j][d]),
+        };
+        let mm = self.mass * self.mass;
+        let gw = self.kernel.dw(r) / r; // ∇_i W_ij = gw x_ij
+        let pressure = -(self.p_over_rho2[i] + self.p_over_rho2[j]) * gw;
+        let mut f = [0.0; D];
+        for a in 0..D {
+            f[a] = pressure * x[a];
+        }
+        if let Some(stress) = self.stress {
+            let (ri2, rj2) = (
+                self.density[i] * self.density[i],
+                self.density[j] * self.density[j],
+            );
+            for a in 0..D {
+                let mut t = 0.0;
+                for b in 0..D {
+                    let sab =
+                        stress[i * D * D + a * D + b] / ri2 + stress[j * D * D + a * D + b] / rj2;
+                    t += sab * x[b];
+                }
+                f[a] += gw * t;
+            }
+        }
+        if self.two_eta_morris != 0.0 {
+            let r2 = r * r;
+            let s = self.two_eta_morris / (self.density[i] * self.density[j]) * gw * r2
+                / (r2 + self.regulariser);
+            for a in 0..D {
+                f[a] += s * vij[a];
+            }
+        }
+        if let Some(w) = &self.walls
+            && boundary_pair
+            && r < w.range
+        {
+            let q2 = (w.range / r) * (w.range / r);
+            let s = w.strength * (q2 * q2 - q2) / (r * r);
+            for a in 0..D {
+                f[a] += s * x[a];
+            }
+        }
+        for a in 0..D {
+            out[a] = mm * f[a];
+        }
+        if self.continuity {
+            let mut vdotx = 0.0;
+            for a in 0..D {
+                vdotx += vij[a] * x[a];
+            }
+            out[D] = self.mass * gw * vdotx;
+        }
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Pass {
+    Density,
+    Gradient,
+    Momentum,
+}
+
+/// The SPH fluid: parameters, its passes and its field indices.
+pub struct SphModel<const D: usize> {
+    cfg: SphCfg,
+    mass: f64,
+    passes: Vec<Pass>,
+    walls: Option<WallGeometry<D>>,
+    body_force: [f64; D],
+    density: usize,
+    rate: Option<usize>,
+    stress: Option<usize>,
+    p_over_rho2: Vec<f64>,
+    sums: Vec<f64>,
+}
+
+impl<const D: usize> SphModel<D> {
+    /// The fluid of particles of mass `mass`, in a box of edge lengths `lengths` with lattice
+    /// spacing `spacing` (the default range of the wall repulsion), with the walls given.
+    pub fn new(
+        cfg: &SphCfg,
+        mass: f64,
+        lengths: &[f64; D],
+        spacing: f64,
+        walls: Option<&WallsCfg>,
+    ) -> Self {
+        let mut passes = Vec::new();
+        if cfg.density == DensityMethod::Summation {
+            passes.push(Pass::Density);
+        }
+        if cfg.viscous_term == ViscousTerm::NestedSummation {
+            passes.push(Pass::Gradient);
+        }
+        passes.push(Pass::Momentum);
+        let walls = walls.map(|w| {
+            let axis = w.axis.index();
+            let vel = |u: &[f64]| std::array::from_fn(|d| u.get(d).copied().unwrap_or(0.0));
+            WallGeometry {
+                axis,
+                planes: [0.0, lengths[axis]],
+                velocity: [vel(&w.lower_velocity), vel(&w.upper_velocity)],
+                morris: w.treatment == WallTreatment::Morris,
+                beta_max: w.morris_cap,
+                min_distance: 0.5 * spacing,
+                strength: w
+                    .repulsion_strength
+                    .unwrap_or(cfg.sound_speed * cfg.sound_speed),
+                range: w.repulsion_range.unwrap_or(spacing),
+            }
+        });
+        Self {
+            cfg: cfg.clone(),
+            mass,
+            passes,
+            walls,
+            body_force: std::array::from_fn(|d| cfg.body_force.get(d).copied().unwrap_or(0.0)),
+            density: usize::MAX,
+            rate: None,
+            stress: None,
+            p_over_rho2: Vec::new(),
+            sums: Vec::new(),
+        }
+    }
+
+    /// Bounds of the exact sums. The scales exist to stop a blown-up run (a term not finite or
+    /// absurdly large) with the pair named; the fixed-point sum resolves 2⁻¹⁰² of its scale, so
+    /// a headroom of 10⁸ over a term's typical size still resolves it to ~10⁻²³.
+    fn typical(&self) -> (f64, f64, f64) {
+        let c0 = self.cfg.sound_speed;
+        let rho0 = self.cfg.rest_density;
+        let dw = with_kernel!(self.cfg.kernel, self.cfg.smoothing_length, D, |k| k
+            .max_abs_dw());
+        let w0 = with_kernel!(self.cfg.kernel, self.cfg.smoothing_length, D, |k| k.w(0.0));
+        let gradient = self.mass / rho0 * c0 * dw;
+        let momentum = self.mass * self.mass * (c0 * c0 / rho0) * dw;
+        (self.mass * w0, gradient, momentum)
+    }
+
+    fn run<K: Kernel>(&mut self, kernel: K, pass: Pass, p: &mut Particles<D>, full: &FullList) -> Result<(), crate::models::gather::PairError> {
+        const HEADROOM: f64 = 1e8;
+        let (density_scale, gradient_scale, momentum_scale) = self.typical();
+        let mut sums = std::mem::take(&mut self.sums);
+        let n = p.n_owned;
+        let result = match pass {
+            Pass::Density => {
+                let k = DensityKernel {
+                    kernel,
+                    mass: self.mass,
+                    // Each term is at most m W(0): an exact bound.
+                    scales: [Scale::covering(density_scale)],
+                };
+                gather(&k, p, full, &mut sums).map(|()| {
+                    p.extra[self.density].data[..n].copy_from_slice(&sums);
+                })
+            }
+            Pass::Gradient => {
+                let k = GradientKernel {
+                    kernel,
+                    mass: self.mass,
+                    density: &p.extra[self.density].data,
+                    walls: self.walls,
+                    scales: vec![Scale::covering(HEADROOM * gradient_scale); D * D],
+                };
+                let r = gather(&k, p, full, &mut sums);
+                r.map(|()| {
+                    let eta = self.cfg.viscosity;
+                    let stress = self.stress.expect("nested summation");
+                    let out = &mut p.extra[stress].data;
+                    for (i, g) in sums.chunks_exact(D * D).enumerate() {
+                        let trace: f64 = (0..D).map(|a| g[a * D + a]).sum();
+                        for a in 0..D {
+                            for b in 0..D {
+                                let mut s = g[a * D + b] + g[b * D + a];
+                                if a == b {
+                                    s -= 2.0 / D as f64 * trace;
+                                }
+                                out[i * D * D + a * D + b] = eta * s;
+                            }
+                        }
+                    }
+                })
+            }
+            Pass::Momentum => {
+                let c2 = self.cfg.sound_speed * self.cfg.sound_speed;
+                let (eos, rho0) = (self.cfg.equation_of_state, self.cfg.rest_density);
+                let density = &p.extra[self.density].data;
+                self.p_over_rho2.clear();
+                self.p_over_rho2.extend(
+                    density
+                        .iter()
+                        .map(|&rho| SphCfg::pressure_over_rho2(eos, c2, rho0, rho)),
+                );
+                let continuity = self.rate.is_some();
+                let width = D + usize::from(continuity);
+                let mut scales = vec![Scale::covering(HEADROOM * momentum_scale); width];
+                if continuity {
+                    scales[D] = Scale::covering(HEADROOM * gradient_scale * rho0);
+                }
+                let k = MomentumKernel {
+                    kernel,
+                    mass: self.mass,
+                    density,
+                    p_over_rho2: &self.p_over_rho2,
+                    stress: self.stress.map(|s| p.extra[s].data.as_slice()),
+                    two_eta_morris: if self.cfg.viscous_term == ViscousTerm::Morris {
+                        2.0 * self.cfg.viscosity
+                    } else {
+                        0.0
+                    },
+                    regulariser: self.cfg.morris_regularisation
+                        * self.cfg.smoothing_length
+                        * self.cfg.smoothing_length,
+                    continuity,
+                    walls: self.walls,
+                    scales,
+                };
+                let r = gather(&k, p, full, &mut sums);
+                r.map(|()| {
+                    let mf: [f64; D] = std::array::from_fn(|d| self.mass * self.body_force[d]);
+                    let species = p.species.as_deref();
+                    for (i, s) in sums.chunks_exact(width).enumerate() {
+                        let fluid = species.is_none_or(|sp| sp[i] == FLUID);
+                        let f = &mut p.force[i];
+                        for d in 0..D {
+                            f[d] += s[d];
+                            if fluid {
+                                f[d] += mf[d];
+                            }
+                        }
+                    }
+                    if let Some(rate) = self.rate {
+                        let out = &mut p.extra[rate].data;
+                        for (i, s) in sums.chunks_exact(width).enumerate() {
+                            out[i] = s[D];
+                        }
+                    }
+                })
+            }
+        };
+        self.sums = sums;
+        result
+    }
+}
+
+impl<const D: usize> ParticleModel<D> for SphModel<D> {
+    fn name(&self) -> &'static str {
+        "sph"
+    }
+
+    fn cutoff(&self) -> f64 {
+        self.cfg.support()
+    }
+
+    fn fields(&self) -> Vec<FieldSpec> {
+        let mut f = Vec::new();
+        if self.cfg.density == DensityMethod::Summation {
+            f.push(FieldSpec {
+                name: DENSITY,
+                kind: FieldKind::Scalar,
+                flags: FieldFlags::DERIVED,
+            });
+        } else {
+            f.push(FieldSpec {
+                name: DENSITY,
+                kind: FieldKind::Scalar,
+                flags: FieldFlags::STATE,
+            });
+            f.push(FieldSpec {
+                name: DENSITY_RATE,
+                kind: FieldKind::Scalar,
+                flags: FieldFlags::STATE,
+            });
+        }
+        if self.cfg.viscous_term == ViscousTerm::NestedSummation {
+            f.push(FieldSpec {
+                name: VISCOUS_STRESS,
+                kind: FieldKind::Tensor,
+                flags: FieldFlags::DERIVED,
+            });
+        }
+        f
+    }
+
+    fn passes(&self) -> Vec<PassSpec> {
+        let mut density_refreshed = false;
+        self.passes
+            .iter()
+            .map(|pass| match pass {
+                Pass::Density => PassSpec {
+                    name: "summation density",
+                    ghost_fields: Vec::new(),
+                },
+                Pass::Gradient => {
+                    density_refreshed = true;
+                    PassSpec {
+                        name: "velocity gradient",
+                        ghost_fields: vec![DENSITY],
+                    }
+                }
+                Pass::Momentum => {
+                    let mut ghost_fields = Vec::new();
+                    if !density_refreshed {
+                        ghost_fields.push(DENSITY);
+                    }
+                    if self.cfg.viscous_term == ViscousTerm::NestedSummation {
+                        ghost_fields.push(VISCOUS_STRESS);
+                    }
+                    PassSpec {
+                        name: "momentum",
+                        ghost_fields,
+                    }
+                }
+            })
+            .collect()
+    }
+
+    fn uses_full_list(&self) -> bool {
+        true
+    }
+
+    fn integrated_fields(&self) -> Vec<(&'static str, &'static str)> {
+        if self.cfg.density == DensityMethod::Continuity {
+            vec![(DENSITY, DENSITY_RATE)]
+        } else {
+            Vec::new()
+        }
+    }
+
+    fn attach(&mut self, p: &mut Particles<D>, restarted: bool) -> Result<(), String> {
+        self.density = p
+            .extra_index(DENSITY)
+            .ok_or("the density field is not registered")?;
+        self.rate = p.extra_index(DENSITY_RATE);
+        self.stress = p.extra_index(VISCOUS_STRESS);
+        if !restarted && self.rate.is_some() {
+            // Continuity density starts at ρ₀ (the lattice is uniform).
+            p.extra[self.density].data.fill(self.cfg.rest_density);
+        }
+        Ok(())
+    }
+
+    fn pass(&mut self, pass: usize, ctx: PassContext<'_, D>) -> Result<PassOutput, String> {
+        let kind = self.passes[pass];
+        let (kernel, h) = (self.cfg.kernel, self.cfg.smoothing_length);
+        let (p, full) = (ctx.particles, ctx.full);
+        with_kernel!(kernel, h, D, |k| self.run(k, kind, p, full))
+            .map_err(|e| format!("{e} (SPH pass {kind:?} at step {})", ctx.step))?;
+        Ok(PassOutput::default())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::models::gather::{Parity, pair_symmetry};
+    use crate::neighbour::NeighbourList;
+    use crate::rng::{Purpose, StreamKey};
+
+    fn cfg(viscous_term: ViscousTerm, density: DensityMethod) -> SphCfg {
+        SphCfg {
+            kernel: KernelKind::WendlandC2,
+            smoothing_length: 0.6,
+            rest_density: 1.0,
+            sound_speed: 10.0,
+            equation_of_state: EquationOfState::Tait,
+            density,
+            viscosity: 0.3,
+            viscous_term,
+            body_force: Vec::new(),
+            morris_regularisation: 0.01,
+        }
+    }
+
+    /// Random particles with random velocities, densities and stresses.
+    fn random_particles() -> Particles<3> {
+        let key = StreamKey::new(5, Purpose::Test, 2);
+        let mut p = Particles::<3>::default();
+        for i in 0..300u32 {
+            let x = std::array::from_fn(|d| 4.0 * key.uniform2(0, i, d as u32).0);
+            let v = std::array::from_fn(|d| key.uniform2(1, i, d as u32).0 - 0.5);
+            p.push_owned(u64::from(i), x, v);
+        }
+        p
+    }
+
+    /// The momentum pair term is exactly antisymmetric (both viscous terms, with dρ/dt
+    /// symmetric) and the gradient and density terms have the parity their sums need.
+    #[test]
+    fn pair_terms_have_exact_parity() {
+        let key = StreamKey::new(5, Purpose::Test, 3);
+        for (viscous, density) in [
+            (ViscousTerm::NestedSummation, DensityMethod::Summation),
+            (ViscousTerm::Morris, DensityMethod::Continuity),
+        ] {
+            let mut p = random_particles();
+            let model_cfg = cfg(viscous, density);
+            let mut model = SphModel::<3>::new(&model_cfg, 0.05, &[4.0; 3], 0.2, None);
+            for spec in model.fields() {
+                p.register_field(spec.name, spec.kind.width(3), spec.flags)
+                    .expect("new field");
+            }
+            model.attach(&mut p, false).expect("attach");
+            for i in 0..p.n_owned {
+                p.extra[model.density].data[i] = 0.9 + 0.2 * key.uniform2(0, i as u32, 0).0;
+                if let Some(s) = model.stress {
+                    for c in 0..9 {
+                        p.extra[s].data[i * 9 + c] = key.uniform2(1, i as u32, c as u32).0;
+                    }
+                }
+            }
+            let list = NeighbourList::build(&p, 1.2, 1.2);
+            let density = &p.extra[model.density].data;
+            let p_over_rho2: Vec<f64> = density
+                .iter()
+                .map(|&r| SphCfg::pressure_over_rho2(EquationOfState::Tait, 100.0, 1.0, r))
+                .collect();
+            let kernel = kernels::WendlandC2::new(0.6, 3);
+            let continuity = density_is_continuity(&model_cfg);
+            let momentum = MomentumKernel {
+                kernel,
+                mass: 0.05,
+                density,
+                p_over_rho2: &p_over_rho2,
+                stress: model.stress.map(|s| p.extra[s].data.as_slice()),
+                two_eta_morris: if viscous == ViscousTerm::Morris { 0.6 } else { 0.0 },
+                regulariser: 0.0036,
+                continuity,
+                walls: None,
+                scales: vec![Scale::covering(1e6); 3 + usize::from(continuity)],
+            };
+            let mut parity = vec![Parity::Odd; 3];
+            if continuity {
+                parity.push(Parity::Even);
+            }
+            let checked = pair_symmetry(&momentum, &p, &list, &parity).expect("parity");
+            assert!(checked > 1000, "{checked} pairs");
+            let dk = DensityKernel {
+                kernel,
+                mass: 0.05,
+                scales: [Scale::covering(1.0)],
+            };
+            pair_symmetry(&dk, &p, &list, &[Parity::Even]).expect("even");
+        }
+    }
+
+    fn density_is_continuity(c: &SphCfg) -> bool {
+        c.density == DensityMethod::Continuity
+    }
+
+    /// The equations of state: the quadratic one gives p(ρ₀) = ρ₀c₀²/2 and c² = dp/dρ = c₀²
+    /// at ρ₀; Tait gives p(ρ₀) = 0 and the same sound speed.
+    #[test]
+    fn equations_of_state_have_the_stated_sound_speed() {
+        for eos in [EquationOfState::Quadratic, EquationOfState::Tait] {
+            let mut c = cfg(ViscousTerm::Morris, DensityMethod::Summation);
+            c.equation_of_state = eos;
+            c.rest_density = 1.3;
+            let e = 1e-6;
+            let c2 = (c.pressure(1.3 + e) - c.pressure(1.3 - e)) / (2.0 * e);
+            assert!((c2 / 100.0 - 1.0).abs() < 1e-8, "{eos:?}: c² = {c2}");
+            let p0 = if eos == EquationOfState::Quadratic {
+                1.3 * 100.0 / 2.0
+            } else {
+                0.0
+            };
+            assert!((c.pressure(1.3) - p0).abs() < 1e-12, "{eos:?}");
+        }
+    }
+}
