@@ -1,12 +1,20 @@
-//! SPH in channels and periodic boxes: the viscous operators against analytic decay rates.
+//! SPH against analytic solutions, exact invariants and the engine's determinism:
+//!
+//! - a shear wave in a periodic box decays at exp(−νk²t) (the bulk viscous operators);
+//! - Morris's wall images keep steady Couette flow linear (to 10⁻⁵); method B's layers slip;
+//! - the stock start-up Couette and (the early part of) Poiseuille cases pass their series
+//!   references (src/analytic.rs, checked against the spec's tables);
+//! - total momentum of a periodic box is conserved to round-off (antisymmetric pair terms);
+//! - a walled channel gives the same bits on 1–4 ranks × 1–2 threads, cut across or along it.
 
 mod common;
-use common::case_from_str;
+use common::{assert_all_equal, case_from_str, digests_on_1_to_4_ranks, stock_case};
 use mesorheo::comm::SerialComm;
+use mesorheo::driver::run_in_process;
 use mesorheo::sim::Simulation;
 
-/// A periodic box of side 1 (Δ = 0.02) with u_x = A sin(2πy) decays as exp(−ν k² t).
-fn shear_wave(viscous_term: &str) -> String {
+/// A periodic box of side 1 with a square lattice of spacing 0.02 and Lucy support `support`.
+fn periodic_box(viscous_term: &str, support: f64, extra_fluid: &str) -> String {
     format!(
         r#"
 dimension = 2
@@ -20,11 +28,12 @@ temperature = 0.0
 [fluid]
 kind = "sph"
 kernel = "lucy"
-smoothing_length = 0.05
+smoothing_length = {support}
 sound_speed = 10.0
 viscosity = 1.0
-viscous_term = "{viscous_term}"
 equation_of_state = "tait"
+viscous_term = "{viscous_term}"
+{extra_fluid}
 [integrator]
 kind = "kick_drift_kick"
 dt = 1e-4
@@ -38,154 +47,166 @@ observables = ["momentum"]
     )
 }
 
+/// A channel between walls at y = 0 and y = 1 (Δ = 0.02, Lucy support 2.5Δ), the upper wall
+/// at `upper` along x.
+fn channel(viscous_term: &str, treatment: &str, upper: f64) -> String {
+    periodic_box(viscous_term, 0.05, "").replace(
+        "lengths = [1.0, 1.0]",
+        "lengths = [1.0, 1.0]\nboundaries = [\"periodic\", \"wall\"]",
+    ) + &format!(
+        "[walls]\nupper_velocity = [{upper}, 0.0]\ntreatment = \"{treatment}\"\nmorris_cap = 2.0\n"
+    )
+}
+
+/// Sets every fluid particle's velocity to `u(y)` along x, then rebuilds the ghosts (they
+/// carry the new velocities) and recomputes the forces.
+fn set_velocity(sim: &mut Simulation<'_, 2>, u: impl Fn(f64) -> f64) {
+    for i in 0..sim.particles.n_owned {
+        if sim.particles.species_of(i) == 0 {
+            let y = sim.particles.pos[i][1];
+            sim.particles.vel[i] = [u(y), 0.0];
+        }
+    }
+    sim.jump_to_step(0).expect("forces");
+}
+
+/// u_x = A sin(2πy) decays as exp(−νk²t). At Lucy support 3Δ the lattice sum of the Laplacian
+/// is 1.0008 of its continuum value (2.5Δ: 0.986); what remains is the kernel's smoothing
+/// error, O((kh)²) with kh = 0.38, once for Morris's operator and twice for the nested
+/// summation (two smoothed derivatives). Measured: Morris −0.8 %, nested summation −2.0 %;
+/// the bounds are 1.2 % and 2.5 %. Fails with Morris's 0.01h² regularisation put back (−5 %),
+/// or with the factor 2 of 2η dropped, or with the traceless part of σ̄ mis-signed.
 #[test]
 fn shear_wave_decays_at_the_viscous_rate() {
     for term in ["morris", "nested_summation"] {
-        let loaded = case_from_str(&shear_wave(term), "wave.toml");
+        let loaded = case_from_str(&periodic_box(term, 0.06, ""), "wave.toml");
         let comm = SerialComm::new();
         let mut sim = Simulation::<2>::new(&loaded.case, &comm, 1).expect("set up");
         let k = 2.0 * std::f64::consts::PI;
         let amp = 0.01;
-        let n = sim.particles.n_owned;
-        for i in 0..n {
-            let y = sim.particles.pos[i][1];
-            sim.particles.vel[i] = [amp * (k * y).sin(), 0.0];
-        }
-        sim.jump_to_step(0).expect("forces");
+        set_velocity(&mut sim, |y| amp * (k * y).sin());
         let steps = 200;
         sim.run_steps(steps, |_| {}).expect("run");
         let t = steps as f64 * 1e-4;
         let (mut num, mut den) = (0.0, 0.0);
         for i in 0..sim.particles.n_owned {
-            let y = sim.particles.pos[i][1];
-            num += sim.particles.vel[i][0] * (k * y).sin();
-            den += (k * y).sin().powi(2);
+            let s = (k * sim.particles.pos[i][1]).sin();
+            num += sim.particles.vel[i][0] * s;
+            den += s * s;
         }
-        let measured = num / den / amp;
-        let want = (-k * k * t).exp();
-        eprintln!("{term}: amplitude ratio {measured:.6} vs exp(−νk²t) = {want:.6}");
+        let rate = -(num / den / amp).ln() / t;
+        let want = k * k;
+        eprintln!("{term}: decay rate {rate:.4} vs νk² = {want:.4}");
+        let bound = if term == "morris" { 0.012 } else { 0.025 };
+        assert!(
+            (rate / want - 1.0).abs() < bound,
+            "{term}: rate {rate} vs {want}"
+        );
     }
 }
 
-fn couette(viscous_term: &str, treatment: &str) -> String {
-    shear_wave(viscous_term).replace(
-        "lengths = [1.0, 1.0]",
-        "lengths = [1.0, 1.0]\nboundaries = [\"periodic\", \"wall\"]",
-    ) + &format!("[walls]\nupper_velocity = [1.0, 0.0]\ntreatment = \"{treatment}\"\n")
-}
-
+/// Steady Couette flow u = y: Morris's image velocities, uncapped (β_max = 6, the largest β the
+/// floor d_i ≥ Δ/2 allows at support 2.5Δ), reproduce it to 10⁻⁴ (measured 10⁻⁵ after 1000
+/// steps; linear extrapolation is exact for a linear profile); method B's layers, which give the
+/// boundary particles the wall velocity, slip by about 1 % of U at the wall rows (measured
+/// 1.1 %), the first-order error the thesis's method carries. Fails if the extrapolation sign
+/// or the wall planes are wrong.
 #[test]
-fn steady_couette_stays_linear() {
-    for term in ["morris"] {
-        for treatment in ["morris\"\nmorris_cap = 6.0\n#", "layers"] {
-            let loaded = case_from_str(&couette(term, treatment), "couette.toml");
-            let comm = SerialComm::new();
-            let mut sim = Simulation::<2>::new(&loaded.case, &comm, 1).expect("set up");
-            let n = sim.particles.n_owned;
-            for i in 0..n {
-                if sim.particles.species_of(i) == 0 {
-                    let y = sim.particles.pos[i][1];
-                    sim.particles.vel[i] = [y, 0.0];
-                }
-            }
-            sim.jump_to_step(0).expect("forces");
-            for _ in 0..5 {
-                sim.run_steps(200, |_| {}).expect("run");
-                let (mut worst, mut dy, mut at) = (0.0f64, 0.0f64, 0.0);
-                for i in 0..sim.particles.n_owned {
-                    if sim.particles.species_of(i) == 0 {
-                        let y = sim.particles.pos[i][1];
-                        if (sim.particles.vel[i][0] - y).abs() > worst { worst = (sim.particles.vel[i][0] - y).abs(); at = y; }
-                        let row = (y / 0.02 - 0.5).round() * 0.02 + 0.01;
-                        dy = dy.max((y - row).abs());
-                    }
-                }
-                eprintln!("{term}/{treatment} t = {:.3}: max |u − y| = {worst:.5}, max row offset {dy:.5} at y = {at:.3}", sim.time());
-            }
-        }
-    }
-}
-
-#[test]
-fn startup_couette_momentum() {
-    for (term, treatment, integ, u) in [("morris", "morris\"\nmorris_cap = 2.0\n#", "kick_drift_kick", 1.0)] {
-        let fine = std::env::var("FINE").is_ok();
-        let text = if fine { couette(term, treatment).replace("2500.0", "10000.0").replace("0.0004", "0.0001").replace("0.05\n", "0.025\n").replace("1e-4", "5e-5").replace("skin = 0.01", "skin = 0.005") } else { couette(term, treatment) };
-        let text = text.replace("kick_drift_kick", integ).replace("upper_velocity = [1.0, 0.0]", &format!("upper_velocity = [{u}, 0.0]"));
+fn morris_images_keep_steady_couette_flow_linear() {
+    for (treatment, lo, hi) in [("morris", 0.0, 1e-4), ("layers", 0.005, 0.02)] {
+        let text = channel("morris", treatment, 1.0).replace("morris_cap = 2.0", "morris_cap = 6.0");
         let loaded = case_from_str(&text, "couette.toml");
         let comm = SerialComm::new();
         let mut sim = Simulation::<2>::new(&loaded.case, &comm, 1).expect("set up");
-        for _ in 0..6 {
-            sim.run_steps(if fine { 1000 } else { 500 }, |_| {}).expect("run");
-            let t = sim.time();
-            let (mut sum, mut count, mut err) = (0.0, 0.0, 0.0f64);
-            for i in 0..sim.particles.n_owned {
-                if sim.particles.species_of(i) == 0 {
-                    sum += sim.particles.vel[i][0];
-                    count += 1.0;
-                    let y = sim.particles.pos[i][1];
-                    err = err.max((sim.particles.vel[i][0]/u - mesorheo::analytic::couette(y, t, 1.0, 1.0, 1.0)).abs());
+        set_velocity(&mut sim, |y| y);
+        sim.run_steps(1000, |_| {}).expect("run");
+        let worst = (0..sim.particles.n_owned)
+            .filter(|&i| sim.particles.species_of(i) == 0)
+            .map(|i| (sim.particles.vel[i][0] - sim.particles.pos[i][1]).abs())
+            .fold(0.0, f64::max);
+        eprintln!("{treatment}: max |u − y| = {worst:.3e}");
+        assert!(worst >= lo && worst < hi, "{treatment}: {worst}");
+    }
+}
+
+/// The stock start-up cases pass their own series references at every listed time (Couette
+/// to t = 0.3; Poiseuille's early transient to t = 0.4 here, the whole run to the steady state
+/// under `./run validate sph`).
+#[test]
+fn stock_startup_cases_pass_their_references() {
+    for (name, steps) in [("sph_couette_2d.toml", None), ("sph_poiseuille_2d.toml", Some(4000))] {
+        let mut loaded = stock_case(name);
+        if let Some(s) = steps {
+            loaded.case.run.steps = s;
+            for r in &mut loaded.case.reference {
+                if let mesorheo::config::ReferenceCfg::StartupProfile(sp) = r {
+                    sp.times.retain(|&t| t <= 0.4 + 1e-9);
                 }
             }
-            let exact: f64 = (0..50).map(|r| mesorheo::analytic::couette(0.01 + 0.02 * r as f64, t, 1.0, 1.0, 1.0)).sum::<f64>() / 50.0;
-            eprintln!("{term}/{treatment}/{integ} t = {t:.3}: mean u {:.5} vs {exact:.5}; max particle error {err:.5}", sum / count / u);
+        }
+        let s = run_in_process(&loaded, 1, 2, None).unwrap_or_else(|e| panic!("{name}: {e}"));
+        assert!(!s.validation.is_empty());
+        for v in &s.validation {
+            eprintln!("{name}: {} = {:.3e}", v.name, v.value);
+            assert!(v.pass, "{name}: {v:?}");
         }
     }
 }
 
+/// Σ m v of a periodic box with a random velocity field stays at its initial value to
+/// round-off, for both viscous terms and both density methods (the pair terms are
+/// antisymmetric to the last bit; the exact sums round once per particle). Fails if a pair
+/// term loses its antisymmetry (e.g. p_i/ρ_i² alone instead of p_i/ρ_i² + p_j/ρ_j²).
 #[test]
-fn linear_profile_accelerations() {
-    let loaded = case_from_str(&couette("morris", "morris\"\nmorris_cap = 6.0\n#"), "couette.toml");
-    let comm = SerialComm::new();
-    let mut sim = Simulation::<2>::new(&loaded.case, &comm, 1).expect("set up");
-    let n = sim.particles.n_owned;
-    for i in 0..n {
-        if sim.particles.species_of(i) == 0 {
-            let y = sim.particles.pos[i][1];
-            sim.particles.vel[i] = [y, 0.0];
-        }
-    }
-    sim.jump_to_step(0).expect("forces");
-    let mut rows = std::collections::BTreeMap::new();
-    for i in 0..n {
-        if sim.particles.species_of(i) == 0 {
-            let y = sim.particles.pos[i][1];
-            let e = rows.entry((y * 1000.0).round() as i64).or_insert((0.0, 0.0, 0.0, 0.0));
-            e.0 += sim.particles.force[i][0] / 0.0004;
-            e.1 += sim.particles.force[i][1] / 0.0004;
-            e.2 += 1.0;
-            e.3 += sim.particles.extra[sim.particles.extra_index("density").unwrap()].data[i];
-        }
-    }
-    for (y, (ax, ay, c, rho)) in rows {
-        eprintln!("y {y}: a_x {:+.5e} a_y {:+.5e} rho {:.6}", ax / c, ay / c, rho / c);
-    }
-}
-
-#[test]
-fn poiseuille_disorder() {
-    let text = couette("morris", &std::env::var("TREAT").unwrap_or("morris\"\nmorris_cap = 2.0\n#".into()))
-        .replace("upper_velocity = [1.0, 0.0]\n", "")
-        .replace("viscosity = 1.0", &std::env::var("VISC").unwrap_or("viscosity = 0.125\nbody_force = [1.0, 0.0]".into()));
-    let loaded = case_from_str(&text, "p.toml");
-    let comm = SerialComm::new();
-    let mut sim = Simulation::<2>::new(&loaded.case, &comm, 1).expect("set up");
-    for _ in 0..8 {
-        sim.run_steps(2500, |_| {}).expect("run");
-        let t = sim.time();
-        let k = sim.particles.extra_index("density").unwrap();
-        let (mut lo, mut hi, mut dy, mut err, mut vy) = (f64::MAX, 0.0f64, 0.0f64, 0.0f64, 0.0f64);
+fn momentum_is_conserved_to_round_off() {
+    for (term, density) in [("morris", "continuity"), ("nested_summation", "summation")] {
+        let text = periodic_box(term, 0.05, &format!("density = \"{density}\""));
+        let loaded = case_from_str(&text, "box.toml");
+        let comm = SerialComm::new();
+        let mut sim = Simulation::<2>::new(&loaded.case, &comm, 1).expect("set up");
         for i in 0..sim.particles.n_owned {
-            if sim.particles.species_of(i) == 0 {
-                let r = sim.particles.extra[k].data[i];
-                lo = lo.min(r); hi = hi.max(r);
-                let y = sim.particles.pos[i][1];
-                let row = (y / 0.02 - 0.5).round() * 0.02 + 0.01;
-                dy = dy.max((y - row).abs());
-                err = err.max((sim.particles.vel[i][0] - mesorheo::analytic::poiseuille(y, t, 1.0, 1.0, 0.125)).abs());
-                vy = vy.max(sim.particles.vel[i][1].abs());
-            }
+            let g = sim.particles.gid[i] as f64;
+            sim.particles.vel[i] = [0.1 * (1.7 * g).sin(), 0.1 * (2.3 * g).cos()];
         }
-        eprintln!("t = {t:.2}: density {lo:.5}..{hi:.5}, max row offset {dy:.5}, max |v_y| {vy:.2e}, max particle error {err:.4}");
+        sim.jump_to_step(0).expect("forces");
+        let momentum = |sim: &Simulation<'_, 2>| {
+            let mut p = [0.0f64; 2];
+            for v in &sim.particles.vel[..sim.particles.n_owned] {
+                p[0] += v[0];
+                p[1] += v[1];
+            }
+            p
+        };
+        let before = momentum(&sim);
+        sim.run_steps(200, |_| {}).expect("run");
+        let after = momentum(&sim);
+        for d in 0..2 {
+            // 2500 velocities of 0.1, each rounded at 1e-17 per step: 1e-11 is round-off.
+            assert!(
+                (after[d] - before[d]).abs() < 1e-11,
+                "{term}/{density}: momentum {d} {} → {}",
+                before[d],
+                after[d]
+            );
+        }
+    }
+}
+
+/// A walled Couette channel: the same bits on 1–4 ranks × 1–2 threads, with slabs cut across
+/// the channel (along x: every slab holds both walls) and along it (along y: the walls live on
+/// the first and last ranks), for the thesis's scheme and for continuity density with Heun.
+#[test]
+fn walled_channel_is_bitwise_identical_on_1_to_4_ranks() {
+    for (term, axis, extra) in [
+        ("nested_summation", "x", ""),
+        ("morris", "y", "density = \"continuity\"\n"),
+    ] {
+        let mut text = channel(term, "morris", 1.0)
+            .replace("[fluid]", &format!("[decomposition]\naxis = \"{axis}\"\n[fluid]\n{extra}"));
+        if !extra.is_empty() {
+            text = text.replace("kick_drift_kick", "heun");
+        }
+        let d = digests_on_1_to_4_ranks(&text, "channel.toml", |_| {});
+        assert_all_equal(&format!("{term} along {axis}"), &d);
     }
 }
