@@ -222,7 +222,7 @@ fn restore_and_drive<const D: usize>(
     threads: usize,
 ) -> Result<Summary, Restart> {
     let r = crate::output::checkpoint::read::<D>(path, comm).map_err(Restart::Refused)?;
-    let mut sim = Simulation::<D>::from_checkpoint(
+    let sim = Simulation::<D>::from_checkpoint(
         &r.case,
         comm,
         threads,
@@ -231,11 +231,9 @@ fn restore_and_drive<const D: usize>(
         r.step,
         r.rebuild_step,
         r.series,
+        r.species,
     )
     .map_err(Restart::Failed)?;
-    if let Some(table) = r.species {
-        sim.restore_species(table).map_err(Restart::Failed)?;
-    }
     log_restart(comm, path, r.step);
     let scene = ParticleScene::new(sim);
     drive(scene, &loaded.path, Some(path), comm, options, threads).map_err(Restart::Failed)

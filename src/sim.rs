@@ -225,6 +225,7 @@ impl<'c, const D: usize> Simulation<'c, D> {
         step: u64,
         rebuild_step: u64,
         series: Series,
+        species: Option<Vec<Species>>,
     ) -> Result<Self, String> {
         let (sim_box, slab) = Self::geometry(case, comm)?;
         let field = particles
@@ -247,6 +248,14 @@ impl<'c, const D: usize> Simulation<'c, D> {
             slab.owner_of(particles.pos[i][slab.axis])
         });
         let mut sim = Self::assemble(case, comm, threads, sim_box, slab, particles, total, true)?;
+        // The species table first: the rebuild below must not reflect boundary particles.
+        if let Some(table) = species {
+            if sim.particles.species.is_none() {
+                return Err("the checkpoint has a species table but no particle species".into());
+            }
+            sim.integrator = build_integrator::<D>(case, &table);
+            sim.species = table;
+        }
         sim.step = rebuild_step;
         sim.rebuild()?;
         let p = &mut sim.particles;
@@ -508,18 +517,6 @@ impl<'c, const D: usize> Simulation<'c, D> {
         self.species = table;
         self.rebuild()?;
         self.compute_forces(self.virial_scope)
-    }
-
-    /// Takes the species table of a restarted run (its particles brought their species from
-    /// the checkpoint).
-    pub fn restore_species(&mut self, table: Vec<Species>) -> Result<(), String> {
-        if self.particles.species.is_none() {
-            return Err("a species table without the particles' species".into());
-        }
-        self.integrator = build_integrator::<D>(&self.case, &table);
-        self.integrator.bind(&mut self.particles, &self.integrated);
-        self.species = table;
-        Ok(())
     }
 
     /// The species table.
