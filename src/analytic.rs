@@ -56,7 +56,11 @@ pub fn couette(y: f64, t: f64, l: f64, wall_velocity: f64, nu: f64) -> f64 {
         return 0.0;
     }
     let s = series(y, t, l, nu, false, |n| {
-        let sign = if n as u64 % 2 == 0 { 1.0 } else { -1.0 };
+        let sign = if (n as u64).is_multiple_of(2) {
+            1.0
+        } else {
+            -1.0
+        };
         2.0 / (n * PI) * sign
     });
     wall_velocity * (y / l + s)
@@ -68,7 +72,10 @@ pub fn poiseuille(y: f64, t: f64, l: f64, force: f64, nu: f64) -> f64 {
     if t <= 0.0 {
         return 0.0;
     }
-    steady - series(y, t, l, nu, true, |n| 4.0 * force * l * l / (nu * PI.powi(3) * n * n * n))
+    steady
+        - series(y, t, l, nu, true, |n| {
+            4.0 * force * l * l / (nu * PI.powi(3) * n * n * n)
+        })
 }
 
 #[cfg(test)]

@@ -438,7 +438,10 @@ impl<'c, const D: usize> Simulation<'c, D> {
         for (state, rate) in model.integrated_fields() {
             let index = |name: &str| {
                 p.extra_index(name).ok_or_else(|| {
-                    format!("the model {} integrates the unregistered field `{name}`", model.name())
+                    format!(
+                        "the model {} integrates the unregistered field `{name}`",
+                        model.name()
+                    )
                 })
             };
             let (state, rate) = (index(state)?, index(rate)?);
@@ -853,7 +856,10 @@ impl<'c, const D: usize> Simulation<'c, D> {
         let virial = self.current_virial();
         let case = &self.case;
         let sheared = self.sim_box.sheared();
-        let walled = self.sim_box.boundaries.contains(&crate::geometry::Boundary::Wall);
+        let walled = self
+            .sim_box
+            .boundaries
+            .contains(&crate::geometry::Boundary::Wall);
         let bins = if sheared || walled {
             case.diagnostics.profile_bins
         } else {

@@ -105,14 +105,18 @@ pub fn sph_limits(s: &SphCfg) -> Vec<(&'static str, f64)> {
     }
     let force = s.body_force.iter().map(|f| f * f).sum::<f64>().sqrt();
     if force > 0.0 {
-        limits.push(("body force 0.25 √(r_s/|F|)", 0.25 * (support / force).sqrt()));
+        limits.push((
+            "body force 0.25 √(r_s/|F|)",
+            0.25 * (support / force).sqrt(),
+        ));
     }
     limits
 }
 
 /// The binding (smallest) SPH limit.
 pub fn sph_binding_limit(s: &SphCfg) -> (&'static str, f64) {
-    sph_limits(s)
-        .into_iter()
-        .fold(("none", f64::INFINITY), |a, b| if b.1 < a.1 { b } else { a })
+    sph_limits(s).into_iter().fold(
+        ("none", f64::INFINITY),
+        |a, b| if b.1 < a.1 { b } else { a },
+    )
 }

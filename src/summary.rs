@@ -143,7 +143,13 @@ fn check_startup(
                             let y = (b as f64 + 0.5) * l / bins as f64;
                             (u - u_at(y, t)).abs() / scale
                         })
-                        .fold(0.0, |m: f64, d| if m.is_nan() || d.is_nan() { f64::NAN } else { m.max(d) })
+                        .fold(0.0, |m: f64, d| {
+                            if m.is_nan() || d.is_nan() {
+                                f64::NAN
+                            } else {
+                                m.max(d)
+                            }
+                        })
                 }
                 _ => f64::NAN,
             };

@@ -109,6 +109,56 @@ tolerance = 0.1
 source = "s"
 "#;
 
+const EVERY_SPH_KEY: &str = r#"
+dimension = 2
+[box]
+lengths = [1.0, 1.0]
+boundaries = ["periodic", "wall"]
+[particles]
+lattice = "cubic"
+density = 400.0
+mass = 0.0025
+temperature = 0.0
+[fluid]
+kind = "sph"
+kernel = "lucy"
+smoothing_length = 0.125
+rest_density = 1.0
+sound_speed = 10.0
+equation_of_state = "tait"
+density = "continuity"
+viscosity = 1.0
+viscous_term = "morris"
+body_force = [0.0, 0.0]
+morris_regularisation = 0.0
+[walls]
+axis = "y"
+thickness = 0.25
+lower_velocity = [0.0, 0.0]
+upper_velocity = [1.0, 0.0]
+treatment = "morris"
+morris_cap = 2.0
+repulsion_strength = 100.0
+repulsion_range = 0.05
+[integrator]
+kind = "kick_drift_kick"
+dt = 1e-4
+[neighbour]
+skin = 0.01
+[run]
+steps = 100
+sample_every = 10
+[diagnostics]
+observables = ["velocity_profile"]
+[[reference]]
+kind = "startup_profile"
+name = "c"
+solution = "couette"
+times = [0.01]
+tolerance = 0.01
+source = "s"
+"#;
+
 fn paths(prefix: &str, v: &toml::Value, out: &mut BTreeSet<String>) {
     match v {
         toml::Value::Table(t) => {
@@ -155,6 +205,9 @@ fn documented_keys_are_exactly_the_parsed_keys() {
         &toml::from_str(&text).expect("re-parse"),
         &mut found,
     );
+    let sph = case_from_str(EVERY_SPH_KEY, "sph.toml");
+    let text = toml::to_string(&sph.case).expect("serialise");
+    paths("", &toml::from_str(&text).expect("re-parse"), &mut found);
     let documented: BTreeSet<String> = KEYS.iter().map(|k| k.path.to_owned()).collect();
     let missing: Vec<_> = found.difference(&documented).collect();
     let stale: Vec<_> = documented.difference(&found).collect();
@@ -168,7 +221,7 @@ fn documented_keys_are_exactly_the_parsed_keys() {
     );
     // The case itself uses every documented key.
     let mut in_text = BTreeSet::new();
-    for text in [EVERY_KEY, EVERY_FLOW_KEY, &every_gas_key] {
+    for text in [EVERY_KEY, EVERY_FLOW_KEY, &every_gas_key, EVERY_SPH_KEY] {
         paths(
             "",
             &toml::from_str::<toml::Value>(text).expect("toml"),

@@ -114,7 +114,8 @@ fn shear_wave_decays_at_the_viscous_rate() {
 #[test]
 fn morris_images_keep_steady_couette_flow_linear() {
     for (treatment, lo, hi) in [("morris", 0.0, 1e-4), ("layers", 0.005, 0.02)] {
-        let text = channel("morris", treatment, 1.0).replace("morris_cap = 2.0", "morris_cap = 6.0");
+        let text =
+            channel("morris", treatment, 1.0).replace("morris_cap = 2.0", "morris_cap = 6.0");
         let loaded = case_from_str(&text, "couette.toml");
         let comm = SerialComm::new();
         let mut sim = Simulation::<2>::new(&loaded.case, &comm, 1).expect("set up");
@@ -134,7 +135,10 @@ fn morris_images_keep_steady_couette_flow_linear() {
 /// under `./run validate sph`).
 #[test]
 fn stock_startup_cases_pass_their_references() {
-    for (name, steps) in [("sph_couette_2d.toml", None), ("sph_poiseuille_2d.toml", Some(4000))] {
+    for (name, steps) in [
+        ("sph_couette_2d.toml", None),
+        ("sph_poiseuille_2d.toml", Some(4000)),
+    ] {
         let mut loaded = stock_case(name);
         if let Some(s) = steps {
             loaded.case.run.steps = s;
@@ -201,8 +205,10 @@ fn walled_channel_is_bitwise_identical_on_1_to_4_ranks() {
         ("nested_summation", "x", ""),
         ("morris", "y", "density = \"continuity\"\n"),
     ] {
-        let mut text = channel(term, "morris", 1.0)
-            .replace("[fluid]", &format!("[decomposition]\naxis = \"{axis}\"\n[fluid]\n{extra}"));
+        let mut text = channel(term, "morris", 1.0).replace(
+            "[fluid]",
+            &format!("[decomposition]\naxis = \"{axis}\"\n[fluid]\n{extra}"),
+        );
         if !extra.is_empty() {
             text = text.replace("kick_drift_kick", "heun");
         }

@@ -14,8 +14,8 @@ mod validate;
 
 use crate::geometry::Boundary;
 pub use crate::integrators::groot_warren::GrootWarrenCfg;
-pub use crate::models::dpd::DpdCfg;
 pub use crate::integrators::sph_schemes::{KickDriftKickCfg, TwoStageCfg};
+pub use crate::models::dpd::DpdCfg;
 pub use crate::models::sph::{SphCfg, WallsCfg};
 pub use crate::models::summation_gas::SummationGasCfg;
 use serde::{Deserialize, Serialize};
@@ -294,7 +294,9 @@ impl IntegratorCfg {
         match self {
             IntegratorCfg::GrootWarren(g) => g.dt,
             IntegratorCfg::KickDriftKick(k) => k.dt,
-            IntegratorCfg::Heun(t) | IntegratorCfg::Midpoint(t) | IntegratorCfg::ThesisPredictorCorrector(t) => t.dt,
+            IntegratorCfg::Heun(t)
+            | IntegratorCfg::Midpoint(t)
+            | IntegratorCfg::ThesisPredictorCorrector(t) => t.dt,
         }
     }
 

@@ -416,7 +416,8 @@ pub fn validate(case: &Case, ix: &SpanIndex) -> Result<(), CaseError> {
                 | Observable::SecondNormalStressDifference
                 | Observable::VelocityProfile
         );
-        let walled_profile = *o == Observable::VelocityProfile && boundaries.contains(&Boundary::Wall);
+        let walled_profile =
+            *o == Observable::VelocityProfile && boundaries.contains(&Boundary::Wall);
         if needs_shear && shear == 0.0 && !walled_profile {
             return Err(ix.error(
                 &[k("diagnostics"), k("observables"), Segment::Index(i)],
@@ -480,7 +481,11 @@ pub fn validate(case: &Case, ix: &SpanIndex) -> Result<(), CaseError> {
 }
 
 /// `[fluid] kind = "sph"` and `[walls]`.
-fn validate_sph(case: &Case, s: &crate::models::sph::SphCfg, ix: &SpanIndex) -> Result<(), CaseError> {
+fn validate_sph(
+    case: &Case,
+    s: &crate::models::sph::SphCfg,
+    ix: &SpanIndex,
+) -> Result<(), CaseError> {
     let fl = |key: &str| vec![k("fluid"), k(key)];
     let positive = |key: &str, v: f64, what: &str| -> Result<(), CaseError> {
         if v.is_finite() && v > 0.0 {
@@ -489,7 +494,11 @@ fn validate_sph(case: &Case, s: &crate::models::sph::SphCfg, ix: &SpanIndex) -> 
             Err(ix.error(&fl(key), format!("found {v}; {what} must be > 0")))
         }
     };
-    positive("smoothing_length", s.smoothing_length, "the smoothing length")?;
+    positive(
+        "smoothing_length",
+        s.smoothing_length,
+        "the smoothing length",
+    )?;
     positive("rest_density", s.rest_density, "the rest density ρ₀")?;
     positive("sound_speed", s.sound_speed, "the speed of sound c₀")?;
     if !(s.viscosity.is_finite() && s.viscosity >= 0.0) {
@@ -501,14 +510,20 @@ fn validate_sph(case: &Case, s: &crate::models::sph::SphCfg, ix: &SpanIndex) -> 
     if !(s.morris_regularisation.is_finite() && s.morris_regularisation >= 0.0) {
         return Err(ix.error(
             &fl("morris_regularisation"),
-            format!("found {}; must be ≥ 0 (Morris et al. use 0.01)", s.morris_regularisation),
+            format!(
+                "found {}; must be ≥ 0 (Morris et al. use 0.01)",
+                s.morris_regularisation
+            ),
         ));
     }
     let dim = case.dimension;
     if !s.body_force.is_empty() && s.body_force.len() != dim {
         return Err(ix.error(
             &fl("body_force"),
-            format!("found {} components; give {dim} (or leave it out)", s.body_force.len()),
+            format!(
+                "found {} components; give {dim} (or leave it out)",
+                s.body_force.len()
+            ),
         ));
     }
     if s.body_force.iter().any(|f| !f.is_finite()) {
@@ -532,7 +547,10 @@ fn validate_sph(case: &Case, s: &crate::models::sph::SphCfg, ix: &SpanIndex) -> 
     let wk = |key: &str| vec![k("walls"), k(key)];
     let axis = w.axis.index();
     if axis >= dim {
-        return Err(ix.error(&wk("axis"), format!("a {dim}-dimensional case has no axis {axis}")));
+        return Err(ix.error(
+            &wk("axis"),
+            format!("a {dim}-dimensional case has no axis {axis}"),
+        ));
     }
     if case.boundaries()[axis] != Boundary::Wall {
         return Err(ix.error(
@@ -546,7 +564,8 @@ fn validate_sph(case: &Case, s: &crate::models::sph::SphCfg, ix: &SpanIndex) -> 
     if case.particles.lattice != Lattice::Cubic {
         return Err(ix.error(
             &[k("particles"), k("lattice")],
-            "walls continue a \"cubic\" lattice beyond the faces; use lattice = \"cubic\"".to_string(),
+            "walls continue a \"cubic\" lattice beyond the faces; use lattice = \"cubic\""
+                .to_string(),
         ));
     }
     if case.domain.shear_rate != 0.0 {
@@ -556,17 +575,25 @@ fn validate_sph(case: &Case, s: &crate::models::sph::SphCfg, ix: &SpanIndex) -> 
         ));
     }
     for key in ["lower_velocity", "upper_velocity"] {
-        let u = if key == "lower_velocity" { &w.lower_velocity } else { &w.upper_velocity };
+        let u = if key == "lower_velocity" {
+            &w.lower_velocity
+        } else {
+            &w.upper_velocity
+        };
         if !u.is_empty() && u.len() != dim {
             return Err(ix.error(
                 &wk(key),
-                format!("found {} components; give {dim} (or leave it out for a wall at rest)", u.len()),
+                format!(
+                    "found {} components; give {dim} (or leave it out for a wall at rest)",
+                    u.len()
+                ),
             ));
         }
         if u.iter().any(|x| !x.is_finite()) || u.get(axis).is_some_and(|&x| x != 0.0) {
             return Err(ix.error(
                 &wk(key),
-                "a wall moves in its own plane: finite components, 0 along the wall axis".to_string(),
+                "a wall moves in its own plane: finite components, 0 along the wall axis"
+                    .to_string(),
             ));
         }
     }
@@ -575,7 +602,10 @@ fn validate_sph(case: &Case, s: &crate::models::sph::SphCfg, ix: &SpanIndex) -> 
     {
         return Err(ix.error(
             &wk("thickness"),
-            format!("found {t}; a wall must be at least one kernel support ({}) thick", s.support()),
+            format!(
+                "found {t}; a wall must be at least one kernel support ({}) thick",
+                s.support()
+            ),
         ));
     }
     if !(w.morris_cap.is_finite() && w.morris_cap >= 1.0) {
@@ -584,7 +614,10 @@ fn validate_sph(case: &Case, s: &crate::models::sph::SphCfg, ix: &SpanIndex) -> 
             format!("found {}; β_max must be ≥ 1 (1.5 is usual)", w.morris_cap),
         ));
     }
-    for (key, v) in [("repulsion_strength", w.repulsion_strength), ("repulsion_range", w.repulsion_range)] {
+    for (key, v) in [
+        ("repulsion_strength", w.repulsion_strength),
+        ("repulsion_range", w.repulsion_range),
+    ] {
         if let Some(v) = v
             && !(v.is_finite() && v >= 0.0)
         {
@@ -604,7 +637,10 @@ fn validate_startup_reference(
     let at = |key: &str| vec![k("reference"), Segment::Index(i), k(key)];
     let fail = |key: &str, msg: String| Err(ix.error(&at(key), msg));
     let (FluidCfg::Sph(s), Some(w)) = (&case.fluid, &case.walls) else {
-        return fail("kind", "a startup_profile reference needs an SPH fluid with [walls]".into());
+        return fail(
+            "kind",
+            "a startup_profile reference needs an SPH fluid with [walls]".into(),
+        );
     };
     if w.axis != Axis::Y || !case.wants(Observable::VelocityProfile) {
         return fail(
@@ -632,7 +668,10 @@ fn validate_startup_reference(
         );
     }
     if s.viscosity <= 0.0 {
-        return fail("solution", "the analytic start-up needs fluid.viscosity > 0".into());
+        return fail(
+            "solution",
+            "the analytic start-up needs fluid.viscosity > 0".into(),
+        );
     }
     if !(sp.tolerance.is_finite() && sp.tolerance > 0.0) {
         return fail("tolerance", format!("found {}; must be > 0", sp.tolerance));
@@ -647,7 +686,7 @@ fn validate_startup_reference(
         let sampled = t.is_finite()
             && t > 0.0
             && (step * dt - t).abs() <= 1e-9 * t
-            && step as u64 % every == 0
+            && (step as u64).is_multiple_of(every)
             && step as u64 > case.run.equilibration
             && step as u64 <= case.run.steps;
         if !sampled {

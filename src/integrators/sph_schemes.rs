@@ -148,9 +148,9 @@ impl<const D: usize> Integrator<D> for KickDriftKick {
                 (_, Motion::Prescribed(u)) => {
                     for d in 0..D {
                         p.pos[i][d] += dt * u[d];
-                        p.vel[i][d] = u[d];
-                        p.vel_half[i][d] = u[d];
                     }
+                    p.vel[i].copy_from_slice(&u[..D]);
+                    p.vel_half[i].copy_from_slice(&u[..D]);
                 }
                 (_, Motion::Frozen) => {}
             }
@@ -187,7 +187,8 @@ impl<const D: usize> Integrator<D> for KickDriftKick {
                     continue;
                 }
                 for c in i * w..(i + 1) * w {
-                    p.extra[f.state].data[c] = p.extra[h].data[c] + 0.5 * dt * p.extra[f.rate].data[c];
+                    p.extra[f.state].data[c] =
+                        p.extra[h].data[c] + 0.5 * dt * p.extra[f.rate].data[c];
                 }
             }
         }
@@ -209,7 +210,12 @@ pub struct TwoStage {
 
 impl TwoStage {
     /// With the case's particle mass and species table (empty: one species).
-    pub fn new(cfg: &TwoStageCfg, variant: TwoStageVariant, mass: f64, species: &[Species]) -> Self {
+    pub fn new(
+        cfg: &TwoStageCfg,
+        variant: TwoStageVariant,
+        mass: f64,
+        species: &[Species],
+    ) -> Self {
         Self {
             dt: cfg.dt,
             variant,
@@ -229,8 +235,8 @@ impl TwoStage {
         }
     }
 
-    /// The corrector's update from the stage-start value `y0`, its rate `r0` and the
-    /// predicted stage's rate `r1`: uⁿ⁺¹ − uⁿ.
+    /// The corrector's update uⁿ⁺¹ − uⁿ from the rate `r0` at the stage start and the rate
+    /// `r1` at the predicted stage.
     #[inline(always)]
     fn increment(&self, r0: f64, r1: f64) -> f64 {
         match self.variant {
@@ -296,8 +302,8 @@ impl<const D: usize> Integrator<D> for TwoStage {
                 (_, Motion::Prescribed(u)) => {
                     for d in 0..D {
                         p.pos[i][d] += cdt * u[d];
-                        p.vel[i][d] = u[d];
                     }
+                    p.vel[i].copy_from_slice(&u[..D]);
                 }
                 (_, Motion::Frozen) => {}
             }
@@ -370,7 +376,9 @@ mod tests {
         let mut p = Particles::<1>::default();
         p.push_owned(0, [1.0], [0.0]);
         let state = p.register_field("s", 1, FieldFlags::STATE).expect("new");
-        let rate = p.register_field("s_rate", 1, FieldFlags::STATE).expect("new");
+        let rate = p
+            .register_field("s_rate", 1, FieldFlags::STATE)
+            .expect("new");
         p.extra[state].data[0] = 1.0;
         let evaluate = |p: &mut Particles<1>| {
             p.force[0][0] = -p.pos[0][0];
@@ -401,8 +409,16 @@ mod tests {
         let two = |dt, v| TwoStage::new(&TwoStageCfg { dt }, v, 1.0, &[]);
         let (x1, s1) = errors(kdk(0.02), 50);
         let (x2, s2) = errors(kdk(0.01), 100);
-        assert!((order(x1, x2) - 2.0).abs() < 0.1, "kdk x: {}", order(x1, x2));
-        assert!((order(s1, s2) - 2.0).abs() < 0.1, "kdk s: {}", order(s1, s2));
+        assert!(
+            (order(x1, x2) - 2.0).abs() < 0.1,
+            "kdk x: {}",
+            order(x1, x2)
+        );
+        assert!(
+            (order(s1, s2) - 2.0).abs() < 0.1,
+            "kdk s: {}",
+            order(s1, s2)
+        );
         for (variant, want) in [
             (TwoStageVariant::Heun, 2.0),
             (TwoStageVariant::Midpoint, 2.0),
@@ -410,8 +426,16 @@ mod tests {
         ] {
             let (x1, s1) = errors(two(0.02, variant), 50);
             let (x2, s2) = errors(two(0.01, variant), 100);
-            assert!((order(x1, x2) - want).abs() < 0.1, "{variant:?} x: {}", order(x1, x2));
-            assert!((order(s1, s2) - want).abs() < 0.1, "{variant:?} s: {}", order(s1, s2));
+            assert!(
+                (order(x1, x2) - want).abs() < 0.1,
+                "{variant:?} x: {}",
+                order(x1, x2)
+            );
+            assert!(
+                (order(s1, s2) - want).abs() < 0.1,
+                "{variant:?} s: {}",
+                order(s1, s2)
+            );
         }
     }
 }

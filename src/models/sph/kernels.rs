@@ -308,7 +308,9 @@ impl Kernel for WendlandC2 {
 #[macro_export]
 macro_rules! with_kernel {
     ($kind:expr, $h:expr, $dim:expr, |$k:ident| $body:expr) => {{
-        use $crate::models::sph::kernels::{CubicSpline, KernelKind, Lucy, QuinticSpline, WendlandC2};
+        use $crate::models::sph::kernels::{
+            CubicSpline, KernelKind, Lucy, QuinticSpline, WendlandC2,
+        };
         match $kind {
             KernelKind::Lucy => {
                 let $k = Lucy::new($h, $dim);
@@ -364,7 +366,10 @@ mod tests {
             for dim in [2usize, 3] {
                 let (w, rdw) = with_kernel!(kind, 0.37, dim, |k| moments(&k, dim));
                 assert!((w - 1.0).abs() < 1e-9, "{kind:?} {dim}D: ∫W = {w}");
-                assert!((rdw + dim as f64).abs() < 1e-8, "{kind:?} {dim}D: ∫rW' = {rdw}");
+                assert!(
+                    (rdw + dim as f64).abs() < 1e-8,
+                    "{kind:?} {dim}D: ∫rW' = {rdw}"
+                );
             }
         }
     }

@@ -532,7 +532,13 @@ impl<const D: usize> SphModel<D> {
         (self.mass * w0, gradient, momentum)
     }
 
-    fn run<K: Kernel>(&mut self, kernel: K, pass: Pass, p: &mut Particles<D>, full: &FullList) -> Result<(), crate::models::gather::PairError> {
+    fn run<K: Kernel>(
+        &mut self,
+        kernel: K,
+        pass: Pass,
+        p: &mut Particles<D>,
+        full: &FullList,
+    ) -> Result<(), crate::models::gather::PairError> {
         const HEADROOM: f64 = 1e8;
         let (density_scale, gradient_scale, momentum_scale) = self.typical();
         let mut sums = std::mem::take(&mut self.sums);
@@ -818,7 +824,11 @@ mod tests {
                 density,
                 p_over_rho2: &p_over_rho2,
                 stress: model.stress.map(|s| p.extra[s].data.as_slice()),
-                two_eta_morris: if viscous == ViscousTerm::Morris { 0.6 } else { 0.0 },
+                two_eta_morris: if viscous == ViscousTerm::Morris {
+                    0.6
+                } else {
+                    0.0
+                },
                 regulariser: 0.0036,
                 continuity,
                 walls: None,
