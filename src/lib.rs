@@ -14,7 +14,10 @@
 //!   refreshes between them.
 //! - [`models`]: every model implements [`models::ParticleModel`] (the guide to adding one is
 //!   [`models::interface`]); pair passes gather ([`models::gather`]) or, for DPD, scatter
-//!   ([`models::pair_loop`]) into exact sums ([`fixed_sum`]).
+//!   ([`models::pair_loop`]) into exact sums ([`fixed_sum`]). Models: DPD, SPH with walls
+//!   ([`models::sph`], its kernels in [`models::sph::kernels`]), dumbbell ensembles, and the
+//!   engine's test model. [`species`] gives walls their boundary particles; [`analytic`] holds
+//!   the series solutions the start-up references compare with.
 //! - [`config`] parses and validates case files (it knows the models' parameter types; no model
 //!   imports it); [`diagnostics`] and [`summary`] average and report; [`output`] writes
 //!   checkpoints and snapshots; [`check`] and [`stability`] say what a case costs and whether

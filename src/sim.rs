@@ -856,11 +856,14 @@ impl<'c, const D: usize> Simulation<'c, D> {
         let virial = self.current_virial();
         let case = &self.case;
         let sheared = self.sim_box.sheared();
-        let walled = self
+        // Binned along y under shear, and in a walled channel whose profile is asked for (the
+        // temperature is then profile-unbiased too).
+        let walled_profile = self
             .sim_box
             .boundaries
-            .contains(&crate::geometry::Boundary::Wall);
-        let bins = if sheared || walled {
+            .contains(&crate::geometry::Boundary::Wall)
+            && case.wants(Observable::VelocityProfile);
+        let bins = if sheared || walled_profile {
             case.diagnostics.profile_bins
         } else {
             1
