@@ -215,6 +215,142 @@ pub fn gather<const D: usize, K: GatherKernel<D>>(
         )
 }
 
+/// A gather kernel whose every quantity has a parity under i ↔ j, c(j, i) = ±c(i, j) to the
+/// last bit ([`pair_symmetry`] checks it): its sums can be *scattered* from the half list
+/// ([`scatter`]), each pair evaluated once instead of once from each end.
+pub trait SymmetricKernel<const D: usize>: GatherKernel<D> {
+    /// The parity of each quantity (as long as [`GatherKernel::scales`]).
+    fn parities(&self) -> &[Parity];
+}
+
+/// Per-thread accumulators of [`scatter`], kept between calls.
+#[derive(Debug, Default)]
+pub struct ScatterBuffers {
+    buffers: Vec<Vec<FixedSum>>,
+}
+
+/// The same sums as [`gather`], bit for bit, from the half list: pair [i, j] adds c(i, j) to i
+/// and, when j is owned, ±c(i, j) = c(j, i) to j, under the kernel's parity. Both ends add the
+/// *same* fixed-point words (negated for an odd quantity: the rounding is symmetric), so each
+/// particle's integer sum is exactly the one gather forms. Each thread scatters into its own
+/// accumulators, merged exactly at the end.
+pub fn scatter<const D: usize, K: SymmetricKernel<D>>(
+    kernel: &K,
+    p: &Particles<D>,
+    list: &NeighbourList<D>,
+    work: &mut ScatterBuffers,
+    out: &mut Vec<f64>,
+) -> Result<(), PairError> {
+    let scales = kernel.scales();
+    let parities = kernel.parities();
+    let width = scales.len();
+    assert_eq!(parities.len(), width);
+    let n = p.n_owned;
+    out.clear();
+    out.resize(n * width, 0.0);
+    if width == 0 {
+        return Ok(());
+    }
+    let rc2 = kernel.cutoff() * kernel.cutoff();
+    let pairs = list.flagged_pairs();
+    let chunks = rayon::current_num_threads().max(1);
+    let per_chunk = pairs.len().div_ceil(chunks).max(1);
+    work.buffers.resize_with(chunks, Vec::new);
+    let results: Vec<Result<(), PairError>> = work
+        .buffers
+        .par_iter_mut()
+        .zip(
+            pairs
+                .par_chunks(per_chunk)
+                .chain(rayon::iter::repeat_n(&[][..], chunks)),
+        )
+        .map(|(acc, pairs)| {
+            acc.clear();
+            acc.resize(n * width, FixedSum::ZERO);
+            let mut term = vec![0.0; width];
+            for &[i, j] in pairs {
+                let (i, j) = (i as usize, (j & !crate::neighbour::NEAR_AT_BUILD) as usize);
+                let to_j = j < n && kernel.active(p, j);
+                let to_i = kernel.active(p, i);
+                if !(to_i || to_j) {
+                    continue;
+                }
+                let mut r_ij = [0.0; D];
+                let mut r2 = 0.0;
+                for d in 0..D {
+                    r_ij[d] = p.pos[i][d] - p.pos[j][d];
+                    r2 += r_ij[d] * r_ij[d];
+                }
+                // Not `r2 < rc2`: a NaN distance must reach the kernel and be reported.
+                #[allow(clippy::neg_cmp_op_on_partial_ord)]
+                if r2 >= rc2 {
+                    continue;
+                }
+                kernel.pair(p, i, j, &r_ij, r2.sqrt(), &mut term);
+                for (q, &x) in term.iter().enumerate() {
+                    let Some(words) = scales[q].split(x) else {
+                        return Err(PairError {
+                            gid_i: p.gid[i],
+                            gid_j: p.gid[j],
+                            quantity: q,
+                            value: x,
+                            max_term: scales[q].max_term(),
+                        });
+                    };
+                    if to_i {
+                        acc[i * width + q].add_split(words);
+                    }
+                    if to_j {
+                        match parities[q] {
+                            Parity::Even => acc[j * width + q].add_split(words),
+                            Parity::Odd => acc[j * width + q].sub_split(words),
+                        }
+                    }
+                }
+            }
+            Ok(())
+        })
+        .collect();
+    results.into_iter().collect::<Result<(), PairError>>()?;
+    let buffers = &work.buffers;
+    out.par_chunks_mut(width)
+        .enumerate()
+        .with_min_len(256)
+        .try_for_each_init(
+            || vec![0.0; width],
+            |term, (i, sums_out)| {
+                if !kernel.active(p, i) {
+                    return Ok(());
+                }
+                let own = kernel.self_term(p, i, term);
+                for q in 0..width {
+                    let mut s = FixedSum::ZERO;
+                    if own {
+                        match scales[q].split(term[q]) {
+                            Some(words) => s.add_split(words),
+                            None => {
+                                return Err(PairError {
+                                    gid_i: p.gid[i],
+                                    gid_j: p.gid[i],
+                                    quantity: q,
+                                    value: term[q],
+                                    max_term: scales[q].max_term(),
+                                });
+                            }
+                        }
+                    }
+                    for b in buffers {
+                        let mut x = b[i * width + q];
+                        x.normalize();
+                        s.merge(&x);
+                    }
+                    sums_out[q] = scales[q].value(&s);
+                }
+                Ok(())
+            },
+        )
+}
+
 /// How a pair quantity behaves when the two ends swap.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Parity {

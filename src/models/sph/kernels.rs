@@ -63,6 +63,12 @@ pub trait Kernel: Copy + Send + Sync + 'static {
     fn w(&self, r: f64) -> f64;
     /// dW/dr (0 at and beyond the support); ∇_i W_ij = (dW/dr)(r_ij) r_ij / r_ij.
     fn dw(&self, r: f64) -> f64;
+    /// (dW/dr)/r, so that ∇_i W_ij = (dW/dr)/r · x_ij; finite at r = 0 for every kernel here
+    /// (overridden where it needs no division).
+    #[inline(always)]
+    fn dw_over_r(&self, r: f64) -> f64 {
+        self.dw(r) / r
+    }
     /// Support radius: W(r) = 0 for r ≥ support.
     fn support(&self) -> f64;
     /// max_r |dW/dr| (the bound of the exact sums' scales).
@@ -111,6 +117,15 @@ impl Kernel for Lucy {
         }
         let u = 1.0 - q;
         -12.0 * self.alpha * self.inv_h * q * u * u
+    }
+    #[inline(always)]
+    fn dw_over_r(&self, r: f64) -> f64 {
+        let q = r * self.inv_h;
+        if q >= 1.0 {
+            return 0.0;
+        }
+        let u = 1.0 - q;
+        -12.0 * self.alpha * self.inv_h * self.inv_h * u * u
     }
     fn support(&self) -> f64 {
         self.h
@@ -294,6 +309,15 @@ impl Kernel for WendlandC2 {
         let u = 1.0 - 0.5 * q;
         -5.0 * self.alpha * self.inv_h * q * u * u * u
     }
+    #[inline(always)]
+    fn dw_over_r(&self, r: f64) -> f64 {
+        let q = r * self.inv_h;
+        if q >= 2.0 {
+            return 0.0;
+        }
+        let u = 1.0 - 0.5 * q;
+        -5.0 * self.alpha * self.inv_h * self.inv_h * u * u * u
+    }
     fn support(&self) -> f64 {
         2.0 * self.h
     }
@@ -398,6 +422,11 @@ mod tests {
                     }
                     assert!(largest <= k.max_abs_dw(), "{kind:?}: bound too small");
                     assert!(largest > 0.99 * k.max_abs_dw(), "{kind:?}: bound loose");
+                    for s in 1..100 {
+                        let r = k.support() * s as f64 / 100.0;
+                        let a = k.dw_over_r(r);
+                        assert!((a - k.dw(r) / r).abs() <= 1e-12 * a.abs(), "{kind:?} W'/r");
+                    }
                     assert_eq!(k.w(k.support()), 0.0);
                     assert_eq!(k.dw(k.support()), 0.0);
                 });

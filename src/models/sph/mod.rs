@@ -51,10 +51,13 @@
 pub mod kernels;
 
 use crate::fixed_sum::Scale;
-use crate::models::gather::{FullList, GatherKernel, gather};
+use crate::models::gather::{
+    FullList, GatherKernel, Parity, ScatterBuffers, SymmetricKernel, gather, scatter,
+};
 use crate::models::interface::{
     FieldKind, FieldSpec, ParticleModel, PassContext, PassOutput, PassSpec,
 };
+use crate::neighbour::NeighbourList;
 use crate::particles::{FieldFlags, Particles};
 use crate::species::{Motion, Species};
 use crate::with_kernel;
@@ -318,6 +321,12 @@ impl<const D: usize, K: Kernel> GatherKernel<D> for DensityKernel<K> {
     }
 }
 
+impl<const D: usize, K: Kernel> SymmetricKernel<D> for DensityKernel<K> {
+    fn parities(&self) -> &[Parity] {
+        &[Parity::Even]
+    }
+}
+
 /// Pass: the velocity gradient G_i^{ab} = Σ_j (m_j/ρ_j)(v_j^a − v_i^a) W'_ij x_ij^b / r_ij.
 struct GradientKernel<'a, K, const D: usize> {
     kernel: K,
@@ -342,7 +351,7 @@ impl<K: Kernel, const D: usize> GatherKernel<D> for GradientKernel<'_, K, D> {
             }
             _ => p.vel[j],
         };
-        let s = self.mass / self.density[j] * self.kernel.dw(r) / r;
+        let s = self.mass / self.density[j] * self.kernel.dw_over_r(r);
         for a in 0..D {
             let dv = s * (vj[a] - p.vel[i][a]);
             for b in 0..D {
@@ -357,6 +366,8 @@ struct MomentumKernel<'a, K, const D: usize> {
     kernel: K,
     mass: f64,
     density: &'a [f64],
+    /// 1/ρ of every particle.
+    inv_density: &'a [f64],
     /// p/ρ² of every particle (owned and ghosts).
     p_over_rho2: &'a [f64],
     /// σ̄ (D² per particle) with the nested summation.
@@ -368,6 +379,13 @@ struct MomentumKernel<'a, K, const D: usize> {
     continuity: bool,
     walls: Option<WallGeometry<D>>,
     scales: Vec<Scale>,
+    parities: Vec<Parity>,
+}
+
+impl<K: Kernel, const D: usize> SymmetricKernel<D> for MomentumKernel<'_, K, D> {
+    fn parities(&self) -> &[Parity] {
+        &self.parities
+    }
 }
 
 impl<K: Kernel, const D: usize> GatherKernel<D> for MomentumKernel<'_, K, D> {
@@ -397,7 +415,7 @@ impl<K: Kernel, const D: usize> GatherKernel<D> for MomentumKernel<'_, K, D> {
             _ => std::array::from_fn(|d| p.vel[i][d] - p.vel[j][d]),
         };
         let mm = self.mass * self.mass;
-        let gw = self.kernel.dw(r) / r; // ∇_i W_ij = gw x_ij
+        let gw = self.kernel.dw_over_r(r); // ∇_i W_ij = gw x_ij
         let pressure = -(self.p_over_rho2[i] + self.p_over_rho2[j]) * gw;
         let mut f = [0.0; D];
         for a in 0..D {
@@ -419,9 +437,11 @@ impl<K: Kernel, const D: usize> GatherKernel<D> for MomentumKernel<'_, K, D> {
             }
         }
         if self.two_eta_morris != 0.0 {
-            let r2 = r * r;
-            let s = self.two_eta_morris / (self.density[i] * self.density[j]) * gw * r2
-                / (r2 + self.regulariser);
+            let mut s = self.two_eta_morris * (self.inv_density[i] * self.inv_density[j]) * gw;
+            if self.regulariser != 0.0 {
+                let r2 = r * r;
+                s = s * r2 / (r2 + self.regulariser);
+            }
             for a in 0..D {
                 f[a] += s * vij[a];
             }
@@ -467,7 +487,9 @@ pub struct SphModel<const D: usize> {
     rate: Option<usize>,
     stress: Option<usize>,
     p_over_rho2: Vec<f64>,
+    inv_density: Vec<f64>,
     sums: Vec<f64>,
+    scatter: ScatterBuffers,
 }
 
 impl<const D: usize> SphModel<D> {
@@ -514,7 +536,9 @@ impl<const D: usize> SphModel<D> {
             rate: None,
             stress: None,
             p_over_rho2: Vec::new(),
+            inv_density: Vec::new(),
             sums: Vec::new(),
+            scatter: ScatterBuffers::default(),
         }
     }
 
@@ -537,6 +561,7 @@ impl<const D: usize> SphModel<D> {
         kernel: K,
         pass: Pass,
         p: &mut Particles<D>,
+        list: &NeighbourList<D>,
         full: &FullList,
     ) -> Result<(), crate::models::gather::PairError> {
         const HEADROOM: f64 = 1e8;
@@ -551,7 +576,7 @@ impl<const D: usize> SphModel<D> {
                     // Each term is at most m W(0): an exact bound.
                     scales: [Scale::covering(density_scale)],
                 };
-                gather(&k, p, full, &mut sums).map(|()| {
+                scatter(&k, p, list, &mut self.scatter, &mut sums).map(|()| {
                     p.extra[self.density].data[..n].copy_from_slice(&sums);
                 })
             }
@@ -592,16 +617,24 @@ impl<const D: usize> SphModel<D> {
                         .iter()
                         .map(|&rho| SphCfg::pressure_over_rho2(eos, c2, rho0, rho)),
                 );
+                self.inv_density.clear();
+                self.inv_density
+                    .extend(density.iter().map(|&rho| 1.0 / rho));
                 let continuity = self.rate.is_some();
                 let width = D + usize::from(continuity);
                 let mut scales = vec![Scale::covering(HEADROOM * momentum_scale); width];
                 if continuity {
                     scales[D] = Scale::covering(HEADROOM * gradient_scale * rho0);
                 }
+                let mut parities = vec![Parity::Odd; D];
+                if continuity {
+                    parities.push(Parity::Even);
+                }
                 let k = MomentumKernel {
                     kernel,
                     mass: self.mass,
                     density,
+                    inv_density: &self.inv_density,
                     p_over_rho2: &self.p_over_rho2,
                     stress: self.stress.map(|s| p.extra[s].data.as_slice()),
                     two_eta_morris: if self.cfg.viscous_term == ViscousTerm::Morris {
@@ -615,8 +648,9 @@ impl<const D: usize> SphModel<D> {
                     continuity,
                     walls: self.walls,
                     scales,
+                    parities,
                 };
-                let r = gather(&k, p, full, &mut sums);
+                let r = scatter(&k, p, list, &mut self.scatter, &mut sums);
                 r.map(|()| {
                     let mf: [f64; D] = std::array::from_fn(|d| self.mass * self.body_force[d]);
                     let species = p.species.as_deref();
@@ -717,7 +751,9 @@ impl<const D: usize> ParticleModel<D> for SphModel<D> {
     }
 
     fn uses_full_list(&self) -> bool {
-        true
+        // Only the velocity-gradient pass gathers (its terms carry 1/ρ_j, not symmetric); the
+        // density and momentum passes scatter from the half list.
+        self.passes.contains(&Pass::Gradient)
     }
 
     fn integrated_fields(&self) -> Vec<(&'static str, &'static str)> {
@@ -744,8 +780,8 @@ impl<const D: usize> ParticleModel<D> for SphModel<D> {
     fn pass(&mut self, pass: usize, ctx: PassContext<'_, D>) -> Result<PassOutput, String> {
         let kind = self.passes[pass];
         let (kernel, h) = (self.cfg.kernel, self.cfg.smoothing_length);
-        let (p, full) = (ctx.particles, ctx.full);
-        with_kernel!(kernel, h, D, |k| self.run(k, kind, p, full))
+        let (p, list, full) = (ctx.particles, ctx.list, ctx.full);
+        with_kernel!(kernel, h, D, |k| self.run(k, kind, p, list, full))
             .map_err(|e| format!("{e} (SPH pass {kind:?} at step {})", ctx.step))?;
         Ok(PassOutput::default())
     }
@@ -754,7 +790,7 @@ impl<const D: usize> ParticleModel<D> for SphModel<D> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::models::gather::{Parity, pair_symmetry};
+    use crate::models::gather::pair_symmetry;
     use crate::neighbour::NeighbourList;
     use crate::rng::{Purpose, StreamKey};
 
@@ -818,10 +854,12 @@ mod tests {
                 .collect();
             let kernel = kernels::WendlandC2::new(0.6, 3);
             let continuity = density_is_continuity(&model_cfg);
+            let inv_density: Vec<f64> = density.iter().map(|r| 1.0 / r).collect();
             let momentum = MomentumKernel {
                 kernel,
                 mass: 0.05,
                 density,
+                inv_density: &inv_density,
                 p_over_rho2: &p_over_rho2,
                 stress: model.stress.map(|s| p.extra[s].data.as_slice()),
                 two_eta_morris: if viscous == ViscousTerm::Morris {
@@ -833,13 +871,33 @@ mod tests {
                 continuity,
                 walls: None,
                 scales: vec![Scale::covering(1e6); 3 + usize::from(continuity)],
+                parities: {
+                    let mut parity = vec![Parity::Odd; 3];
+                    if continuity {
+                        parity.push(Parity::Even);
+                    }
+                    parity
+                },
             };
-            let mut parity = vec![Parity::Odd; 3];
-            if continuity {
-                parity.push(Parity::Even);
-            }
-            let checked = pair_symmetry(&momentum, &p, &list, &parity).expect("parity");
+            let checked = pair_symmetry(&momentum, &p, &list, momentum.parities()).expect("parity");
             assert!(checked > 1000, "{checked} pairs");
+            // Scattered from the half list, the sums are gather's to the last bit.
+            let full = FullList::from_half(&list, p.n_owned);
+            let (mut gathered, mut scattered) = (Vec::new(), Vec::new());
+            gather(&momentum, &p, &full, &mut gathered).expect("gather");
+            scatter(
+                &momentum,
+                &p,
+                &list,
+                &mut ScatterBuffers::default(),
+                &mut scattered,
+            )
+            .expect("scatter");
+            assert!(gathered.iter().any(|&x| x != 0.0));
+            assert_eq!(
+                gathered.iter().map(|x| x.to_bits()).collect::<Vec<_>>(),
+                scattered.iter().map(|x| x.to_bits()).collect::<Vec<_>>()
+            );
             let dk = DensityKernel {
                 kernel,
                 mass: 0.05,
