@@ -1013,9 +1013,43 @@ impl<'c, const D: usize> Simulation<'c, D> {
                 Observable::VelocityProfile => {
                     out.profile = Some(mean.iter().map(|u| u[0]).collect());
                 }
+                Observable::WallShearStress => {
+                    let [lower, upper] = self.wall_forces();
+                    out.scalars.push(("wall_shear_stress_lower".into(), lower));
+                    out.scalars.push(("wall_shear_stress_upper".into(), upper));
+                }
             }
         }
         out
+    }
+
+    /// The force along x per unit area on the lower and the upper wall (the sums of the
+    /// forces on their boundary particles, which the SPH momentum pass fills with the
+    /// reactions of their fluid neighbours), exact and reduced over the ranks (collective).
+    fn wall_forces(&self) -> [f64; 2] {
+        use crate::models::sph::{LOWER_WALL, UPPER_WALL};
+        let Some(w) = &self.case.walls else {
+            return [f64::NAN; 2];
+        };
+        let p = &self.particles;
+        let mut sums = [FixedSum::ZERO; 2];
+        for i in 0..p.n_owned {
+            match p.species_of(i) {
+                LOWER_WALL => sums[0].add(p.force[i][0]),
+                UPPER_WALL => sums[1].add(p.force[i][0]),
+                _ => {}
+            }
+            if i % 2048 == 2047 {
+                sums.iter_mut().for_each(FixedSum::normalize);
+            }
+        }
+        FixedSum::allreduce(self.comm, &mut sums);
+        let axis = w.axis.index();
+        let area: f64 = (0..D)
+            .filter(|&d| d != axis)
+            .map(|d| self.sim_box.lengths[d])
+            .product();
+        [sums[0].value() / area, sums[1].value() / area]
     }
 
     /// A hash of the complete owned state — id, position, velocity, force, image counts and
@@ -1102,9 +1136,10 @@ fn virial_scope(observables: &[Observable]) -> VirialScope {
         Observable::Pressure
         | Observable::FirstNormalStressDifference
         | Observable::SecondNormalStressDifference => VirialScope::Diagonal,
-        Observable::Temperature | Observable::Momentum | Observable::VelocityProfile => {
-            VirialScope::Off
-        }
+        Observable::Temperature
+        | Observable::Momentum
+        | Observable::VelocityProfile
+        | Observable::WallShearStress => VirialScope::Off,
     };
     let scopes: Vec<VirialScope> = observables.iter().map(needs).collect();
     if scopes.contains(&VirialScope::Full) {

@@ -372,8 +372,11 @@ pub enum Observable {
     SecondNormalStressDifference,
     /// Total peculiar momentum Σ m (v − γ̇ (y − L_y/2) x̂).
     Momentum,
-    /// Binned mean velocity u_x(y) (needs shear).
+    /// Binned mean velocity u_x(y) (needs shear, or walls).
     VelocityProfile,
+    /// Force along x per unit area that the fluid exerts on each wall of boundary particles
+    /// (needs `[walls]`): `wall_shear_stress_lower`, `wall_shear_stress_upper`.
+    WallShearStress,
 }
 
 impl Observable {
@@ -388,6 +391,7 @@ impl Observable {
             Observable::SecondNormalStressDifference => "second_normal_stress_difference",
             Observable::Momentum => "momentum",
             Observable::VelocityProfile => "velocity_profile",
+            Observable::WallShearStress => "wall_shear_stress",
         }
     }
 }

@@ -37,6 +37,10 @@ pub fn scalar_names(case: &Case) -> Vec<String> {
                 }
             }
             Observable::VelocityProfile => {}
+            Observable::WallShearStress => {
+                out.push("wall_shear_stress_lower".to_owned());
+                out.push("wall_shear_stress_upper".to_owned());
+            }
             other => out.push(other.name().to_owned()),
         }
     }

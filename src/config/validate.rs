@@ -443,6 +443,13 @@ pub fn validate(case: &Case, ix: &SpanIndex) -> Result<(), CaseError> {
                 ),
             ));
         }
+        if *o == Observable::WallShearStress && case.walls.is_none() {
+            return Err(ix.error(
+                &[k("diagnostics"), k("observables"), Segment::Index(i)],
+                "\"wall_shear_stress\" needs [walls] (boundary-particle walls of an SPH fluid)"
+                    .to_string(),
+            ));
+        }
         if *o == Observable::SecondNormalStressDifference && dim != 3 {
             return Err(ix.error(
                 &[k("diagnostics"), k("observables"), Segment::Index(i)],

@@ -34,7 +34,10 @@
 //! least one kernel support thick (default two, so that every boundary particle a fluid
 //! particle sees has a complete summation density). They are species of their own
 //! ([`crate::species`]): frozen, or moving at the wall velocity; they enter every sum, are
-//! never integrated and never counted as fluid. Their density is summed like the fluid's (or
+//! never integrated and never counted as fluid. The momentum pass gives them the reactions of
+//! their fluid neighbours (pairs of two boundary particles contribute nothing), so the force
+//! on a wall's particles is the force the fluid exerts on that wall (the `wall_shear_stress`
+//! observable). Their density is summed like the fluid's (or
 //! stays ρ₀ under continuity); with the nested summation they carry the stress of their own
 //! velocity-gradient estimate. Two treatments of the velocity a fluid particle i sees for a
 //! boundary particle j of a wall moving at U:
@@ -395,13 +398,15 @@ impl<K: Kernel, const D: usize> GatherKernel<D> for MomentumKernel<'_, K, D> {
     fn cutoff(&self) -> f64 {
         self.kernel.support()
     }
-    fn active(&self, p: &Particles<D>, i: usize) -> bool {
-        p.species_of(i) == FLUID
-    }
     #[inline(always)]
     fn pair(&self, p: &Particles<D>, i: usize, j: usize, x: &[f64; D], r: f64, out: &mut [f64]) {
         let (si, sj) = (p.species_of(i), p.species_of(j));
-        let boundary_pair = si != sj && (si == FLUID || sj == FLUID);
+        if si != FLUID && sj != FLUID {
+            // Two boundary particles: nothing the fluid feels, nothing a wall reports.
+            out.fill(0.0);
+            return;
+        }
+        let boundary_pair = si != sj;
         // v_ij, with the velocity the fluid end sees for a boundary end.
         let vij: [f64; D] = match &self.walls {
             Some(w) if boundary_pair && si == FLUID => {
