@@ -72,9 +72,16 @@ pub fn report(case: &Case, ranks: usize) -> String {
             if let Some(w) = &case.walls {
                 let axis = w.axis.index();
                 let layers = crate::sim::wall_layer_count(case, axis);
+                let (cells, _) = case.lattice_counts();
+                let across: usize = (0..case.dimension)
+                    .filter(|&d| d != axis)
+                    .map(|d| cells[d])
+                    .product();
                 line(format!(
-                    "walls along {}: {layers} boundary rows each side ({:?}), lower at {:?}, upper at {:?}",
+                    "walls along {}: {layers} boundary rows each side, {} boundary particles in \
+                     all (besides the fluid's; {:?}), lower at {:?}, upper at {:?}",
                     ["x", "y", "z"][axis],
+                    2 * layers * across,
                     w.treatment,
                     w.lower_velocity,
                     w.upper_velocity
