@@ -7,6 +7,9 @@ and writes plots to docs/ when matplotlib is available.
   stock          every stock case with a [[reference]] on 2 ranks: all checks must pass
   viscometric    Hookean dumbbells in steady shear at Wi = 0.1, 1, 10, 2D and 3D: η_p = Gλ,
                  Ψ₁ = 2Gλ², Ψ₂ = 0 within 3 standard errors, with 3σ ≤ 1 % (~15 min on 2 cores)
+  sph            SPH start-up Couette: the error at each time for the thesis's scheme and its
+                 repairs, and against the lattice spacing with the wall time of each run;
+                 start-up Poiseuille to the steady state at supports 2.5Δ and 3Δ (~5 min)
 """
 import json, os, subprocess, sys, tempfile
 
@@ -88,6 +91,81 @@ def stock():
     print()
 
 
+def startup_errors(summary):
+    """{t: error} from the startup_profile checks of a summary."""
+    out = {}
+    for v in summary["validation"]:
+        if " at t = " in v["name"]:
+            out[float(v["name"].split(" at t = ")[1])] = v["value"]
+    return out
+
+
+def sph():
+    times = [0.01, 0.02, 0.05, 0.1, 0.2, 0.3]
+    schemes = [
+        ("stock: Tait, Morris term, Morris walls", []),
+        ("stock, heun", ['integrator.kind="heun"']),
+        ("stock, thesis_predictor_corrector", ['integrator.kind="thesis_predictor_corrector"']),
+        ("thesis: quadratic EOS, nested summation, layers",
+         ['fluid.equation_of_state="quadratic"', 'fluid.viscous_term="nested_summation"',
+          'walls.treatment="layers"']),
+        ("quadratic EOS, Morris term, Morris walls", ['fluid.equation_of_state="quadratic"']),
+        ("Tait, nested summation, Morris walls", ['fluid.viscous_term="nested_summation"']),
+        ("Tait, Morris term, layers", ['walls.treatment="layers"']),
+    ]
+    print("### Start-up Couette (Re = 1, M = 0.1, Lucy 2.5Δ, Δ = 0.02, Δt = 1e-4): max bin error / U\n")
+    print("| scheme | " + " | ".join(f"t = {t}" for t in times) + " |")
+    print("|---|" + "---|" * len(times))
+    curves = []
+    for name, sets in schemes:
+        e = startup_errors(run("sph_couette_2d.toml", sets))
+        curves.append((name, [e.get(t, float("nan")) for t in times]))
+        print(f"| {name} | " + " | ".join(f"{100*e.get(t, float('nan')):.2f} %" for t in times) + " |")
+    print("\n### Start-up Couette against the lattice spacing (stock scheme, support 2.5Δ, Δt at 0.04 r_s²/ν)\n")
+    print("| Δ | particles | " + " | ".join(f"t = {t}" for t in times) + " | loop s (2 threads) | core-s |")
+    print("|---|---|" + "---|" * len(times) + "---|---|")
+    resolution = []
+    for delta, dt, every in ((0.04, 4e-4, 25), (0.02, 1e-4, 100), (0.01, 2.5e-5, 400)):
+        n = round(1 / delta ** 2)
+        sets = [f"particles.density={n}.0", f"particles.mass={delta**2}",
+                f"fluid.smoothing_length={2.5*delta}", f"integrator.dt={dt}",
+                f"run.steps={round(0.3/dt)}", f"run.sample_every={every}",
+                f"neighbour.skin={delta/2}", f"diagnostics.profile_bins={round(1/delta)}"]
+        s = run("sph_couette_2d.toml", sets)
+        e = startup_errors(s)
+        resolution.append((delta, s["wall_seconds"], e.get(0.1, float("nan"))))
+        print(f"| {delta} | {s['particles']} | " + " | ".join(f"{100*e.get(t, float('nan')):.2f} %" for t in times)
+              + f" | {s['loop_seconds']:.1f} | {2*s['loop_seconds']:.1f} |")
+    ptimes = [0.05, 0.1, 0.2, 0.3, 0.4, 1.0, 2.0, 4.0]
+    print("\n### Start-up Poiseuille (Re = 8, Δ = 0.02, Δt = 1e-4, to t = 4): max bin error / centre velocity\n")
+    print("| support | " + " | ".join(f"t = {t}" for t in ptimes) + " | loop s |")
+    print("|---|" + "---|" * len(ptimes) + "---|")
+    for label, sets in (("3Δ (stock)", []), ("2.5Δ", ["fluid.smoothing_length=0.05"])):
+        s = run("sph_poiseuille_2d.toml", sets)
+        e = startup_errors(s)
+        print(f"| {label} | " + " | ".join(f"{100*e.get(t, float('nan')):.2f} %" for t in ptimes)
+              + f" | {s['loop_seconds']:.1f} |")
+    try:
+        import matplotlib
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+        fig, (a, b) = plt.subplots(1, 2, figsize=(10, 3.8))
+        for name, errs in curves:
+            a.semilogy(times, [100 * x for x in errs], "o-", label=name)
+        a.axhline(1.0, color="grey", ls=":")
+        a.set_xlabel("t"); a.set_ylabel("max bin error / U (%)"); a.set_title("start-up Couette, Δ = 0.02")
+        a.legend(fontsize=6)
+        b.loglog([r[1] for r in resolution], [100 * r[2] for r in resolution], "o-")
+        for d, w, e in resolution:
+            b.annotate(f"Δ = {d}", (w, 100 * e), fontsize=7)
+        b.set_xlabel("wall time of the run (s)"); b.set_ylabel("error at t = 0.1 (%)")
+        b.set_title("accuracy against cost (stock scheme)")
+        fig.tight_layout(); fig.savefig(os.path.join(ROOT, "docs/sph_couette.png"), dpi=120)
+        print("\n(plot: docs/sph_couette.png)")
+    except ImportError:
+        print("\n(matplotlib not available: no plot)")
+
+
 def viscometric():
     print("### Steady shear of Hookean dumbbells: viscometric functions at Wi = 0.1, 1, 10 "
           "(`cases/dumbbells_hookean_shear_3d.toml` with `--set`)\n")
@@ -140,7 +218,10 @@ def viscometric():
 
 
 if __name__ == "__main__":
-    todo = sys.argv[1:] or ["stock", "kt_vs_dt", "viscosity", "viscometric"]
+    todo = sys.argv[1:] or ["stock", "kt_vs_dt", "viscosity", "viscometric", "sph"]
+    targets = {"kt_vs_dt": kt_vs_dt, "viscosity": viscosity, "stock": stock,
+               "viscometric": viscometric, "sph": sph}
     for name in todo:
-        {"kt_vs_dt": kt_vs_dt, "viscosity": viscosity, "stock": stock,
-         "viscometric": viscometric}[name]()
+        if name not in targets:
+            sys.exit(f"unknown validation '{name}'; valid: {', '.join(targets)}")
+        targets[name]()
