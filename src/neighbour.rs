@@ -313,6 +313,19 @@ impl<const D: usize> NeighbourList<D> {
         &self.flagged
     }
 
+    /// The flagged pairs cut into `chunks` contiguous runs, padded with empty ones so that a
+    /// zip with `chunks` per-thread accumulators covers every pair (the scatter loops).
+    pub fn pair_chunks(
+        &self,
+        chunks: usize,
+    ) -> impl rayon::iter::IndexedParallelIterator<Item = &[[u32; 2]]> + '_ {
+        use rayon::prelude::*;
+        let per_chunk = self.flagged.len().div_ceil(chunks.max(1)).max(1);
+        self.flagged
+            .par_chunks(per_chunk)
+            .chain(rayon::iter::repeat_n(&[][..], chunks))
+    }
+
     /// Largest displacement of an owned particle since the build (local to this rank).
     pub fn max_displacement(&self, particles: &Particles<D>) -> f64 {
         let m2 = particles.pos[..particles.n_owned]

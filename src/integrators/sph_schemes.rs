@@ -37,7 +37,7 @@
 //! prescribed ones move at their velocity.
 
 use super::{IntegratedField, Integrator};
-use crate::particles::{FieldFlags, Particles};
+use crate::particles::{ExtraField, FieldFlags, Particles};
 use crate::species::{Motion, Species};
 use serde::{Deserialize, Serialize};
 
@@ -84,6 +84,26 @@ fn species_table(mass: f64, table: &[Species]) -> Vec<(f64, Motion)> {
         vec![(1.0 / mass, Motion::Free)]
     } else {
         table.iter().map(|s| (1.0 / s.mass, s.motion)).collect()
+    }
+}
+
+/// Calls `update(fields, c)` for every component c of the owned free (fluid) particles' rows
+/// of the integrated field `f` (boundary particles' integrated fields are never advanced).
+fn for_free_components<const D: usize>(
+    table: &[(f64, Motion)],
+    p: &mut Particles<D>,
+    f: &IntegratedField,
+    mut update: impl FnMut(&mut [ExtraField], usize),
+) {
+    let w = p.extra[f.state].width;
+    let species = p.species.as_deref();
+    for i in 0..p.n_owned {
+        let s = species.map_or(0, |s| s[i] as usize);
+        if table[s].1 == Motion::Free {
+            for c in i * w..(i + 1) * w {
+                update(&mut p.extra, c);
+            }
+        }
     }
 }
 
@@ -156,17 +176,11 @@ impl<const D: usize> Integrator<D> for KickDriftKick {
             }
         }
         for (f, &h) in self.integrated.iter().zip(&self.half) {
-            let w = p.extra[f.state].width;
-            for i in 0..n {
-                if self.species[p.species_of(i) as usize].1 != Motion::Free {
-                    continue;
-                }
-                for c in i * w..(i + 1) * w {
-                    let (s, r) = (p.extra[f.state].data[c], p.extra[f.rate].data[c]);
-                    p.extra[h].data[c] = s + 0.5 * dt * r;
-                    p.extra[f.state].data[c] = s + dt * r;
-                }
-            }
+            for_free_components(&self.species, p, f, |x, c| {
+                let (s, r) = (x[f.state].data[c], x[f.rate].data[c]);
+                x[h].data[c] = s + 0.5 * dt * r;
+                x[f.state].data[c] = s + dt * r;
+            });
         }
     }
 
@@ -181,16 +195,9 @@ impl<const D: usize> Integrator<D> for KickDriftKick {
             }
         }
         for (f, &h) in self.integrated.iter().zip(&self.half) {
-            let w = p.extra[f.state].width;
-            for i in 0..n {
-                if self.species[p.species_of(i) as usize].1 != Motion::Free {
-                    continue;
-                }
-                for c in i * w..(i + 1) * w {
-                    p.extra[f.state].data[c] =
-                        p.extra[h].data[c] + 0.5 * dt * p.extra[f.rate].data[c];
-                }
-            }
+            for_free_components(&self.species, p, f, |x, c| {
+                x[f.state].data[c] = x[h].data[c] + 0.5 * dt * x[f.rate].data[c];
+            });
         }
     }
 }
@@ -309,18 +316,12 @@ impl<const D: usize> Integrator<D> for TwoStage {
             }
         }
         for (f, &(s0, r0)) in self.integrated.iter().zip(&self.saved) {
-            let w = p.extra[f.state].width;
-            for i in 0..n {
-                if self.species[p.species_of(i) as usize].1 != Motion::Free {
-                    continue;
-                }
-                for c in i * w..(i + 1) * w {
-                    let (s, r) = (p.extra[f.state].data[c], p.extra[f.rate].data[c]);
-                    p.extra[s0].data[c] = s;
-                    p.extra[r0].data[c] = r;
-                    p.extra[f.state].data[c] = s + cdt * r;
-                }
-            }
+            for_free_components(&self.species, p, f, |x, c| {
+                let (s, r) = (x[f.state].data[c], x[f.rate].data[c]);
+                x[s0].data[c] = s;
+                x[r0].data[c] = r;
+                x[f.state].data[c] = s + cdt * r;
+            });
         }
     }
 
@@ -350,17 +351,10 @@ impl<const D: usize> Integrator<D> for TwoStage {
             }
         }
         for (f, &(s0, r0)) in self.integrated.iter().zip(&self.saved) {
-            let w = p.extra[f.state].width;
-            for i in 0..n {
-                if self.species[p.species_of(i) as usize].1 != Motion::Free {
-                    continue;
-                }
-                for c in i * w..(i + 1) * w {
-                    let r1 = p.extra[f.rate].data[c];
-                    p.extra[f.state].data[c] =
-                        p.extra[s0].data[c] + self.increment(p.extra[r0].data[c], r1);
-                }
-            }
+            for_free_components(&self.species, p, f, |x, c| {
+                x[f.state].data[c] =
+                    x[s0].data[c] + self.increment(x[r0].data[c], x[f.rate].data[c]);
+            });
         }
     }
 }

@@ -18,7 +18,7 @@
 //! contribution to i is always c(i, j), computed on i's rank from i's copy and j's (ghost or
 //! owned) copy.
 
-use crate::fixed_sum::{FixedSum, Scale};
+use crate::fixed_sum::{FixedSum, Scale, Split};
 use crate::neighbour::NeighbourList;
 use crate::particles::Particles;
 use rayon::prelude::*;
@@ -135,6 +135,43 @@ impl std::fmt::Display for PairError {
 
 impl std::error::Error for PairError {}
 
+/// r_ij = x_i − x_j and r_ij for a pair within `rc2` = cutoff², or `None` beyond it. A NaN
+/// distance counts as within, so that the kernel sees it and the sum reports it.
+#[inline(always)]
+fn separation_within<const D: usize>(
+    xi: &[f64; D],
+    xj: &[f64; D],
+    rc2: f64,
+) -> Option<([f64; D], f64)> {
+    let mut r_ij = [0.0; D];
+    let mut r2 = 0.0;
+    for d in 0..D {
+        r_ij[d] = xi[d] - xj[d];
+        r2 += r_ij[d] * r_ij[d];
+    }
+    #[allow(clippy::neg_cmp_op_on_partial_ord)]
+    (!(r2 >= rc2)).then(|| (r_ij, r2.sqrt()))
+}
+
+/// The fixed-point words of term `x` of quantity `q` for the pair (i, j), or the error that
+/// names the pair.
+#[inline(always)]
+fn split_term<const D: usize>(
+    scale: &Scale,
+    p: &Particles<D>,
+    (i, j): (usize, usize),
+    q: usize,
+    x: f64,
+) -> Result<Split, PairError> {
+    scale.split(x).ok_or_else(|| PairError {
+        gid_i: p.gid[i],
+        gid_j: p.gid[j],
+        quantity: q,
+        value: x,
+        max_term: scale.max_term(),
+    })
+}
+
 /// Terms per fixed-point accumulator between normalisations (the low word cannot wrap before
 /// 2^12 worst-case terms).
 const NORMALISE_EVERY: usize = 2048;
@@ -171,18 +208,7 @@ pub fn gather<const D: usize, K: GatherKernel<D>>(
                 sums.fill(FixedSum::ZERO);
                 let add = |sums: &mut [FixedSum], term: &[f64], j: usize| {
                     for (q, (s, &x)) in sums.iter_mut().zip(term).enumerate() {
-                        match scales[q].split(x) {
-                            Some(words) => s.add_split(words),
-                            None => {
-                                return Err(PairError {
-                                    gid_i: p.gid[i],
-                                    gid_j: p.gid[j],
-                                    quantity: q,
-                                    value: x,
-                                    max_term: scales[q].max_term(),
-                                });
-                            }
-                        }
+                        s.add_split(split_term(&scales[q], p, (i, j), q, x)?);
                     }
                     Ok(())
                 };
@@ -191,16 +217,8 @@ pub fn gather<const D: usize, K: GatherKernel<D>>(
                 }
                 for (k, &j) in full.row(i).iter().enumerate() {
                     let j = j as usize;
-                    let mut r_ij = [0.0; D];
-                    let mut r2 = 0.0;
-                    for d in 0..D {
-                        r_ij[d] = p.pos[i][d] - p.pos[j][d];
-                        r2 += r_ij[d] * r_ij[d];
-                    }
-                    // Not `r2 < rc2`: a NaN distance must reach the kernel and be reported.
-                    #[allow(clippy::neg_cmp_op_on_partial_ord)]
-                    if !(r2 >= rc2) {
-                        kernel.pair(p, i, j, &r_ij, r2.sqrt(), term);
+                    if let Some((r_ij, r)) = separation_within(&p.pos[i], &p.pos[j], rc2) {
+                        kernel.pair(p, i, j, &r_ij, r, term);
                         add(sums, term, j)?;
                     }
                     if k % NORMALISE_EVERY == NORMALISE_EVERY - 1 {
@@ -252,18 +270,12 @@ pub fn scatter<const D: usize, K: SymmetricKernel<D>>(
         return Ok(());
     }
     let rc2 = kernel.cutoff() * kernel.cutoff();
-    let pairs = list.flagged_pairs();
     let chunks = rayon::current_num_threads().max(1);
-    let per_chunk = pairs.len().div_ceil(chunks).max(1);
     work.buffers.resize_with(chunks, Vec::new);
     let results: Vec<Result<(), PairError>> = work
         .buffers
         .par_iter_mut()
-        .zip(
-            pairs
-                .par_chunks(per_chunk)
-                .chain(rayon::iter::repeat_n(&[][..], chunks)),
-        )
+        .zip(list.pair_chunks(chunks))
         .map(|(acc, pairs)| {
             acc.clear();
             acc.resize(n * width, FixedSum::ZERO);
@@ -275,28 +287,12 @@ pub fn scatter<const D: usize, K: SymmetricKernel<D>>(
                 if !(to_i || to_j) {
                     continue;
                 }
-                let mut r_ij = [0.0; D];
-                let mut r2 = 0.0;
-                for d in 0..D {
-                    r_ij[d] = p.pos[i][d] - p.pos[j][d];
-                    r2 += r_ij[d] * r_ij[d];
-                }
-                // Not `r2 < rc2`: a NaN distance must reach the kernel and be reported.
-                #[allow(clippy::neg_cmp_op_on_partial_ord)]
-                if r2 >= rc2 {
+                let Some((r_ij, r)) = separation_within(&p.pos[i], &p.pos[j], rc2) else {
                     continue;
-                }
-                kernel.pair(p, i, j, &r_ij, r2.sqrt(), &mut term);
+                };
+                kernel.pair(p, i, j, &r_ij, r, &mut term);
                 for (q, &x) in term.iter().enumerate() {
-                    let Some(words) = scales[q].split(x) else {
-                        return Err(PairError {
-                            gid_i: p.gid[i],
-                            gid_j: p.gid[j],
-                            quantity: q,
-                            value: x,
-                            max_term: scales[q].max_term(),
-                        });
-                    };
+                    let words = split_term(&scales[q], p, (i, j), q, x)?;
                     if to_i {
                         acc[i * width + q].add_split(words);
                     }
@@ -326,18 +322,7 @@ pub fn scatter<const D: usize, K: SymmetricKernel<D>>(
                 for q in 0..width {
                     let mut s = FixedSum::ZERO;
                     if own {
-                        match scales[q].split(term[q]) {
-                            Some(words) => s.add_split(words),
-                            None => {
-                                return Err(PairError {
-                                    gid_i: p.gid[i],
-                                    gid_j: p.gid[i],
-                                    quantity: q,
-                                    value: term[q],
-                                    max_term: scales[q].max_term(),
-                                });
-                            }
-                        }
+                        s.add_split(split_term(&scales[q], p, (i, i), q, term[q])?);
                     }
                     for b in buffers {
                         let mut x = b[i * width + q];

@@ -407,20 +407,14 @@ pub fn compute_forces<const D: usize, K: PairKernel<D>>(
 ) -> Result<Option<Virial>, String> {
     let n_owned = particles.n_owned;
     let chunks = rayon::current_num_threads().max(1);
-    let pairs = list.flagged_pairs();
     let at_build_positions = list.at_build_positions;
-    let per_chunk = pairs.len().div_ceil(chunks).max(1);
     workspace.buffers.resize_with(chunks, Vec::new);
     let step_key = kernel.step_key(step);
     let avx2 = isa.has_avx2();
     let results: Vec<(ChunkVirial, Option<BadPair>)> = workspace
         .buffers
         .par_iter_mut()
-        .zip(
-            pairs
-                .par_chunks(per_chunk)
-                .chain(rayon::iter::repeat_n(&[][..], chunks)),
-        )
+        .zip(list.pair_chunks(chunks))
         .map(|(acc, pairs)| {
             let chunk = ChunkInput {
                 kernel,
