@@ -230,6 +230,25 @@ impl Scale {
         FixedSum::representable(y).then(|| Split::of(y))
     }
 
+    /// The words of every `xs[k]` under this scale into `out[k]` (as [`Self::split`], in one
+    /// loop the compiler vectorises), and the index of the first term that is not finite or
+    /// beyond [`Self::max_term`], if any (its words are meaningless: the caller reports it).
+    #[inline(always)]
+    pub fn split_batch(&self, xs: &[f64], out: &mut [Split]) -> Option<usize> {
+        let mut all = true;
+        for (x, o) in xs.iter().zip(out.iter_mut()) {
+            let y = x * self.down;
+            all &= FixedSum::representable(y);
+            *o = Split::of(y);
+        }
+        if all {
+            None
+        } else {
+            xs.iter()
+                .position(|&x| !FixedSum::representable(x * self.down))
+        }
+    }
+
     /// The value of `sum` (accumulated under this scale), rounded once.
     #[inline]
     pub fn value(&self, sum: &FixedSum) -> f64 {

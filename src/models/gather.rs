@@ -21,6 +21,7 @@
 use crate::fixed_sum::{FixedSum, Scale, Split};
 use crate::neighbour::NeighbourList;
 use crate::particles::Particles;
+use crate::simd::Isa;
 use rayon::prelude::*;
 
 /// Every owned particle's neighbours (owned and ghosts) within the list radius, in compressed
@@ -239,6 +240,71 @@ pub fn gather<const D: usize, K: GatherKernel<D>>(
 pub trait SymmetricKernel<const D: usize>: GatherKernel<D> {
     /// The parity of each quantity (as long as [`GatherKernel::scales`]).
     fn parities(&self) -> &[Parity];
+
+    /// The terms of a batch of pairs within the cutoff: `out[q][k]` = c^q(i_k, j_k) for
+    /// k < `batch.len` and every quantity q, the very bits [`GatherKernel::pair`] gives. The
+    /// default calls `pair` for each; a kernel overrides it with loops over the batch that the
+    /// compiler vectorises (the same IEEE operations in the same order, so the same bits).
+    #[inline(always)]
+    fn pair_batch(&self, p: &Particles<D>, batch: &PairBatch<D>, out: &mut BatchTerms) {
+        pair_by_pair(self, p, batch, out);
+    }
+}
+
+/// [`SymmetricKernel::pair_batch`] by calls of [`GatherKernel::pair`], one per pair.
+#[inline(always)]
+pub fn pair_by_pair<const D: usize, K: GatherKernel<D> + ?Sized>(
+    kernel: &K,
+    p: &Particles<D>,
+    batch: &PairBatch<D>,
+    out: &mut BatchTerms,
+) {
+    let width = kernel.scales().len();
+    let mut term = [0.0; MAX_SCATTER_WIDTH];
+    for k in 0..batch.len {
+        let x = std::array::from_fn(|d| batch.x[d][k]);
+        let (i, j) = (batch.i[k] as usize, batch.j[k] as usize);
+        kernel.pair(p, i, j, &x, batch.r[k], &mut term[..width]);
+        for q in 0..width {
+            out[q][k] = term[q];
+        }
+    }
+}
+
+/// Pairs per batch of [`SymmetricKernel::pair_batch`].
+pub const BATCH: usize = 64;
+
+/// The widest pass [`scatter`] takes (quantities per pair).
+pub const MAX_SCATTER_WIDTH: usize = 8;
+
+/// The terms of a batch, one array per quantity.
+pub type BatchTerms = [[f64; BATCH]; MAX_SCATTER_WIDTH];
+
+/// A batch of pairs within the cutoff, as structure of arrays.
+#[derive(Clone, Debug)]
+pub struct PairBatch<const D: usize> {
+    /// The owned end of each pair.
+    pub i: [u32; BATCH],
+    /// The other end (owned or ghost).
+    pub j: [u32; BATCH],
+    /// r_ij = r_i − r_j, per component.
+    pub x: [[f64; BATCH]; D],
+    /// |r_ij|.
+    pub r: [f64; BATCH],
+    /// Number of pairs.
+    pub len: usize,
+}
+
+impl<const D: usize> Default for PairBatch<D> {
+    fn default() -> Self {
+        Self {
+            i: [0; BATCH],
+            j: [0; BATCH],
+            x: [[0.0; BATCH]; D],
+            r: [0.0; BATCH],
+            len: 0,
+        }
+    }
 }
 
 /// Per-thread accumulators of [`scatter`], kept between calls.
@@ -247,12 +313,114 @@ pub struct ScatterBuffers {
     buffers: Vec<Vec<FixedSum>>,
 }
 
+/// One thread's share of [`scatter`].
+struct ScatterChunk<'a, const D: usize, K> {
+    kernel: &'a K,
+    p: &'a Particles<D>,
+    /// Listed pairs, j with its [`crate::neighbour::NEAR_AT_BUILD`] bit.
+    pairs: &'a [[u32; 2]],
+    rc2: f64,
+}
+
+/// [`scatter_chunk`] compiled for AVX2 (no FMA: the same IEEE operations, so the same bits as
+/// the portable build).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn scatter_chunk_avx2<const D: usize, K: SymmetricKernel<D>>(
+    chunk: &ScatterChunk<D, K>,
+    acc: &mut Vec<FixedSum>,
+) -> Result<(), PairError> {
+    scatter_chunk(chunk, acc)
+}
+
+/// Scatters a chunk of listed pairs into the thread's accumulators `acc` (n_owned × width), in
+/// batches: the separations of up to [`BATCH`] listed pairs, those within the cutoff (and with
+/// an end whose sums are wanted) kept without a branch, their terms from
+/// [`SymmetricKernel::pair_batch`], each quantity split into its fixed-point words in one loop,
+/// then the words added to both ends.
+#[inline(always)]
+fn scatter_chunk<const D: usize, K: SymmetricKernel<D>>(
+    chunk: &ScatterChunk<D, K>,
+    acc: &mut Vec<FixedSum>,
+) -> Result<(), PairError> {
+    let ScatterChunk {
+        kernel,
+        p,
+        pairs,
+        rc2,
+    } = *chunk;
+    let scales = kernel.scales();
+    let parities = kernel.parities();
+    let width = scales.len();
+    let n = p.n_owned;
+    acc.clear();
+    acc.resize(n * width, FixedSum::ZERO);
+    let mut batch = PairBatch::<D>::default();
+    let mut r2 = [0.0; BATCH];
+    let mut terms: BatchTerms = [[0.0; BATCH]; MAX_SCATTER_WIDTH];
+    let mut words = [[Split::ZERO; BATCH]; MAX_SCATTER_WIDTH];
+    let pos = &p.pos;
+    for block in pairs.chunks(BATCH) {
+        let mut len = 0;
+        for &[i, j] in block {
+            let j = j & !crate::neighbour::NEAR_AT_BUILD;
+            let (iu, ju) = (i as usize, j as usize);
+            let mut s = 0.0;
+            for d in 0..D {
+                let x = pos[iu][d] - pos[ju][d];
+                batch.x[d][len] = x;
+                s += x * x;
+            }
+            batch.i[len] = i;
+            batch.j[len] = j;
+            r2[len] = s;
+            let wanted = kernel.active(p, iu) || (ju < n && kernel.active(p, ju));
+            // Not `s < rc2`: a NaN distance reaches the kernel, and its sum reports it.
+            #[allow(clippy::neg_cmp_op_on_partial_ord)]
+            let keep = !(s >= rc2) && wanted;
+            len += usize::from(keep);
+        }
+        batch.len = len;
+        for k in 0..len {
+            batch.r[k] = r2[k].sqrt();
+        }
+        kernel.pair_batch(p, &batch, &mut terms);
+        for q in 0..width {
+            if let Some(k) = scales[q].split_batch(&terms[q][..len], &mut words[q][..len]) {
+                let (i, j) = (batch.i[k] as usize, batch.j[k] as usize);
+                return Err(split_term(&scales[q], p, (i, j), q, terms[q][k])
+                    .expect_err("split_batch found this term out of range"));
+            }
+        }
+        for k in 0..len {
+            let (i, j) = (batch.i[k] as usize, batch.j[k] as usize);
+            let to_i = kernel.active(p, i);
+            let to_j = j < n && kernel.active(p, j);
+            for q in 0..width {
+                let w = words[q][k];
+                if to_i {
+                    acc[i * width + q].add_split(w);
+                }
+                if to_j {
+                    match parities[q] {
+                        Parity::Even => acc[j * width + q].add_split(w),
+                        Parity::Odd => acc[j * width + q].sub_split(w),
+                    }
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
 /// The same sums as [`gather`], bit for bit, from the half list: pair [i, j] adds c(i, j) to i
 /// and, when j is owned, ±c(i, j) = c(j, i) to j, under the kernel's parity. Both ends add the
 /// *same* fixed-point words (negated for an odd quantity: the rounding is symmetric), so each
 /// particle's integer sum is exactly the one gather forms. Each thread scatters into its own
-/// accumulators, merged exactly at the end.
-pub fn scatter<const D: usize, K: SymmetricKernel<D>>(
+/// accumulators, merged exactly at the end. `isa` (normally [`Isa::current`]) picks the
+/// compiled version of the pair loop; every one gives the same bits.
+pub fn scatter_on<const D: usize, K: SymmetricKernel<D>>(
+    isa: Isa,
     kernel: &K,
     p: &Particles<D>,
     list: &NeighbourList<D>,
@@ -260,9 +428,12 @@ pub fn scatter<const D: usize, K: SymmetricKernel<D>>(
     out: &mut Vec<f64>,
 ) -> Result<(), PairError> {
     let scales = kernel.scales();
-    let parities = kernel.parities();
     let width = scales.len();
-    assert_eq!(parities.len(), width);
+    assert_eq!(kernel.parities().len(), width);
+    assert!(
+        width <= MAX_SCATTER_WIDTH,
+        "a scatter pass of width {width}"
+    );
     let n = p.n_owned;
     out.clear();
     out.resize(n * width, 0.0);
@@ -272,39 +443,25 @@ pub fn scatter<const D: usize, K: SymmetricKernel<D>>(
     let rc2 = kernel.cutoff() * kernel.cutoff();
     let chunks = rayon::current_num_threads().max(1);
     work.buffers.resize_with(chunks, Vec::new);
+    let avx2 = isa.has_avx2();
     let results: Vec<Result<(), PairError>> = work
         .buffers
         .par_iter_mut()
         .zip(list.pair_chunks(chunks))
         .map(|(acc, pairs)| {
-            acc.clear();
-            acc.resize(n * width, FixedSum::ZERO);
-            let mut term = vec![0.0; width];
-            for &[i, j] in pairs {
-                let (i, j) = (i as usize, (j & !crate::neighbour::NEAR_AT_BUILD) as usize);
-                let to_j = j < n && kernel.active(p, j);
-                let to_i = kernel.active(p, i);
-                if !(to_i || to_j) {
-                    continue;
-                }
-                let Some((r_ij, r)) = separation_within(&p.pos[i], &p.pos[j], rc2) else {
-                    continue;
-                };
-                kernel.pair(p, i, j, &r_ij, r, &mut term);
-                for (q, &x) in term.iter().enumerate() {
-                    let words = split_term(&scales[q], p, (i, j), q, x)?;
-                    if to_i {
-                        acc[i * width + q].add_split(words);
-                    }
-                    if to_j {
-                        match parities[q] {
-                            Parity::Even => acc[j * width + q].add_split(words),
-                            Parity::Odd => acc[j * width + q].sub_split(words),
-                        }
-                    }
-                }
+            let chunk = ScatterChunk {
+                kernel,
+                p,
+                pairs,
+                rc2,
+            };
+            #[cfg(target_arch = "x86_64")]
+            if avx2 {
+                // SAFETY: an `Isa` has AVX2 only when the CPU reports it (`Isa::avx2`), the one
+                // requirement of this target-feature function.
+                return unsafe { scatter_chunk_avx2(&chunk, acc) };
             }
-            Ok(())
+            scatter_chunk(&chunk, acc)
         })
         .collect();
     results.into_iter().collect::<Result<(), PairError>>()?;
@@ -334,6 +491,17 @@ pub fn scatter<const D: usize, K: SymmetricKernel<D>>(
                 Ok(())
             },
         )
+}
+
+/// [`scatter_on`] with the instruction set of this process.
+pub fn scatter<const D: usize, K: SymmetricKernel<D>>(
+    kernel: &K,
+    p: &Particles<D>,
+    list: &NeighbourList<D>,
+    work: &mut ScatterBuffers,
+    out: &mut Vec<f64>,
+) -> Result<(), PairError> {
+    scatter_on(Isa::current(), kernel, p, list, work, out)
 }
 
 /// How a pair quantity behaves when the two ends swap.

@@ -121,11 +121,10 @@ impl Kernel for Lucy {
     #[inline(always)]
     fn dw_over_r(&self, r: f64) -> f64 {
         let q = r * self.inv_h;
-        if q >= 1.0 {
-            return 0.0;
-        }
         let u = 1.0 - q;
-        -12.0 * self.alpha * self.inv_h * self.inv_h * u * u
+        let value = -12.0 * self.alpha * self.inv_h * self.inv_h * u * u;
+        // A select, not an early return, so that loops over pairs vectorise (NaN propagates).
+        if q >= 1.0 { 0.0 } else { value }
     }
     fn support(&self) -> f64 {
         self.h
@@ -312,11 +311,10 @@ impl Kernel for WendlandC2 {
     #[inline(always)]
     fn dw_over_r(&self, r: f64) -> f64 {
         let q = r * self.inv_h;
-        if q >= 2.0 {
-            return 0.0;
-        }
         let u = 1.0 - 0.5 * q;
-        -5.0 * self.alpha * self.inv_h * self.inv_h * u * u * u
+        let value = -5.0 * self.alpha * self.inv_h * self.inv_h * u * u * u;
+        // A select, not an early return, so that loops over pairs vectorise (NaN propagates).
+        if q >= 2.0 { 0.0 } else { value }
     }
     fn support(&self) -> f64 {
         2.0 * self.h

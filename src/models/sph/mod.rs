@@ -55,7 +55,8 @@ pub mod kernels;
 
 use crate::fixed_sum::Scale;
 use crate::models::gather::{
-    FullList, GatherKernel, Parity, ScatterBuffers, SymmetricKernel, gather, scatter,
+    BATCH, BatchTerms, FullList, GatherKernel, PairBatch, Parity, ScatterBuffers, SymmetricKernel,
+    gather, pair_by_pair, scatter,
 };
 use crate::models::interface::{
     FieldKind, FieldSpec, ParticleModel, PassContext, PassOutput, PassSpec,
@@ -388,6 +389,88 @@ struct MomentumKernel<'a, K, const D: usize> {
 impl<K: Kernel, const D: usize> SymmetricKernel<D> for MomentumKernel<'_, K, D> {
     fn parities(&self) -> &[Parity] {
         &self.parities
+    }
+
+    /// Fluid–fluid batches without a stress field (no walls, no nested summation: the common
+    /// weakly compressible scheme) in loops over the batch; anything else pair by pair.
+    #[inline(always)]
+    fn pair_batch(&self, p: &Particles<D>, batch: &PairBatch<D>, out: &mut BatchTerms) {
+        if self.walls.is_some() || self.stress.is_some() || p.species.is_some() {
+            pair_by_pair(self, p, batch, out);
+            return;
+        }
+        let morris = self.two_eta_morris != 0.0;
+        let regular = self.regulariser != 0.0;
+        match (morris, regular, self.continuity) {
+            (true, false, true) => self.fluid_batch::<true, false, true>(p, batch, out),
+            (true, false, false) => self.fluid_batch::<true, false, false>(p, batch, out),
+            (true, true, true) => self.fluid_batch::<true, true, true>(p, batch, out),
+            (true, true, false) => self.fluid_batch::<true, true, false>(p, batch, out),
+            (false, _, true) => self.fluid_batch::<false, false, true>(p, batch, out),
+            (false, _, false) => self.fluid_batch::<false, false, false>(p, batch, out),
+        }
+    }
+}
+
+impl<K: Kernel, const D: usize> MomentumKernel<'_, K, D> {
+    /// [`GatherKernel::pair`] for a batch of fluid–fluid pairs without a stress field, in
+    /// loops over the batch (the same operations in the same order: the same bits).
+    #[inline(always)]
+    fn fluid_batch<const MORRIS: bool, const REGULAR: bool, const CONTINUITY: bool>(
+        &self,
+        p: &Particles<D>,
+        batch: &PairBatch<D>,
+        out: &mut BatchTerms,
+    ) {
+        let n = batch.len.min(BATCH);
+        let mut p_sum = [0.0; BATCH];
+        let mut inv_product = [0.0; BATCH];
+        let mut v = [[0.0; BATCH]; D];
+        for k in 0..n {
+            let (i, j) = (batch.i[k] as usize, batch.j[k] as usize);
+            p_sum[k] = self.p_over_rho2[i] + self.p_over_rho2[j];
+            inv_product[k] = self.inv_density[i] * self.inv_density[j];
+            for d in 0..D {
+                v[d][k] = p.vel[i][d] - p.vel[j][d];
+            }
+        }
+        // Everything the arithmetic loop reads, in locals (so that the compiler sees no
+        // aliasing with `out` and vectorises it).
+        let (mass, mm) = (self.mass, self.mass * self.mass);
+        let (two_eta, regulariser, kernel) = (self.two_eta_morris, self.regulariser, &self.kernel);
+        let mut gw = [0.0; BATCH];
+        for k in 0..n {
+            gw[k] = kernel.dw_over_r(batch.r[k]);
+        }
+        let mut f = [[0.0; BATCH]; D];
+        let mut rate = [0.0; BATCH];
+        for k in 0..n {
+            let gw = gw[k];
+            let pressure = -p_sum[k] * gw;
+            let mut s = two_eta * inv_product[k] * gw;
+            if REGULAR {
+                let r = batch.r[k];
+                let r2 = r * r;
+                s = s * r2 / (r2 + regulariser);
+            }
+            let mut vdotx = 0.0;
+            for a in 0..D {
+                let x = batch.x[a][k];
+                let mut fa = pressure * x;
+                if MORRIS {
+                    fa += s * v[a][k];
+                }
+                f[a][k] = mm * fa;
+                vdotx += v[a][k] * x;
+            }
+            rate[k] = mass * gw * vdotx;
+        }
+        for a in 0..D {
+            out[a][..n].copy_from_slice(&f[a][..n]);
+        }
+        if CONTINUITY {
+            out[D][..n].copy_from_slice(&rate[..n]);
+        }
     }
 }
 
@@ -795,9 +878,10 @@ impl<const D: usize> ParticleModel<D> for SphModel<D> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::models::gather::pair_symmetry;
+    use crate::models::gather::{pair_symmetry, scatter_on};
     use crate::neighbour::NeighbourList;
     use crate::rng::{Purpose, StreamKey};
+    use crate::simd::Isa;
 
     fn cfg(viscous_term: ViscousTerm, density: DensityMethod) -> SphCfg {
         SphCfg {
@@ -860,49 +944,49 @@ mod tests {
             let kernel = kernels::WendlandC2::new(0.6, 3);
             let continuity = density_is_continuity(&model_cfg);
             let inv_density: Vec<f64> = density.iter().map(|r| 1.0 / r).collect();
-            let momentum = MomentumKernel {
-                kernel,
-                mass: 0.05,
-                density,
-                inv_density: &inv_density,
-                p_over_rho2: &p_over_rho2,
-                stress: model.stress.map(|s| p.extra[s].data.as_slice()),
-                two_eta_morris: if viscous == ViscousTerm::Morris {
-                    0.6
-                } else {
-                    0.0
-                },
-                regulariser: 0.0036,
-                continuity,
-                walls: None,
-                scales: vec![Scale::covering(1e6); 3 + usize::from(continuity)],
-                parities: {
-                    let mut parity = vec![Parity::Odd; 3];
-                    if continuity {
-                        parity.push(Parity::Even);
-                    }
-                    parity
-                },
-            };
-            let checked = pair_symmetry(&momentum, &p, &list, momentum.parities()).expect("parity");
-            assert!(checked > 1000, "{checked} pairs");
-            // Scattered from the half list, the sums are gather's to the last bit.
-            let full = FullList::from_half(&list, p.n_owned);
-            let (mut gathered, mut scattered) = (Vec::new(), Vec::new());
-            gather(&momentum, &p, &full, &mut gathered).expect("gather");
-            scatter(
-                &momentum,
-                &p,
-                &list,
-                &mut ScatterBuffers::default(),
-                &mut scattered,
-            )
-            .expect("scatter");
-            assert!(gathered.iter().any(|&x| x != 0.0));
-            assert_eq!(
-                gathered.iter().map(|x| x.to_bits()).collect::<Vec<_>>(),
-                scattered.iter().map(|x| x.to_bits()).collect::<Vec<_>>()
-            );
+            for regulariser in [0.0036, 0.0] {
+                let momentum = MomentumKernel {
+                    kernel,
+                    mass: 0.05,
+                    density,
+                    inv_density: &inv_density,
+                    p_over_rho2: &p_over_rho2,
+                    stress: model.stress.map(|s| p.extra[s].data.as_slice()),
+                    two_eta_morris: if viscous == ViscousTerm::Morris {
+                        0.6
+                    } else {
+                        0.0
+                    },
+                    regulariser,
+                    continuity,
+                    walls: None,
+                    scales: vec![Scale::covering(1e6); 3 + usize::from(continuity)],
+                    parities: {
+                        let mut parity = vec![Parity::Odd; 3];
+                        if continuity {
+                            parity.push(Parity::Even);
+                        }
+                        parity
+                    },
+                };
+                let checked =
+                    pair_symmetry(&momentum, &p, &list, momentum.parities()).expect("parity");
+                assert!(checked > 1000, "{checked} pairs");
+                // Scattered from the half list (in batches, by the vectorised loops where the
+                // kernel has them, portable or AVX2), the sums are gather's to the last bit.
+                let full = FullList::from_half(&list, p.n_owned);
+                let mut gathered = Vec::new();
+                gather(&momentum, &p, &full, &mut gathered).expect("gather");
+                assert!(gathered.iter().any(|&x| x != 0.0));
+                let bits = |x: &[f64]| x.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+                for isa in [Some(Isa::PORTABLE), Isa::avx2()].into_iter().flatten() {
+                    let mut scattered = Vec::new();
+                    let mut work = ScatterBuffers::default();
+                    scatter_on(isa, &momentum, &p, &list, &mut work, &mut scattered)
+                        .expect("scatter");
+                    assert_eq!(bits(&gathered), bits(&scattered), "{isa:?}");
+                }
+            }
             let dk = DensityKernel {
                 kernel,
                 mass: 0.05,
