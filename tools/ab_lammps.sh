@@ -4,18 +4,25 @@
 # the per-round throughput ratios NEW/OLD and LAMMPS/NEW, and their medians.
 #
 #   tools/ab_lammps.sh OLD_BIN NEW_BIN [ROUNDS]      (default 7 rounds)
+#   BENCH=sph tools/ab_lammps.sh OLD_BIN NEW_BIN     the SPH benchmark (cases/bench_sph_2d.toml
+#                                                    against benches/lammps/in.sph)
 #
 # LAMMPS comes from benches/lammps/run_lammps.sh (installed on first use, outside the project's
 # dependencies). Run with nothing else on the machine; quote the medians.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 OLD=$(realpath "$1"); NEW=$(realpath "$2"); ROUNDS=${3:-7}
+case "${BENCH:-dpd}" in
+  dpd) CASE=cases/bench_dpd_32k.toml; export INPUT=in.dpd THERMO_COL=Press ;;
+  sph) CASE=cases/bench_sph_2d.toml; export INPUT=in.sph THERMO_COL=KinEng ;;
+  *) echo "BENCH is dpd or sph" >&2; exit 2 ;;
+esac
 tmp=$(mktemp -d)
 for r in $(seq 1 "$ROUNDS"); do
   for b in old new; do
     bin=$OLD; [[ $b == new ]] && bin=$NEW
     rm -rf "$tmp/$b"
-    "$bin" run cases/bench_dpd_32k.toml --out "$tmp/$b" -t 1 -q 2>/dev/null
+    "$bin" run "$CASE" --out "$tmp/$b" -t 1 -q 2>/dev/null
     python3 -c "import json;s=json.load(open('$tmp/$b/summary.json'));print('$r $b',s['loop_seconds'],s['state_digest'])"
   done
   RANKS=1 REPEATS=1 benches/lammps/run_lammps.sh 2>/dev/null | grep "^lammps ranks" | sed "s/^/$r /" || true
