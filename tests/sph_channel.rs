@@ -7,7 +7,8 @@
 //! - the stock start-up Couette and (the early part of) Poiseuille cases pass their series
 //!   references (src/analytic.rs, checked against the spec's tables);
 //! - total momentum of a periodic box is conserved to round-off (antisymmetric pair terms);
-//! - a walled channel gives the same bits on 1–4 ranks × 1–2 threads, cut across or along it.
+//! - a walled channel gives the same bits on 1–4 ranks × 1–2 threads, cut across or along it;
+//! - the Poiseuille start-up in 3D (periodic in z) agrees with 2D and with the series.
 
 mod common;
 use common::{assert_all_equal, case_from_str, digests_on_1_to_4_ranks, stock_case};
@@ -315,4 +316,98 @@ fn integrators_have_their_order_in_time_on_the_startup_flows() {
             );
         }
     }
+}
+
+/// Row-averaged u_x(y) of the fluid (rows of the lattice, spacing `delta` from y = Δ/2).
+fn row_profile<const D: usize>(sim: &Simulation<'_, D>, delta: f64) -> Vec<f64> {
+    let rows = (1.0 / delta).round() as usize;
+    let (mut sum, mut count) = (vec![0.0; rows], vec![0usize; rows]);
+    let p = &sim.particles;
+    for i in (0..p.n_owned).filter(|&i| p.species_of(i) == 0) {
+        let row = ((p.pos[i][1] / delta).floor() as usize).min(rows - 1);
+        sum[row] += p.vel[i][0];
+        count[row] += 1;
+    }
+    sum.iter().zip(&count).map(|(s, &c)| s / c as f64).collect()
+}
+
+/// The stock Poiseuille problem (walls at rest, F = 1, ν = 0.125, Lucy support 3Δ, Morris
+/// walls) at Δ = 0.04 to t = 0.4, in 2D and in 3D (periodic in z over 8 layers): both rows
+/// profiles against the corrected series (spec §3 T2) and against each other, relative to the
+/// steady centre velocity 1. Measured: 2D 0.67 %, 3D 0.52 %, apart 0.17 %; the bounds (1 %
+/// against the series, the tolerance; 0.5 % between them) fail if the 3D kernel's
+/// normalisation is off by 5 % (105 → 100 in Lucy's 3D constant: 3D error 1.11 %).
+#[test]
+fn poiseuille_in_3d_agrees_with_2d() {
+    let delta: f64 = 0.04;
+    let (t, dt): (f64, f64) = (0.4, 4e-4);
+    let base = stock_case("sph_poiseuille_2d.toml");
+    let mut profiles = Vec::new();
+    for dimension in [2i32, 3] {
+        let per_side = (1.0 / delta).round();
+        let mut text = base
+            .source
+            .replace(
+                "density = 2500.0",
+                &format!("density = {:.1}", per_side.powi(dimension)),
+            )
+            .replace(
+                "mass = 0.0004",
+                &format!("mass = {:e}", delta.powi(dimension)),
+            )
+            .replace(
+                "smoothing_length = 0.06",
+                &format!("smoothing_length = {}", 3.0 * delta),
+            )
+            .replace("dt = 1e-4", &format!("dt = {dt:e}"))
+            .replace("steps = 40000", &format!("steps = {}", (t / dt).round()))
+            .replace("skin = 0.01", &format!("skin = {}", delta / 2.0));
+        // No references (the test compares itself): the text ends before them.
+        text.truncate(
+            text.find("[[reference]]")
+                .expect("the stock case has references"),
+        );
+        if dimension == 3 {
+            text = text
+                .replace("dimension = 2", "dimension = 3")
+                .replace(
+                    "lengths = [1.0, 1.0]",
+                    &format!("lengths = [1.0, 1.0, {}]", 8.0 * delta),
+                )
+                .replace(
+                    "boundaries = [\"periodic\", \"wall\"]",
+                    "boundaries = [\"periodic\", \"wall\", \"periodic\"]",
+                )
+                .replace("body_force = [1.0, 0.0]", "body_force = [1.0, 0.0, 0.0]");
+        }
+        let loaded = case_from_str(&text, "poiseuille.toml");
+        let comm = SerialComm::new();
+        let series: Vec<f64> = (0..(1.0 / delta).round() as usize)
+            .map(|k| mesorheo::analytic::poiseuille((k as f64 + 0.5) * delta, t, 1.0, 1.0, 0.125))
+            .collect();
+        let profile = if dimension == 2 {
+            let mut sim = Simulation::<2>::new(&loaded.case, &comm, 2).expect("set up");
+            sim.run_steps((t / dt).round() as u64, |_| {}).expect("run");
+            row_profile(&sim, delta)
+        } else {
+            let mut sim = Simulation::<3>::new(&loaded.case, &comm, 2).expect("set up");
+            sim.run_steps((t / dt).round() as u64, |_| {}).expect("run");
+            row_profile(&sim, delta)
+        };
+        let error = profile
+            .iter()
+            .zip(&series)
+            .map(|(u, s)| (u - s).abs())
+            .fold(0.0, f64::max);
+        eprintln!("{dimension}D: max |u − series| = {error:.4} at t = {t}");
+        assert!(error < 0.01, "{dimension}D: {error}");
+        profiles.push(profile);
+    }
+    let apart = profiles[0]
+        .iter()
+        .zip(&profiles[1])
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0, f64::max);
+    eprintln!("max |u_3D − u_2D| = {apart:.4}");
+    assert!(apart < 0.005, "2D and 3D differ by {apart}");
 }
