@@ -86,6 +86,8 @@ pub struct Simulation<'c, const D: usize> {
     integrator: Box<dyn Integrator<D>>,
     /// The fields the models ask the integrator to advance.
     integrated: Vec<IntegratedField>,
+    /// The field the particles drift with besides their velocity (XSPH), if a model has one.
+    drift_correction: Option<usize>,
     /// The species (one, the fluid, unless [`Self::set_species`] gave more).
     species: Vec<Species>,
     /// The largest interaction range of the models.
@@ -349,6 +351,7 @@ impl<'c, const D: usize> Simulation<'c, D> {
             dt: integrator.dt(),
             integrator,
             integrated: Vec::new(),
+            drift_correction: None,
             species: vec![Species::fluid(case.particles.mass)],
             cutoff: 0.0,
             wants_full_list: false,
@@ -454,6 +457,16 @@ impl<'c, const D: usize> Simulation<'c, D> {
             self.integrated.push(IntegratedField { state, rate });
         }
         self.integrator.bind(p, &self.integrated);
+        if let Some(name) = model.drift_correction() {
+            let field = p.extra_index(name).ok_or_else(|| {
+                format!(
+                    "the model {} drifts with the unregistered field `{name}`",
+                    model.name()
+                )
+            })?;
+            self.drift_correction = Some(field);
+            self.integrator.bind_drift_correction(field)?;
+        }
         self.cutoff = self.cutoff.max(model.cutoff());
         self.wants_full_list |= model.uses_full_list();
         if self.wants_full_list && self.full.rows() != self.particles.n_owned {
@@ -517,6 +530,9 @@ impl<'c, const D: usize> Simulation<'c, D> {
         }
         self.integrator = build_integrator::<D>(&self.case, &table);
         self.integrator.bind(&mut self.particles, &self.integrated);
+        if let Some(field) = self.drift_correction {
+            self.integrator.bind_drift_correction(field)?;
+        }
         self.species = table;
         self.rebuild()?;
         self.compute_forces(self.virial_scope)

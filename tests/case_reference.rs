@@ -131,6 +131,7 @@ viscosity = 1.0
 viscous_term = "morris"
 body_force = [0.0, 0.0]
 morris_regularisation = 0.0
+xsph = 0.5
 [walls]
 axis = "y"
 thickness = 0.25

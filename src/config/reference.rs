@@ -194,6 +194,12 @@ pub const KEYS: &[KeyDoc] = &[
         "ε of 1/(r² + εh²) in Morris's term (sph). Not needed by any offered kernel; 0.01 with Lucy weakens the viscosity by ~5 %.",
     ),
     key(
+        "fluid.xsph",
+        "float in [0, 1]",
+        "0.0",
+        "XSPH factor ε (sph): particles move with v + ε Σ_j (m_j/ρ̄_ij)(v_j − v_i) W_ij; the momentum equation is unchanged. 0.5 is usual; needs kick_drift_kick.",
+    ),
+    key(
         "fluid.sound_speed",
         "float > 0",
         "required (sph, summation_gas)",

@@ -523,6 +523,25 @@ fn validate_sph(
             ),
         ));
     }
+    if !(s.xsph.is_finite() && (0.0..=1.0).contains(&s.xsph)) {
+        return Err(ix.error(
+            &fl("xsph"),
+            format!(
+                "found {}; the XSPH factor ε must be in [0, 1] (0.5 is usual)",
+                s.xsph
+            ),
+        ));
+    }
+    if s.xsph != 0.0 && !matches!(case.integrator, IntegratorCfg::KickDriftKick(_)) {
+        return Err(ix.error(
+            &[k("integrator"), k("kind")],
+            format!(
+                "XSPH (fluid.xsph = {}) moves the particles in the kick–drift–kick drift only; \
+                 use kind = \"kick_drift_kick\" or set fluid.xsph = 0",
+                s.xsph
+            ),
+        ));
+    }
     let dim = case.dimension;
     if !s.body_force.is_empty() && s.body_force.len() != dim {
         return Err(ix.error(

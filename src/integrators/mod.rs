@@ -42,6 +42,19 @@ pub trait Integrator<const D: usize>: Send + Sync {
     /// Time step Δt.
     fn dt(&self) -> f64;
 
+    /// Learns the field `c` the particles drift with in addition to their velocity, ṙ = v + c
+    /// (a model's [`crate::models::interface::ParticleModel::drift_correction`]). The default
+    /// refuses: case validation admits a drift correction only with an integrator that
+    /// overrides this.
+    fn bind_drift_correction(&mut self, field: usize) -> Result<(), String> {
+        let _ = field;
+        Err(format!(
+            "the integrator {} does not move particles with a drift correction (XSPH); use \
+             kick_drift_kick",
+            self.name()
+        ))
+    }
+
     /// Force evaluations per step (default 1).
     fn stages(&self) -> usize {
         1

@@ -115,6 +115,8 @@ pub struct KickDriftKick {
     integrated: Vec<IntegratedField>,
     /// Per integrated field, the index of its half-step value s½.
     half: Vec<usize>,
+    /// The drift correction c (XSPH): r ← r + Δt (v½ + c).
+    drift_correction: Option<usize>,
 }
 
 impl KickDriftKick {
@@ -125,6 +127,7 @@ impl KickDriftKick {
             species: species_table(mass, species),
             integrated: Vec::new(),
             half: Vec::new(),
+            drift_correction: None,
         }
     }
 }
@@ -151,6 +154,11 @@ impl<const D: usize> Integrator<D> for KickDriftKick {
             .collect();
     }
 
+    fn bind_drift_correction(&mut self, field: usize) -> Result<(), String> {
+        self.drift_correction = Some(field);
+        Ok(())
+    }
+
     fn before_forces(&self, p: &mut Particles<D>, _stage: usize) {
         let dt = self.dt;
         let n = p.n_owned;
@@ -161,7 +169,10 @@ impl<const D: usize> Integrator<D> for KickDriftKick {
                         let a = p.force[i][d] * inv_m;
                         let vh = p.vel[i][d] + 0.5 * dt * a;
                         p.vel_half[i][d] = vh;
-                        p.pos[i][d] += dt * vh;
+                        p.pos[i][d] += match self.drift_correction {
+                            None => dt * vh,
+                            Some(c) => dt * (vh + p.extra[c].data[i * D + d]),
+                        };
                         p.vel[i][d] += dt * a;
                     }
                 }

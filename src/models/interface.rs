@@ -169,6 +169,12 @@ pub trait ParticleModel<const D: usize>: Send + Sync {
         Vec::new()
     }
 
+    /// A vector field the particles move with in addition to their velocity, ṙ = v + c (the
+    /// XSPH correction), written by the model's passes; `None` (the default) for ṙ = v.
+    fn drift_correction(&self) -> Option<&'static str> {
+        None
+    }
+
     /// Advances the owned particles' own state to `step`, after the integrator has moved them
     /// (once per step). Runs on the rank's worker pool.
     fn update_state(&self, particles: &mut Particles<D>, step: u64) {

@@ -104,6 +104,11 @@ pub struct SphCfg {
     /// nearest-neighbour coupling at h = 2.5Δ by 6 % and the measured viscosity by ~4 %.
     #[serde(default)]
     pub morris_regularisation: f64,
+    /// XSPH factor ε (Monaghan 1989): particles move with v̂_i = v_i + ε Σ_j (m_j/ρ̄_ij)
+    /// (v_j − v_i) W_ij, ρ̄_ij = (ρ_i + ρ_j)/2, instead of v_i (the momentum equation is
+    /// unchanged). Default 0 (off); 0.5 is usual. Needs `kick_drift_kick`.
+    #[serde(default)]
+    pub xsph: f64,
 }
 
 fn one() -> f64 {
@@ -224,6 +229,8 @@ pub const DENSITY: &str = "density";
 pub const DENSITY_RATE: &str = "density_rate";
 /// σ̄ (nested summation), D×D row-major.
 pub const VISCOUS_STRESS: &str = "viscous_stress";
+/// The XSPH drift correction v̂ − v (D per particle).
+pub const XSPH_CORRECTION: &str = "xsph_correction";
 
 /// Species indices of a walled scene: the fluid, the wall at 0, the wall at L.
 pub const FLUID: u8 = 0;
@@ -381,6 +388,8 @@ struct MomentumKernel<'a, K, const D: usize> {
     /// 0.01 h².
     regulariser: f64,
     continuity: bool,
+    /// ε m (XSPH), or 0.
+    xsph_eps_mass: f64,
     walls: Option<WallGeometry<D>>,
     scales: Vec<Scale>,
     parities: Vec<Parity>,
@@ -395,7 +404,11 @@ impl<K: Kernel, const D: usize> SymmetricKernel<D> for MomentumKernel<'_, K, D> 
     /// weakly compressible scheme) in loops over the batch; anything else pair by pair.
     #[inline(always)]
     fn pair_batch(&self, p: &Particles<D>, batch: &PairBatch<D>, out: &mut BatchTerms) {
-        if self.walls.is_some() || self.stress.is_some() || p.species.is_some() {
+        if self.walls.is_some()
+            || self.stress.is_some()
+            || p.species.is_some()
+            || self.xsph_eps_mass != 0.0
+        {
             pair_by_pair(self, p, batch, out);
             return;
         }
@@ -554,6 +567,15 @@ impl<K: Kernel, const D: usize> GatherKernel<D> for MomentumKernel<'_, K, D> {
             }
             out[D] = self.mass * gw * vdotx;
         }
+        if self.xsph_eps_mass != 0.0 {
+            // −ε m W_ij v_ij / ρ̄_ij: odd under i ↔ j to the bit (ρ_i + ρ_j commutes).
+            let first = D + usize::from(self.continuity);
+            let rho_bar = 0.5 * (self.density[i] + self.density[j]);
+            let s = self.xsph_eps_mass * self.kernel.w(r) / rho_bar;
+            for a in 0..D {
+                out[first + a] = -s * vij[a];
+            }
+        }
     }
 }
 
@@ -574,6 +596,7 @@ pub struct SphModel<const D: usize> {
     density: usize,
     rate: Option<usize>,
     stress: Option<usize>,
+    xsph: Option<usize>,
     p_over_rho2: Vec<f64>,
     inv_density: Vec<f64>,
     sums: Vec<f64>,
@@ -623,6 +646,7 @@ impl<const D: usize> SphModel<D> {
             density: usize::MAX,
             rate: None,
             stress: None,
+            xsph: None,
             p_over_rho2: Vec::new(),
             inv_density: Vec::new(),
             sums: Vec::new(),
@@ -697,6 +721,7 @@ impl<const D: usize> SphModel<D> {
             }
             Pass::Momentum => {
                 let c2 = self.cfg.sound_speed * self.cfg.sound_speed;
+                let c0_velocity = self.cfg.sound_speed;
                 let (eos, rho0) = (self.cfg.equation_of_state, self.cfg.rest_density);
                 let density = &p.extra[self.density].data;
                 self.p_over_rho2.clear();
@@ -709,14 +734,17 @@ impl<const D: usize> SphModel<D> {
                 self.inv_density
                     .extend(density.iter().map(|&rho| 1.0 / rho));
                 let continuity = self.rate.is_some();
-                let width = D + usize::from(continuity);
+                let xsph_first = D + usize::from(continuity);
+                let width = xsph_first + if self.xsph.is_some() { D } else { 0 };
                 let mut scales = vec![Scale::covering(HEADROOM * momentum_scale); width];
+                let mut parities = vec![Parity::Odd; width];
                 if continuity {
                     scales[D] = Scale::covering(HEADROOM * gradient_scale * rho0);
+                    parities[D] = Parity::Even;
                 }
-                let mut parities = vec![Parity::Odd; D];
-                if continuity {
-                    parities.push(Parity::Even);
+                // XSPH terms: at most ε (m/ρ) W(0) |v|, |v| bounded by c₀ in any sane run.
+                for scale in &mut scales[xsph_first..] {
+                    *scale = Scale::covering(HEADROOM * density_scale / rho0 * c0_velocity);
                 }
                 let k = MomentumKernel {
                     kernel,
@@ -734,6 +762,7 @@ impl<const D: usize> SphModel<D> {
                         * self.cfg.smoothing_length
                         * self.cfg.smoothing_length,
                     continuity,
+                    xsph_eps_mass: self.cfg.xsph * self.mass,
                     walls: self.walls,
                     scales,
                     parities,
@@ -756,6 +785,12 @@ impl<const D: usize> SphModel<D> {
                         let out = &mut p.extra[rate].data;
                         for (i, s) in sums.chunks_exact(width).enumerate() {
                             out[i] = s[D];
+                        }
+                    }
+                    if let Some(xsph) = self.xsph {
+                        let out = &mut p.extra[xsph].data;
+                        for (i, s) in sums.chunks_exact(width).enumerate() {
+                            out[i * D..(i + 1) * D].copy_from_slice(&s[xsph_first..]);
                         }
                     }
                 })
@@ -802,7 +837,20 @@ impl<const D: usize> ParticleModel<D> for SphModel<D> {
                 flags: FieldFlags::DERIVED,
             });
         }
+        if self.cfg.xsph != 0.0 {
+            // Like the forces: of the last evaluation, used by the next drift, so kept across a
+            // restart.
+            f.push(FieldSpec {
+                name: XSPH_CORRECTION,
+                kind: FieldKind::Vector,
+                flags: FieldFlags::STATE,
+            });
+        }
         f
+    }
+
+    fn drift_correction(&self) -> Option<&'static str> {
+        (self.cfg.xsph != 0.0).then_some(XSPH_CORRECTION)
     }
 
     fn passes(&self) -> Vec<PassSpec> {
@@ -858,6 +906,7 @@ impl<const D: usize> ParticleModel<D> for SphModel<D> {
             .ok_or("the density field is not registered")?;
         self.rate = p.extra_index(DENSITY_RATE);
         self.stress = p.extra_index(VISCOUS_STRESS);
+        self.xsph = p.extra_index(XSPH_CORRECTION);
         if !restarted && self.rate.is_some() {
             // Continuity density starts at ρ₀ (the lattice is uniform).
             p.extra[self.density].data.fill(self.cfg.rest_density);
@@ -895,6 +944,7 @@ mod tests {
             viscous_term,
             body_force: Vec::new(),
             morris_regularisation: 0.01,
+            xsph: 0.0,
         }
     }
 
@@ -959,6 +1009,7 @@ mod tests {
                     },
                     regulariser,
                     continuity,
+                    xsph_eps_mass: 0.0,
                     walls: None,
                     scales: vec![Scale::covering(1e6); 3 + usize::from(continuity)],
                     parities: {
