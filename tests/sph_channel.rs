@@ -469,14 +469,14 @@ fn xsph_correction_is_the_smoothed_velocity_difference() {
                 continue;
             }
             let rho_bar = 0.5 * (p.extra[rho].data[i] + p.extra[rho].data[j]);
-            for d in 0..2 {
-                want[d] += eps * mass / rho_bar * (p.vel[j][d] - p.vel[i][d]) * w;
+            for (d, c) in want.iter_mut().enumerate() {
+                *c += eps * mass / rho_bar * (p.vel[j][d] - p.vel[i][d]) * w;
             }
         }
-        for d in 0..2 {
+        for (d, c) in want.iter().enumerate() {
             let got = p.extra[xsph].data[i * 2 + d];
-            worst = worst.max((got - want[d]).abs());
-            largest = largest.max(want[d].abs());
+            worst = worst.max((got - c).abs());
+            largest = largest.max(c.abs());
         }
     }
     eprintln!("XSPH correction: largest {largest:.3e}, worst difference {worst:.3e}");
