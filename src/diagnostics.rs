@@ -154,6 +154,10 @@ pub fn block_warnings(scalars: &BTreeMap<String, Vec<f64>>, blocks: usize) -> Ve
     out
 }
 
+/// The scalar series of the density profile are named this and the bin number (four digits);
+/// the summary gathers them into `density_profile`.
+pub const DENSITY_PROFILE_PREFIX: &str = "density_profile_";
+
 /// Time series collected during a run.
 #[derive(Clone, Debug, Default)]
 pub struct Series {

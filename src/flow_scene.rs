@@ -508,6 +508,7 @@ impl<const D: usize> Scene for FlowScene<'_, D> {
             dumbbells: Some(e.total * e.n_d as u64),
             observables,
             velocity_profile: Vec::new(),
+            density_profile: Vec::new(),
             validation,
             // The error bars come from the spread of independent particles' averages: no
             // blocks.

@@ -9,9 +9,9 @@
 
 use crate::comm::Comm;
 use crate::config::{OutputCfg, RunCfg};
-use crate::diagnostics::Estimate;
+use crate::diagnostics::{DENSITY_PROFILE_PREFIX, Estimate};
 use crate::sim::{PhaseTimes, Simulation};
-use crate::summary::{ProfilePoint, Summary, Validation, validate};
+use crate::summary::{DensityPoint, ProfilePoint, Summary, Validation, validate};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -104,6 +104,8 @@ pub struct SceneReport {
     pub observables: BTreeMap<String, Estimate>,
     /// Binned velocity profile.
     pub velocity_profile: Vec<ProfilePoint>,
+    /// Binned SPH density profile.
+    pub density_profile: Vec<DensityPoint>,
     /// Checks against the case's references (after a completed run).
     pub validation: Vec<Validation>,
     /// Warnings about the averages.
@@ -235,7 +237,23 @@ impl<const D: usize> Scene for ParticleScene<'_, D> {
         let sim = &self.sim;
         let case = &sim.case;
         let blocks = case.diagnostics.blocks;
-        let observables = sim.series.estimates(blocks);
+        let mut observables = sim.series.estimates(blocks);
+        // The density profile's bins leave the scalar observables for their own list.
+        let density_bins: Vec<String> = (observables.keys())
+            .filter(|k| k.starts_with(DENSITY_PROFILE_PREFIX))
+            .cloned()
+            .collect();
+        let ly_bins = case.diagnostics.profile_bins as f64;
+        let density_profile: Vec<DensityPoint> = (density_bins.iter().enumerate())
+            .map(|(b, name)| {
+                let e = observables.remove(name).expect("listed above");
+                DensityPoint {
+                    y: (b as f64 + 0.5) * case.domain.lengths[1] / ly_bins,
+                    mean: e.mean,
+                    stderr: e.stderr,
+                }
+            })
+            .collect();
         let warnings = crate::diagnostics::block_warnings(&sim.series.scalars, blocks);
         let ly = case.domain.lengths[1];
         let nb = case.diagnostics.profile_bins as f64;
@@ -272,6 +290,7 @@ impl<const D: usize> Scene for ParticleScene<'_, D> {
             dumbbells: None,
             observables,
             velocity_profile,
+            density_profile,
             validation,
             warnings,
             state_digest: sim.state_digest(),
@@ -484,6 +503,7 @@ pub fn drive(
         dumbbell_steps_per_second: report.dumbbells.map(|n| rate(n as f64)),
         observables: report.observables,
         velocity_profile: report.velocity_profile,
+        density_profile: report.density_profile,
         validation: report.validation,
         warnings: report.warnings,
         state_digest: report.state_digest,

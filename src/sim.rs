@@ -17,7 +17,7 @@
 
 use crate::comm::{Comm, U64Op};
 use crate::config::{Case, FluidCfg, IntegratorCfg, Lattice, Observable, VelocityProfile};
-use crate::diagnostics::{STRESS_PARTS, Series, tensor_components};
+use crate::diagnostics::{DENSITY_PROFILE_PREFIX, STRESS_PARTS, Series, tensor_components};
 use crate::domain::{HaloPlan, Slab, send_leavers, wrap_owned};
 use crate::fixed_sum::FixedSum;
 use crate::geometry::{GRADIENT, SimBox};
@@ -853,6 +853,36 @@ impl<'c, const D: usize> Simulation<'c, D> {
         self.step > r.equilibration && self.step.is_multiple_of(r.sample_every)
     }
 
+    /// The mean SPH density of the fluid particles in each of `diagnostics.profile_bins` bins
+    /// across the box along y (NaN for an empty bin), summed exactly over the ranks
+    /// (collective).
+    fn density_profile(&self) -> Vec<f64> {
+        let bins = self.case.diagnostics.profile_bins;
+        let ly = self.sim_box.lengths[GRADIENT];
+        let p = &self.particles;
+        let mut sums = vec![FixedSum::ZERO; 2 * bins];
+        if let Some(rho) = p.extra_index(crate::models::sph::DENSITY) {
+            let density = &p.extra[rho].data;
+            for k in 0..p.n_owned {
+                if !self.species[p.species_of(k) as usize].is_fluid() {
+                    continue;
+                }
+                let y = p.pos[k][GRADIENT];
+                let b = ((y / ly * bins as f64).floor().max(0.0) as usize).min(bins - 1);
+                sums[2 * b].add(1.0);
+                sums[2 * b + 1].add(density[k]);
+                if k % 2048 == 2047 {
+                    sums.iter_mut().for_each(FixedSum::normalize);
+                }
+            }
+        }
+        sums.iter_mut().for_each(FixedSum::normalize);
+        FixedSum::allreduce(self.comm, &mut sums);
+        (0..bins)
+            .map(|b| sums[2 * b + 1].value() / sums[2 * b].value())
+            .collect()
+    }
+
     /// Samples every observable the case asked for (collective).
     pub fn sample(&mut self) {
         let t0 = Instant::now();
@@ -1034,6 +1064,12 @@ impl<'c, const D: usize> Simulation<'c, D> {
                     out.scalars.push(("wall_shear_stress_lower".into(), lower));
                     out.scalars.push(("wall_shear_stress_upper".into(), upper));
                 }
+                Observable::DensityProfile => {
+                    for (b, rho) in self.density_profile().into_iter().enumerate() {
+                        out.scalars
+                            .push((format!("{DENSITY_PROFILE_PREFIX}{b:04}"), rho));
+                    }
+                }
             }
         }
         out
@@ -1155,7 +1191,8 @@ fn virial_scope(observables: &[Observable]) -> VirialScope {
         Observable::Temperature
         | Observable::Momentum
         | Observable::VelocityProfile
-        | Observable::WallShearStress => VirialScope::Off,
+        | Observable::WallShearStress
+        | Observable::DensityProfile => VirialScope::Off,
     };
     let scopes: Vec<VirialScope> = observables.iter().map(needs).collect();
     if scopes.contains(&VirialScope::Full) {

@@ -33,6 +33,17 @@ pub struct ProfilePoint {
     pub expected: f64,
 }
 
+/// A point of the density profile.
+#[derive(Clone, Debug, Serialize, PartialEq)]
+pub struct DensityPoint {
+    /// Bin centre along y.
+    pub y: f64,
+    /// ⟨ρ⟩ of the fluid particles in the bin.
+    pub mean: f64,
+    /// Standard error.
+    pub stderr: f64,
+}
+
 /// The run summary (the README documents every field).
 #[derive(Clone, Debug, Serialize)]
 pub struct Summary {
@@ -76,6 +87,9 @@ pub struct Summary {
     /// Binned mean velocity u_x(y) (sheared runs that ask for it).
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub velocity_profile: Vec<ProfilePoint>,
+    /// Binned mean SPH density ρ(y) (runs that ask for `density_profile`).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub density_profile: Vec<DensityPoint>,
     /// Reference checks.
     pub validation: Vec<Validation>,
     /// Caveats on the results (e.g. block error bars of correlated series that are too small).

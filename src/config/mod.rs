@@ -377,6 +377,9 @@ pub enum Observable {
     /// Force along x per unit area that the fluid exerts on each wall of boundary particles
     /// (needs `[walls]`): `wall_shear_stress_lower`, `wall_shear_stress_upper`.
     WallShearStress,
+    /// Binned mean SPH density ρ(y) of the fluid particles (needs `[fluid] kind = "sph"`),
+    /// `diagnostics.profile_bins` bins across the box along y.
+    DensityProfile,
 }
 
 impl Observable {
@@ -392,6 +395,7 @@ impl Observable {
             Observable::Momentum => "momentum",
             Observable::VelocityProfile => "velocity_profile",
             Observable::WallShearStress => "wall_shear_stress",
+            Observable::DensityProfile => "density_profile",
         }
     }
 }

@@ -335,7 +335,7 @@ pub const KEYS: &[KeyDoc] = &[
         "diagnostics.observables",
         "array of observable names",
         "[\"temperature\", \"pressure\"]",
-        "What to average: \"temperature\", \"pressure\", \"stress\" (full tensor by contribution), \"viscosity\", \"first_normal_stress_difference\", \"second_normal_stress_difference\", \"momentum\", \"velocity_profile\" (under shear, or across [walls]), \"wall_shear_stress\" (force along x per unit area the fluid exerts on each wall: wall_shear_stress_lower, _upper; needs [walls]). The shear ones need box.shear_rate ≠ 0. Only what is listed is computed: the pair virial is skipped without \"pressure\", \"stress\" or the stress differences, and only its diagonal is accumulated without \"stress\" or \"viscosity\".",
+        "What to average: \"temperature\", \"pressure\", \"stress\" (full tensor by contribution), \"viscosity\", \"first_normal_stress_difference\", \"second_normal_stress_difference\", \"momentum\", \"velocity_profile\" (under shear, or across [walls]), \"wall_shear_stress\" (force along x per unit area the fluid exerts on each wall: wall_shear_stress_lower, _upper; needs [walls]), \"density_profile\" (the SPH density of the fluid per bin along y, diagnostics.profile_bins bins; needs sph). The shear ones need box.shear_rate ≠ 0. Only what is listed is computed: the pair virial is skipped without \"pressure\", \"stress\" or the stress differences, and only its diagonal is accumulated without \"stress\" or \"viscosity\".",
     ),
     key(
         "diagnostics.profile_bins",

@@ -443,6 +443,13 @@ pub fn validate(case: &Case, ix: &SpanIndex) -> Result<(), CaseError> {
                 ),
             ));
         }
+        if *o == Observable::DensityProfile && !matches!(case.fluid, FluidCfg::Sph(_)) {
+            return Err(ix.error(
+                &[k("diagnostics"), k("observables"), Segment::Index(i)],
+                "\"density_profile\" is the SPH density per bin; it needs [fluid] kind = \"sph\""
+                    .to_string(),
+            ));
+        }
         if *o == Observable::WallShearStress && case.walls.is_none() {
             return Err(ix.error(
                 &[k("diagnostics"), k("observables"), Segment::Index(i)],
