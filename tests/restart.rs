@@ -587,9 +587,9 @@ fn an_unwritable_checkpoint_directory_stops_every_rank_with_an_error_not_a_hang(
     assert!(err.contains("checkpoints"), "{err}");
 }
 
-/// A walled SPH channel (boundary species, a moving wall, integrated continuity density, the
-/// two-stage integrator's scratch fields): N steps ≡ N/2 + checkpoint + restart on another
-/// rank count + N/2, bitwise.
+/// A walled SPH channel (boundary species, a moving wall, XSPH's drift correction, integrated
+/// continuity density, the two-stage integrator's scratch fields, the density profile's
+/// series): N steps ≡ N/2 + checkpoint + restart on another rank count + N/2, bitwise.
 #[test]
 fn sph_channel_restart_is_bitwise() {
     let channel = |extra_fluid: &str, integrator: &str| {
@@ -624,13 +624,13 @@ skin = 0.002
 [run]
 steps = 120
 [diagnostics]
-observables = ["velocity_profile"]
+observables = ["velocity_profile", "density_profile"]
 profile_bins = 6
 "#
         )
     };
     for text in [
-        channel("", "kick_drift_kick"),
+        channel("xsph = 0.5", "kick_drift_kick"),
         channel(
             "density = \"continuity\"\nviscous_term = \"morris\"",
             "heun",
