@@ -551,8 +551,10 @@ impl<K: Kernel, const D: usize> GatherKernel<D> for MomentumKernel<'_, K, D> {
             && boundary_pair
             && r < w.range
         {
+            // An acceleration of the fluid particle (Eq. 2.48 adds it without a mass), so the
+            // force m_i a_i: divided by the m_j that the common factor m_i m_j below brings.
             let q2 = (w.range / r) * (w.range / r);
-            let s = w.strength * (q2 * q2 - q2) / (r * r);
+            let s = w.strength * (q2 * q2 - q2) / (r * r) / self.mass;
             for a in 0..D {
                 f[a] += s * x[a];
             }
