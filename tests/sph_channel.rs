@@ -79,6 +79,22 @@ fn set_velocity(sim: &mut Simulation<'_, 2>, u: impl Fn(f64) -> f64) {
     sim.jump_to_step(0).expect("forces");
 }
 
+/// The instantaneous `wall_shear_stress` of the lower and upper walls.
+fn wall_shear_stresses(sim: &mut Simulation<'_, 2>) -> (f64, f64) {
+    let m = sim.measure();
+    let get = |name: &str| {
+        m.scalars
+            .iter()
+            .find(|(n, _)| n == name)
+            .map(|(_, v)| *v)
+            .expect(name)
+    };
+    (
+        get("wall_shear_stress_lower"),
+        get("wall_shear_stress_upper"),
+    )
+}
+
 /// u_x = A sin(2πy) decays as exp(−νk²t). At Lucy support 3Δ the lattice sum of the Laplacian
 /// is 1.0008 of its continuum value (2.5Δ: 0.986); what remains is the kernel's smoothing
 /// error, O((kh)²) with kh = 0.38, once for Morris's operator and twice for the nested
@@ -138,18 +154,7 @@ fn morris_images_keep_steady_couette_flow_linear() {
         eprintln!("{treatment}: max |u − y| = {worst:.3e}");
         assert!(worst >= lo && worst < hi, "{treatment}: {worst}");
         if treatment == "morris" {
-            let m = sim.measure();
-            let get = |name: &str| {
-                m.scalars
-                    .iter()
-                    .find(|(n, _)| n == name)
-                    .map(|(_, v)| *v)
-                    .expect(name)
-            };
-            let (lower, upper) = (
-                get("wall_shear_stress_lower"),
-                get("wall_shear_stress_upper"),
-            );
+            let (lower, upper) = wall_shear_stresses(&mut sim);
             eprintln!("wall shear stress: lower {lower:.5}, upper {upper:.5} (η U / L = 1)");
             // The fluid drags the lower wall along +x and holds the upper one back with
             // η U / L = 1, less the lattice deficit of the viscous operator at support 2.5Δ
@@ -623,18 +628,7 @@ fn wall_shear_stress_follows_the_startup_series() {
         let steps = (t / 1e-4_f64).round() as u64;
         sim.run_steps(steps - done, |_| {}).expect("run");
         done = steps;
-        let m = sim.measure();
-        let get = |name: &str| {
-            m.scalars
-                .iter()
-                .find(|(n, _)| n == name)
-                .map(|(_, v)| *v)
-                .expect(name)
-        };
-        let (lower, upper) = (
-            get("wall_shear_stress_lower"),
-            get("wall_shear_stress_upper"),
-        );
+        let (lower, upper) = wall_shear_stresses(&mut sim);
         let (want_lower, want_upper) = (slope(t, false), -slope(t, true));
         eprintln!(
             "t = {t}: lower {lower:.4} (series {want_lower:.4}), upper {upper:.4} (series {want_upper:.4})"
