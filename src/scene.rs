@@ -238,25 +238,24 @@ impl<const D: usize> Scene for ParticleScene<'_, D> {
         let case = &sim.case;
         let blocks = case.diagnostics.blocks;
         let mut observables = sim.series.estimates(blocks);
+        let ly = case.domain.lengths[1];
+        let nb = case.diagnostics.profile_bins as f64;
         // The density profile's bins leave the scalar observables for their own list.
         let density_bins: Vec<String> = (observables.keys())
             .filter(|k| k.starts_with(DENSITY_PROFILE_PREFIX))
             .cloned()
             .collect();
-        let ly_bins = case.diagnostics.profile_bins as f64;
         let density_profile: Vec<DensityPoint> = (density_bins.iter().enumerate())
             .map(|(b, name)| {
                 let e = observables.remove(name).expect("listed above");
                 DensityPoint {
-                    y: (b as f64 + 0.5) * case.domain.lengths[1] / ly_bins,
+                    y: (b as f64 + 0.5) * ly / nb,
                     mean: e.mean,
                     stderr: e.stderr,
                 }
             })
             .collect();
         let warnings = crate::diagnostics::block_warnings(&sim.series.scalars, blocks);
-        let ly = case.domain.lengths[1];
-        let nb = case.diagnostics.profile_bins as f64;
         let velocity_profile: Vec<ProfilePoint> = (sim.series.profile_estimates(blocks).iter())
             .enumerate()
             .map(|(b, e): (usize, &Estimate)| {

@@ -868,7 +868,7 @@ impl<'c, const D: usize> Simulation<'c, D> {
                     continue;
                 }
                 let y = p.pos[k][GRADIENT];
-                let b = ((y / ly * bins as f64).floor().max(0.0) as usize).min(bins - 1);
+                let b = profile_bin(y, ly, bins);
                 sums[2 * b].add(1.0);
                 sums[2 * b + 1].add(density[k]);
                 if k % 2048 == 2047 {
@@ -915,8 +915,7 @@ impl<'c, const D: usize> Simulation<'c, D> {
             1
         };
         let ly = self.sim_box.lengths[GRADIENT];
-        let bin_of =
-            |y: f64| -> usize { ((y / ly * bins as f64).floor().max(0.0) as usize).min(bins - 1) };
+        let bin_of = |y: f64| profile_bin(y, ly, bins);
         let n = self.particles.n_owned;
         let (pos, vel) = (&self.particles.pos[..n], &self.particles.vel[..n]);
         // Boundary particles (walls, inclusions) are not fluid: left out of every average.
@@ -1168,6 +1167,11 @@ impl<'c, const D: usize> Simulation<'c, D> {
     pub fn comm(&self) -> &dyn Comm {
         self.comm
     }
+}
+
+/// The bin of coordinate `y` among `bins` equal bins across [0, `ly`) (clamped to the ends).
+fn profile_bin(y: f64, ly: f64, bins: usize) -> usize {
+    ((y / ly * bins as f64).floor().max(0.0) as usize).min(bins - 1)
 }
 
 /// Observables at one instant.
