@@ -438,7 +438,8 @@ impl<'c, const D: usize> Simulation<'c, D> {
         self.pass_fields.push(fields);
         self.pass_names
             .push(passes.iter().map(|p| p.name).collect());
-        for (state, rate) in model.integrated_fields() {
+        for spec in model.integrated_fields() {
+            let (state, rate) = (spec.state, spec.rate);
             let index = |name: &str| {
                 p.extra_index(name).ok_or_else(|| {
                     format!(
@@ -454,7 +455,11 @@ impl<'c, const D: usize> Simulation<'c, D> {
                     model.name()
                 ));
             }
-            self.integrated.push(IntegratedField { state, rate });
+            self.integrated.push(IntegratedField {
+                state,
+                rate,
+                boundary_particles: spec.boundary_particles,
+            });
         }
         self.integrator.bind(p, &self.integrated);
         if let Some(name) = model.drift_correction() {
@@ -883,6 +888,50 @@ impl<'c, const D: usize> Simulation<'c, D> {
             .collect()
     }
 
+    /// The mean deviatoric stress of the SPH fluid particles, σ̄ = viscous stress (nested
+    /// summation) + polymer stress τ, D×D row-major (the thesis's unweighted particle mean,
+    /// Eq. 3.18), and the mean |tr τ|; summed exactly over the ranks (collective).
+    fn sph_mean_stress(&self) -> (Vec<f64>, f64) {
+        use crate::models::sph::maxwell::{packed_index, packed_width};
+        use crate::models::sph::{POLYMER_STRESS, VISCOUS_STRESS};
+        let p = &self.particles;
+        let dd = D * D;
+        let viscous = p.extra_index(VISCOUS_STRESS);
+        let polymer = p.extra_index(POLYMER_STRESS);
+        let w = packed_width(D);
+        // Count, D² stress components, |tr τ|.
+        let mut sums = vec![FixedSum::ZERO; dd + 2];
+        for k in 0..p.n_owned {
+            if !self.species[p.species_of(k) as usize].is_fluid() {
+                continue;
+            }
+            sums[0].add(1.0);
+            for a in 0..D {
+                for b in 0..D {
+                    let mut s = viscous.map_or(0.0, |v| p.extra[v].data[k * dd + a * D + b]);
+                    if let Some(t) = polymer {
+                        s += p.extra[t].data[k * w + packed_index::<D>(a, b)];
+                    }
+                    sums[1 + a * D + b].add(s);
+                }
+            }
+            if let Some(t) = polymer {
+                let trace: f64 = (0..D)
+                    .map(|a| p.extra[t].data[k * w + packed_index::<D>(a, a)])
+                    .sum();
+                sums[dd + 1].add(trace.abs());
+            }
+            if k % 2048 == 2047 {
+                sums.iter_mut().for_each(FixedSum::normalize);
+            }
+        }
+        sums.iter_mut().for_each(FixedSum::normalize);
+        FixedSum::allreduce(self.comm, &mut sums);
+        let n = sums[0].value();
+        let mean = (0..dd).map(|c| sums[1 + c].value() / n).collect();
+        (mean, sums[dd + 1].value() / n)
+    }
+
     /// Samples every observable the case asked for (collective).
     pub fn sample(&mut self) {
         let t0 = Instant::now();
@@ -1013,7 +1062,25 @@ impl<'c, const D: usize> Simulation<'c, D> {
             let w = &second[dd + D + k * dd..dd + D + (k + 1) * dd];
             parts.push(w.iter().map(|x| x / volume).collect());
         }
-        let total: Vec<f64> = (0..dd).map(|i| parts.iter().map(|p| p[i]).sum()).collect();
+        let mut total: Vec<f64> = (0..dd).map(|i| parts.iter().map(|p| p[i]).sum()).collect();
+        // SPH: the stress is the particles' own (the pressure tensor's deviatoric part is −σ̄;
+        // validation admits only the observables that need nothing else).
+        let mut trace = f64::NAN;
+        if matches!(case.fluid, crate::config::FluidCfg::Sph(_))
+            && case.diagnostics.observables.iter().any(|o| {
+                matches!(
+                    o,
+                    Observable::Viscosity
+                        | Observable::FirstNormalStressDifference
+                        | Observable::SecondNormalStressDifference
+                        | Observable::PolymerStressTrace
+                )
+            })
+        {
+            let (mean, t) = self.sph_mean_stress();
+            total = mean.iter().map(|s| -s).collect();
+            trace = t;
+        }
         let trace_k: f64 = (0..D).map(|a| kinetic[a * D + a]).sum();
         let fluid_particles = if self.particles.species.is_none() {
             self.total_particles as f64
@@ -1062,6 +1129,9 @@ impl<'c, const D: usize> Simulation<'c, D> {
                     let [lower, upper] = self.wall_forces();
                     out.scalars.push(("wall_shear_stress_lower".into(), lower));
                     out.scalars.push(("wall_shear_stress_upper".into(), upper));
+                }
+                Observable::PolymerStressTrace => {
+                    out.scalars.push(("polymer_stress_trace".into(), trace));
                 }
                 Observable::DensityProfile => {
                     for (b, rho) in self.density_profile().into_iter().enumerate() {
@@ -1196,7 +1266,8 @@ fn virial_scope(observables: &[Observable]) -> VirialScope {
         | Observable::Momentum
         | Observable::VelocityProfile
         | Observable::WallShearStress
-        | Observable::DensityProfile => VirialScope::Off,
+        | Observable::DensityProfile
+        | Observable::PolymerStressTrace => VirialScope::Off,
     };
     let scopes: Vec<VirialScope> = observables.iter().map(needs).collect();
     if scopes.contains(&VirialScope::Full) {
@@ -1349,12 +1420,21 @@ pub fn initial_particles<const D: usize>(
     let shear_profile = match case.particles.velocity_profile {
         VelocityProfile::Auto => sim_box.sheared(),
         VelocityProfile::Shear => true,
-        VelocityProfile::Rest => false,
+        VelocityProfile::Rest | VelocityProfile::HalfSine => false,
     };
+    let half_sine = case.particles.velocity_profile == VelocityProfile::HalfSine;
+    let (amplitude, ly) = (
+        case.particles.velocity_amplitude,
+        sim_box.lengths[GRADIENT],
+    );
     let mut particles = Particles::default();
     for (g, (x, mut v)) in positions.into_iter().zip(velocities).enumerate() {
         if shear_profile {
             v[0] += sim_box.streaming_velocity(x[GRADIENT]);
+        }
+        let y = x[GRADIENT];
+        if half_sine && (0.0..=ly).contains(&y) {
+            v[0] += amplitude * (std::f64::consts::PI * y / ly).sin();
         }
         if slab.owner_of(x[slab.axis]) == slab.rank {
             particles.push_owned(g as u64, x, v);

@@ -103,6 +103,16 @@ pub fn sph_limits(s: &SphCfg) -> Vec<(&'static str, f64)> {
         };
         limits.push((name, c * support * support * s.rest_density / s.viscosity));
     }
+    if let Some(poly) = &s.polymer {
+        // Elastic shear waves of speed √(η_p/(ρ₀λ)) travel with the sound (spec §1.12), and the
+        // explicit relaxation needs Δt < λ.
+        let elastic = poly.viscosity / (s.rest_density * poly.relaxation_time);
+        limits.push((
+            "elastic wave r_s/√(c₀² + η_p/(ρ₀λ))",
+            support / (s.sound_speed * s.sound_speed + elastic).sqrt(),
+        ));
+        limits.push(("relaxation λ", poly.relaxation_time));
+    }
     let force = s.body_force.iter().map(|f| f * f).sum::<f64>().sqrt();
     if force > 0.0 {
         limits.push((

@@ -118,7 +118,7 @@ fn check_startup(
     r: &crate::config::StartupProfileReference,
     series: Option<ProfileSeries<'_>>,
 ) -> Vec<Validation> {
-    use crate::analytic::{StartupFlow, couette, poiseuille};
+    use crate::analytic::{StartupFlow, couette, poiseuille, relaxation};
     let (crate::config::FluidCfg::Sph(s), Some(w)) = (&case.fluid, &case.walls) else {
         return Vec::new();
     };
@@ -135,6 +135,20 @@ fn check_startup(
             (
                 Box::new(move |y, t| poiseuille(y, t, l, f, nu)),
                 (f * l * l / (8.0 * nu)).abs(),
+            )
+        }
+        StartupFlow::ViscoelasticRelaxation => {
+            let a = case.particles.velocity_amplitude;
+            let (rho, eta_s) = (s.rest_density, s.viscosity);
+            let polymer = s
+                .polymer
+                .as_ref()
+                .map(|p| (p.viscosity, p.relaxation_time));
+            (
+                Box::new(move |y, t| {
+                    relaxation(t, a, l, rho, eta_s, polymer) * (std::f64::consts::PI * y / l).sin()
+                }),
+                a.abs(),
             )
         }
     };

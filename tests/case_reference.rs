@@ -23,6 +23,7 @@ density = 3.0
 mass = 1.0
 temperature = 1.0
 velocity_profile = "shear"
+velocity_amplitude = 1.0
 [fluid]
 kind = "dpd"
 a = 25.0
@@ -132,6 +133,12 @@ viscous_term = "morris"
 body_force = [0.0, 0.0]
 morris_regularisation = 0.0
 xsph = 0.5
+background_pressure = 1.0
+[fluid.polymer]
+model = "corotational_maxwell"
+viscosity = 1.0
+relaxation_time = 0.1
+rotation = true
 [walls]
 axis = "y"
 thickness = 0.25

@@ -225,6 +225,9 @@ pub enum VelocityProfile {
     Rest,
     /// Maxwellian plus γ̇ (y − L_y/2) along x.
     Shear,
+    /// Maxwellian plus A sin(πy/L_y) along x inside 0 ≤ y ≤ L_y (a channel's lowest mode; the
+    /// viscoelastic relaxation test), A = `particles.velocity_amplitude`.
+    HalfSine,
 }
 
 /// `[particles]`
@@ -243,6 +246,9 @@ pub struct ParticlesCfg {
     /// Initial mean velocity field.
     #[serde(default)]
     pub velocity_profile: VelocityProfile,
+    /// Amplitude A of the "half_sine" profile.
+    #[serde(default = "one")]
+    pub velocity_amplitude: f64,
 }
 
 fn one() -> f64 {
@@ -380,6 +386,9 @@ pub enum Observable {
     /// Binned mean SPH density ρ(y) of the fluid particles (needs `[fluid] kind = "sph"`),
     /// `diagnostics.profile_bins` bins across the box along y.
     DensityProfile,
+    /// Mean |tr τ| of the SPH fluid particles' polymer stress (needs `[fluid.polymer]`): the
+    /// corotational Maxwell model keeps τ traceless, so this monitors its integration.
+    PolymerStressTrace,
 }
 
 impl Observable {
@@ -396,6 +405,7 @@ impl Observable {
             Observable::VelocityProfile => "velocity_profile",
             Observable::WallShearStress => "wall_shear_stress",
             Observable::DensityProfile => "density_profile",
+            Observable::PolymerStressTrace => "polymer_stress_trace",
         }
     }
 }

@@ -93,9 +93,15 @@ pub const KEYS: &[KeyDoc] = &[
     ),
     key(
         "particles.velocity_profile",
-        "\"auto\" | \"rest\" | \"shear\"",
+        "\"auto\" | \"rest\" | \"shear\" | \"half_sine\"",
         "\"auto\"",
-        "Mean initial velocity: \"shear\" adds γ̇ (y − L_y/2) along x; \"auto\" does so when box.shear_rate ≠ 0.",
+        "Mean initial velocity: \"shear\" adds γ̇ (y − L_y/2) along x; \"auto\" does so when box.shear_rate ≠ 0; \"half_sine\" adds A sin(πy/L_y) along x inside 0 ≤ y ≤ L_y (a channel's lowest mode).",
+    ),
+    key(
+        "particles.velocity_amplitude",
+        "float",
+        "1.0",
+        "Amplitude A of the \"half_sine\" profile.",
     ),
     key(
         "fluid.kind",
@@ -173,7 +179,7 @@ pub const KEYS: &[KeyDoc] = &[
         "fluid.viscosity",
         "float ≥ 0",
         "required (sph)",
-        "Dynamic viscosity η (sph).",
+        "Dynamic viscosity η (sph): of the whole fluid, or of the solvent when [fluid.polymer] adds a polymer stress.",
     ),
     key(
         "fluid.viscous_term",
@@ -198,6 +204,36 @@ pub const KEYS: &[KeyDoc] = &[
         "float in [0, 1]",
         "0.0",
         "XSPH factor ε (sph): particles move with v + ε Σ_j (m_j/ρ̄_ij)(v_j − v_i) W_ij; the momentum equation is unchanged. 0.5 is usual; needs kick_drift_kick.",
+    ),
+    key(
+        "fluid.background_pressure",
+        "float",
+        "0.0",
+        "Constant p_b added to the equation of state (sph). No continuum pressure gradient changes; it keeps the total stress compressive where a polymer stress pulls (τ_xx > 0 in shear), which the SPH tensile instability feeds on.",
+    ),
+    key(
+        "fluid.polymer.model",
+        "\"corotational_maxwell\" | \"upper_convected_maxwell\"",
+        "required ([fluid.polymer])",
+        "A polymer stress τ carried by every particle (sph): the corotational (Jaumann) Maxwell model of Ellero 2004 ch. 3 with its printed sign corrected, dτ/dt = Ωτ − τΩ + (2η_p/λ)D̄ − τ/λ, or the upper-convected Maxwell model dτ/dt = Gτ + τGᵀ + (2η_p/λ)D − τ/λ (Oldroyd-B with fluid.viscosity > 0). τ starts at 0, is advanced by the integrator and checkpointed.",
+    ),
+    key(
+        "fluid.polymer.viscosity",
+        "float > 0",
+        "required ([fluid.polymer])",
+        "Polymer (zero-shear) viscosity η_p = Gλ. The fluid's zero-shear viscosity is fluid.viscosity + η_p.",
+    ),
+    key(
+        "fluid.polymer.relaxation_time",
+        "float > 0",
+        "required ([fluid.polymer])",
+        "Relaxation time λ; Δt must stay below it and below r_s/√(c₀² + η_p/(ρ₀λ)).",
+    ),
+    key(
+        "fluid.polymer.rotation",
+        "bool",
+        "true",
+        "The rotation terms Ωτ − τΩ of the corotational model; false is the thesis's linear variant (SPH2).",
     ),
     key(
         "fluid.sound_speed",
@@ -335,7 +371,7 @@ pub const KEYS: &[KeyDoc] = &[
         "diagnostics.observables",
         "array of observable names",
         "[\"temperature\", \"pressure\"]",
-        "What to average: \"temperature\", \"pressure\", \"stress\" (full tensor by contribution), \"viscosity\", \"first_normal_stress_difference\", \"second_normal_stress_difference\", \"momentum\", \"velocity_profile\" (under shear, or across [walls]), \"wall_shear_stress\" (force along x per unit area the fluid exerts on each wall: wall_shear_stress_lower, _upper; needs [walls]), \"density_profile\" (the SPH density of the fluid per bin along y, diagnostics.profile_bins bins; needs sph). The shear ones need box.shear_rate ≠ 0. Only what is listed is computed: the pair virial is skipped without \"pressure\", \"stress\" or the stress differences, and only its diagonal is accumulated without \"stress\" or \"viscosity\".",
+        "What to average: \"temperature\", \"pressure\", \"stress\" (full tensor by contribution), \"viscosity\", \"first_normal_stress_difference\", \"second_normal_stress_difference\", \"momentum\", \"velocity_profile\" (under shear, or across [walls]), \"wall_shear_stress\" (force along x per unit area the fluid exerts on each wall: wall_shear_stress_lower, _upper; needs [walls]), \"density_profile\" (the SPH density of the fluid per bin along y, diagnostics.profile_bins bins; needs sph), \"polymer_stress_trace\" (mean |tr τ| of the fluid particles; needs [fluid.polymer]). For sph, \"viscosity\" and the normal stress differences come from the fluid particles' own deviatoric stress (viscous + polymer, the mean over fluid particles), \"pressure\" and \"stress\" are not available. The shear ones need box.shear_rate ≠ 0. Only what is listed is computed: the pair virial is skipped without \"pressure\", \"stress\" or the stress differences, and only its diagonal is accumulated without \"stress\" or \"viscosity\".",
     ),
     key(
         "diagnostics.profile_bins",

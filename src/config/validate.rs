@@ -111,6 +111,19 @@ pub fn validate(case: &Case, ix: &SpanIndex) -> Result<(), CaseError> {
             format!("found {}; must be ≥ 0", p.temperature),
         );
     }
+    if !p.velocity_amplitude.is_finite() {
+        return err(
+            &["particles", "velocity_amplitude"],
+            format!("found {}; must be finite", p.velocity_amplitude),
+        );
+    }
+    if p.velocity_profile == VelocityProfile::HalfSine && shear != 0.0 {
+        return err(
+            &["particles", "velocity_profile"],
+            "\"half_sine\" is a channel's mode; it cannot be combined with box.shear_rate ≠ 0"
+                .into(),
+        );
+    }
     if p.velocity_profile == VelocityProfile::Shear && shear == 0.0 {
         return err(
             &["particles", "velocity_profile"],
@@ -432,7 +445,47 @@ pub fn validate(case: &Case, ix: &SpanIndex) -> Result<(), CaseError> {
                 | Observable::FirstNormalStressDifference
                 | Observable::SecondNormalStressDifference
         );
-        if needs_virial && matches!(case.fluid, FluidCfg::SummationGas(_) | FluidCfg::Sph(_)) {
+        // SPH measures the viscometric functions from the particles' own stress σ̄ (viscous
+        // stress of the nested summation + polymer stress), which must then be the whole
+        // deviatoric stress.
+        let sph_stress = match &case.fluid {
+            FluidCfg::Sph(s) => {
+                s.viscous_term == crate::models::sph::ViscousTerm::NestedSummation
+                    || s.polymer.is_some()
+            }
+            _ => false,
+        };
+        let viscometric = matches!(
+            o,
+            Observable::Viscosity
+                | Observable::FirstNormalStressDifference
+                | Observable::SecondNormalStressDifference
+        );
+        if viscometric && matches!(case.fluid, FluidCfg::Sph(_)) && !sph_stress {
+            return Err(ix.error(
+                &[k("diagnostics"), k("observables"), Segment::Index(i)],
+                format!(
+                    "\"{}\" of an SPH fluid is measured from the particles' stress, which \
+                     Morris's viscous term does not form; use fluid.viscous_term = \
+                     \"nested_summation\"",
+                    o.name()
+                ),
+            ));
+        }
+        if *o == Observable::PolymerStressTrace
+            && !matches!(&case.fluid, FluidCfg::Sph(s) if s.polymer.is_some())
+        {
+            return Err(ix.error(
+                &[k("diagnostics"), k("observables"), Segment::Index(i)],
+                "\"polymer_stress_trace\" needs a polymer stress ([fluid.polymer] of an SPH \
+                 fluid)"
+                    .to_string(),
+            ));
+        }
+        if needs_virial
+            && !(viscometric && sph_stress)
+            && matches!(case.fluid, FluidCfg::SummationGas(_) | FluidCfg::Sph(_))
+        {
             return Err(ix.error(
                 &[k("diagnostics"), k("observables"), Segment::Index(i)],
                 format!(
@@ -548,6 +601,44 @@ fn validate_sph(
                 s.xsph
             ),
         ));
+    }
+    if !s.background_pressure.is_finite() {
+        return Err(ix.error(
+            &fl("background_pressure"),
+            format!("found {}; must be finite", s.background_pressure),
+        ));
+    }
+    if let Some(poly) = &s.polymer {
+        let pl = |key: &str| vec![k("fluid"), k("polymer"), k(key)];
+        if !(poly.viscosity.is_finite() && poly.viscosity > 0.0) {
+            return Err(ix.error(
+                &pl("viscosity"),
+                format!(
+                    "found {}; the polymer viscosity η_p must be > 0 (leave [fluid.polymer] out \
+                     for a Newtonian fluid)",
+                    poly.viscosity
+                ),
+            ));
+        }
+        if !(poly.relaxation_time.is_finite() && poly.relaxation_time > 0.0) {
+            return Err(ix.error(
+                &pl("relaxation_time"),
+                format!(
+                    "found {}; the relaxation time λ must be > 0",
+                    poly.relaxation_time
+                ),
+            ));
+        }
+        if !poly.rotation
+            && poly.model != crate::models::sph::maxwell::PolymerModel::CorotationalMaxwell
+        {
+            return Err(ix.error(
+                &pl("rotation"),
+                "switching the rotation terms off is the linear variant of the corotational \
+                 model; use model = \"corotational_maxwell\" or leave rotation out"
+                    .to_string(),
+            ));
+        }
     }
     let dim = case.dimension;
     if !s.body_force.is_empty() && s.body_force.len() != dim {
@@ -691,16 +782,25 @@ fn validate_startup_reference(
         crate::analytic::StartupFlow::Poiseuille => {
             x(&s.body_force) != 0.0 && x(&w.upper_velocity) == 0.0 && x(&w.lower_velocity) == 0.0
         }
+        crate::analytic::StartupFlow::ViscoelasticRelaxation => {
+            case.particles.velocity_profile == crate::config::VelocityProfile::HalfSine
+                && x(&s.body_force) == 0.0
+                && x(&w.upper_velocity) == 0.0
+                && x(&w.lower_velocity) == 0.0
+        }
     };
     if !flow_ok {
         return fail(
             "solution",
             "\"couette\" needs walls.upper_velocity[0] ≠ 0, a lower wall at rest and no body \
-             force; \"poiseuille\" needs fluid.body_force[0] ≠ 0 and both walls at rest"
+             force; \"poiseuille\" needs fluid.body_force[0] ≠ 0 and both walls at rest; \
+             \"viscoelastic_relaxation\" needs particles.velocity_profile = \"half_sine\", \
+             both walls at rest and no body force"
                 .into(),
         );
     }
-    if s.viscosity <= 0.0 {
+    let relaxation = sp.solution == crate::analytic::StartupFlow::ViscoelasticRelaxation;
+    if s.viscosity <= 0.0 && !(relaxation && s.polymer.is_some()) {
         return fail(
             "solution",
             "the analytic start-up needs fluid.viscosity > 0".into(),

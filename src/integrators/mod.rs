@@ -32,6 +32,8 @@ pub struct IntegratedField {
     pub state: usize,
     /// Its rate's field index.
     pub rate: usize,
+    /// Whether boundary particles (never moved) advance it too.
+    pub boundary_particles: bool,
 }
 
 /// An integrator of the owned particles' positions, velocities and integrated fields.

@@ -88,7 +88,8 @@ fn species_table(mass: f64, table: &[Species]) -> Vec<(f64, Motion)> {
 }
 
 /// Calls `update(fields, c)` for every component c of the owned free (fluid) particles' rows
-/// of the integrated field `f` (boundary particles' integrated fields are never advanced).
+/// of the integrated field `f`, and of the boundary particles' rows too when the field says
+/// so ([`IntegratedField::boundary_particles`]).
 fn for_free_components<const D: usize>(
     table: &[(f64, Motion)],
     p: &mut Particles<D>,
@@ -99,7 +100,7 @@ fn for_free_components<const D: usize>(
     let species = p.species.as_deref();
     for i in 0..p.n_owned {
         let s = species.map_or(0, |s| s[i] as usize);
-        if table[s].1 == Motion::Free {
+        if f.boundary_particles || table[s].1 == Motion::Free {
             for c in i * w..(i + 1) * w {
                 update(&mut p.extra, c);
             }
@@ -390,7 +391,14 @@ mod tests {
             p.extra[rate].data[0] = -p.extra[state].data[0];
         };
         evaluate(&mut p);
-        integrator.bind(&mut p, &[IntegratedField { state, rate }]);
+        integrator.bind(
+            &mut p,
+            &[IntegratedField {
+                state,
+                rate,
+                boundary_particles: false,
+            }],
+        );
         for _ in 0..steps {
             for stage in 0..integrator.stages() {
                 integrator.before_forces(&mut p, stage);

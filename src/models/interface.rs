@@ -118,6 +118,20 @@ pub struct PassOutput {
     pub virial: Option<Virial>,
 }
 
+/// A field the integrator advances ([`ParticleModel::integrated_fields`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Integrated {
+    /// The state s.
+    pub state: &'static str,
+    /// Its rate ṡ, written by the model's passes.
+    pub rate: &'static str,
+    /// Whether boundary particles (frozen or prescribed species, which are never moved by
+    /// the integrator) advance it too: a polymer stress does (walls carry the stress of their
+    /// own velocity gradient, as the Newtonian nested summation gives them), a continuity
+    /// density does not (walls stay at ρ₀).
+    pub boundary_particles: bool,
+}
+
 /// A particle model: fields, pair passes and a per-particle state update (module
 /// documentation: the guide to adding one).
 pub trait ParticleModel<const D: usize>: Send + Sync {
@@ -160,12 +174,12 @@ pub trait ParticleModel<const D: usize>: Send + Sync {
         Err(format!("{} declares no pass {pass}", self.name()))
     }
 
-    /// The fields the integrator advances with the particles, as (state, rate) pairs of
-    /// scalar or fixed-width fields of equal width: ṡ = rate, integrated by the case's scheme
+    /// The fields the integrator advances with the particles ([`Integrated`]: state and rate,
+    /// scalar or fixed-width fields of equal width): ṡ = rate, integrated by the case's scheme
     /// exactly like the velocity with the acceleration (a continuity density with its dρ/dt, a
     /// stress with its constitutive rate). The model's passes write the rates; the integrator
     /// owns the time stepping.
-    fn integrated_fields(&self) -> Vec<(&'static str, &'static str)> {
+    fn integrated_fields(&self) -> Vec<Integrated> {
         Vec::new()
     }
 

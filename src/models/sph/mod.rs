@@ -52,6 +52,7 @@
 //! where the force vanishes) and D to c₀².
 
 pub mod kernels;
+pub mod maxwell;
 
 use crate::fixed_sum::Scale;
 use crate::models::gather::{
@@ -59,13 +60,14 @@ use crate::models::gather::{
     gather, pair_by_pair, scatter,
 };
 use crate::models::interface::{
-    FieldKind, FieldSpec, ParticleModel, PassContext, PassOutput, PassSpec,
+    FieldKind, FieldSpec, Integrated, ParticleModel, PassContext, PassOutput, PassSpec,
 };
 use crate::neighbour::NeighbourList;
 use crate::particles::{FieldFlags, Particles};
 use crate::species::{Motion, Species};
 use crate::with_kernel;
 use kernels::{Kernel, KernelKind};
+use maxwell::{Maxwell, PolymerCfg, packed_index, packed_width};
 use serde::{Deserialize, Serialize};
 
 /// `[fluid] kind = "sph"`
@@ -89,7 +91,8 @@ pub struct SphCfg {
     /// How the density is obtained.
     #[serde(default)]
     pub density: DensityMethod,
-    /// Dynamic (shear) viscosity η.
+    /// Dynamic (shear) viscosity η of the Newtonian part: the whole fluid's, or the solvent's
+    /// when a `[fluid.polymer]` adds a polymer stress (0 for the thesis's Maxwell fluid).
     pub viscosity: f64,
     /// Discretisation of the viscous stress.
     #[serde(default)]
@@ -109,6 +112,16 @@ pub struct SphCfg {
     /// unchanged). Default 0 (off); 0.5 is usual. Needs `kick_drift_kick`.
     #[serde(default)]
     pub xsph: f64,
+    /// A constant background pressure p_b added to the equation of state (default 0). It
+    /// changes no pressure gradient of the continuum; in SPH it keeps the total stress
+    /// compressive where a polymer stress pulls (τ_xx > 0 in shear), which the tensile
+    /// instability otherwise feeds on.
+    #[serde(default)]
+    pub background_pressure: f64,
+    /// A polymer stress carried by every particle and advanced by its constitutive equation
+    /// ([`maxwell`]); default none (a Newtonian fluid).
+    #[serde(default)]
+    pub polymer: Option<PolymerCfg>,
 }
 
 fn one() -> f64 {
@@ -220,6 +233,7 @@ impl SphCfg {
     pub fn pressure(&self, rho: f64) -> f64 {
         let c2 = self.sound_speed * self.sound_speed;
         Self::pressure_over_rho2(self.equation_of_state, c2, self.rest_density, rho) * rho * rho
+            + self.background_pressure
     }
 }
 
@@ -227,8 +241,14 @@ impl SphCfg {
 pub const DENSITY: &str = "density";
 /// dρ/dt (continuity density).
 pub const DENSITY_RATE: &str = "density_rate";
-/// σ̄ (nested summation), D×D row-major.
+/// The Newtonian viscous stress η(G + Gᵀ − (2/d) tr G I), D×D row-major: with the nested
+/// summation (it enters the momentum equation), and with Morris's term in a polymer fluid
+/// (then only measured: the viscometric observables add it to the polymer stress).
 pub const VISCOUS_STRESS: &str = "viscous_stress";
+/// The polymer stress τ (`[fluid.polymer]`), packed symmetric ([`maxwell::packed_index`]).
+pub const POLYMER_STRESS: &str = "polymer_stress";
+/// Its constitutive rate dτ/dt.
+pub const POLYMER_STRESS_RATE: &str = "polymer_stress_rate";
 /// The XSPH drift correction v̂ − v (D per particle).
 pub const XSPH_CORRECTION: &str = "xsph_correction";
 
@@ -383,6 +403,8 @@ struct MomentumKernel<'a, K, const D: usize> {
     p_over_rho2: &'a [f64],
     /// σ̄ (D² per particle) with the nested summation.
     stress: Option<&'a [f64]>,
+    /// The polymer stress τ (packed, [`packed_width`] per particle).
+    polymer: Option<&'a [f64]>,
     /// 2η (Morris's term), or 0.
     two_eta_morris: f64,
     /// 0.01 h².
@@ -406,6 +428,7 @@ impl<K: Kernel, const D: usize> SymmetricKernel<D> for MomentumKernel<'_, K, D> 
     fn pair_batch(&self, p: &Particles<D>, batch: &PairBatch<D>, out: &mut BatchTerms) {
         if self.walls.is_some()
             || self.stress.is_some()
+            || self.polymer.is_some()
             || p.species.is_some()
             || self.xsph_eps_mass != 0.0
         {
@@ -522,16 +545,31 @@ impl<K: Kernel, const D: usize> GatherKernel<D> for MomentumKernel<'_, K, D> {
         for a in 0..D {
             f[a] = pressure * x[a];
         }
-        if let Some(stress) = self.stress {
+        if self.stress.is_some() || self.polymer.is_some() {
+            let mirror_polymer = boundary_pair && self.walls.is_some_and(|w| w.morris);
             let (ri2, rj2) = (
                 self.density[i] * self.density[i],
                 self.density[j] * self.density[j],
             );
+            let w = packed_width(D);
             for a in 0..D {
                 let mut t = 0.0;
                 for b in 0..D {
-                    let sab =
-                        stress[i * D * D + a * D + b] / ri2 + stress[j * D * D + a * D + b] / rj2;
+                    let mut sab = match self.stress {
+                        Some(s) => s[i * D * D + a * D + b] / ri2 + s[j * D * D + a * D + b] / rj2,
+                        None => 0.0,
+                    };
+                    if let Some(tau) = self.polymer {
+                        let c = packed_index::<D>(a, b);
+                        sab += if mirror_polymer {
+                            // Morris's images carry the fluid end's stress (zero normal
+                            // gradient, spec §2.3): τ_j := τ_i.
+                            let f = if si == FLUID { i } else { j };
+                            tau[f * w + c] * (1.0 / ri2 + 1.0 / rj2)
+                        } else {
+                            tau[i * w + c] / ri2 + tau[j * w + c] / rj2
+                        };
+                    }
                     t += sab * x[b];
                 }
                 f[a] += gw * t;
@@ -599,6 +637,9 @@ pub struct SphModel<const D: usize> {
     rate: Option<usize>,
     stress: Option<usize>,
     xsph: Option<usize>,
+    polymer: Option<Maxwell>,
+    /// τ and dτ/dt.
+    polymer_stress: Option<(usize, usize)>,
     p_over_rho2: Vec<f64>,
     inv_density: Vec<f64>,
     sums: Vec<f64>,
@@ -619,7 +660,7 @@ impl<const D: usize> SphModel<D> {
         if cfg.density == DensityMethod::Summation {
             passes.push(Pass::Density);
         }
-        if cfg.viscous_term == ViscousTerm::NestedSummation {
+        if cfg.viscous_term == ViscousTerm::NestedSummation || cfg.polymer.is_some() {
             passes.push(Pass::Gradient);
         }
         passes.push(Pass::Momentum);
@@ -649,6 +690,8 @@ impl<const D: usize> SphModel<D> {
             rate: None,
             stress: None,
             xsph: None,
+            polymer: cfg.polymer.as_ref().map(Maxwell::from),
+            polymer_stress: None,
             p_over_rho2: Vec::new(),
             inv_density: Vec::new(),
             sums: Vec::new(),
@@ -704,19 +747,32 @@ impl<const D: usize> SphModel<D> {
                 };
                 let r = gather(&k, p, full, &mut sums);
                 r.map(|()| {
-                    let eta = self.cfg.viscosity;
-                    let stress = self.stress.expect("nested summation");
-                    let out = &mut p.extra[stress].data;
-                    for (i, g) in sums.chunks_exact(D * D).enumerate() {
-                        let trace: f64 = (0..D).map(|a| g[a * D + a]).sum();
-                        for a in 0..D {
-                            for b in 0..D {
-                                let mut s = g[a * D + b] + g[b * D + a];
-                                if a == b {
-                                    s -= 2.0 / D as f64 * trace;
+                    if let Some(stress) = self.stress {
+                        let eta = self.cfg.viscosity;
+                        let out = &mut p.extra[stress].data;
+                        for (i, g) in sums.chunks_exact(D * D).enumerate() {
+                            let trace: f64 = (0..D).map(|a| g[a * D + a]).sum();
+                            for a in 0..D {
+                                for b in 0..D {
+                                    let mut s = g[a * D + b] + g[b * D + a];
+                                    if a == b {
+                                        s -= 2.0 / D as f64 * trace;
+                                    }
+                                    out[i * D * D + a * D + b] = eta * s;
                                 }
-                                out[i * D * D + a * D + b] = eta * s;
                             }
+                        }
+                    }
+                    if let (Some(model), Some((tau, rate))) = (self.polymer, self.polymer_stress) {
+                        let w = packed_width(D);
+                        let mut row = [0.0; 6];
+                        let mut out = [0.0; 6];
+                        for (i, g) in sums.chunks_exact(D * D).enumerate() {
+                            row[..w].copy_from_slice(&p.extra[tau].data[i * w..(i + 1) * w]);
+                            let g: [[f64; D]; D] =
+                                std::array::from_fn(|a| std::array::from_fn(|b| g[a * D + b]));
+                            model.rate::<D>(&row[..w], &g, &mut out[..w]);
+                            p.extra[rate].data[i * w..(i + 1) * w].copy_from_slice(&out[..w]);
                         }
                     }
                 })
@@ -727,11 +783,18 @@ impl<const D: usize> SphModel<D> {
                 let (eos, rho0) = (self.cfg.equation_of_state, self.cfg.rest_density);
                 let density = &p.extra[self.density].data;
                 self.p_over_rho2.clear();
-                self.p_over_rho2.extend(
-                    density
-                        .iter()
-                        .map(|&rho| SphCfg::pressure_over_rho2(eos, c2, rho0, rho)),
-                );
+                let background = self.cfg.background_pressure;
+                if background == 0.0 {
+                    self.p_over_rho2.extend(
+                        density
+                            .iter()
+                            .map(|&rho| SphCfg::pressure_over_rho2(eos, c2, rho0, rho)),
+                    );
+                } else {
+                    self.p_over_rho2.extend(density.iter().map(|&rho| {
+                        SphCfg::pressure_over_rho2(eos, c2, rho0, rho) + background / (rho * rho)
+                    }));
+                }
                 self.inv_density.clear();
                 self.inv_density
                     .extend(density.iter().map(|&rho| 1.0 / rho));
@@ -754,7 +817,12 @@ impl<const D: usize> SphModel<D> {
                     density,
                     inv_density: &self.inv_density,
                     p_over_rho2: &self.p_over_rho2,
-                    stress: self.stress.map(|s| p.extra[s].data.as_slice()),
+                    // With Morris's term a polymer fluid's viscous stress is only measured.
+                    stress: self
+                        .stress
+                        .filter(|_| self.cfg.viscous_term == ViscousTerm::NestedSummation)
+                        .map(|s| p.extra[s].data.as_slice()),
+                    polymer: self.polymer_stress.map(|(s, _)| p.extra[s].data.as_slice()),
                     two_eta_morris: if self.cfg.viscous_term == ViscousTerm::Morris {
                         2.0 * self.cfg.viscosity
                     } else {
@@ -832,12 +900,24 @@ impl<const D: usize> ParticleModel<D> for SphModel<D> {
                 flags: FieldFlags::STATE,
             });
         }
-        if self.cfg.viscous_term == ViscousTerm::NestedSummation {
+        if self.cfg.viscous_term == ViscousTerm::NestedSummation
+            || (self.cfg.polymer.is_some() && self.cfg.viscosity > 0.0)
+        {
             f.push(FieldSpec {
                 name: VISCOUS_STRESS,
                 kind: FieldKind::Tensor,
                 flags: FieldFlags::DERIVED,
             });
+        }
+        if self.cfg.polymer.is_some() {
+            for name in [POLYMER_STRESS, POLYMER_STRESS_RATE] {
+                // The rate, like the forces: of the last evaluation, used by the next step.
+                f.push(FieldSpec {
+                    name,
+                    kind: FieldKind::Values(packed_width(D)),
+                    flags: FieldFlags::STATE,
+                });
+            }
         }
         if self.cfg.xsph != 0.0 {
             // Like the forces: of the last evaluation, used by the next drift, so kept across a
@@ -879,6 +959,9 @@ impl<const D: usize> ParticleModel<D> for SphModel<D> {
                     if self.cfg.viscous_term == ViscousTerm::NestedSummation {
                         ghost_fields.push(VISCOUS_STRESS);
                     }
+                    if self.cfg.polymer.is_some() {
+                        ghost_fields.push(POLYMER_STRESS);
+                    }
                     PassSpec {
                         name: "momentum",
                         ghost_fields,
@@ -894,12 +977,23 @@ impl<const D: usize> ParticleModel<D> for SphModel<D> {
         self.passes.contains(&Pass::Gradient)
     }
 
-    fn integrated_fields(&self) -> Vec<(&'static str, &'static str)> {
+    fn integrated_fields(&self) -> Vec<Integrated> {
+        let mut out = Vec::new();
         if self.cfg.density == DensityMethod::Continuity {
-            vec![(DENSITY, DENSITY_RATE)]
-        } else {
-            Vec::new()
+            out.push(Integrated {
+                state: DENSITY,
+                rate: DENSITY_RATE,
+                boundary_particles: false,
+            });
         }
+        if self.cfg.polymer.is_some() {
+            out.push(Integrated {
+                state: POLYMER_STRESS,
+                rate: POLYMER_STRESS_RATE,
+                boundary_particles: true,
+            });
+        }
+        out
     }
 
     fn attach(&mut self, p: &mut Particles<D>, restarted: bool) -> Result<(), String> {
@@ -909,6 +1003,15 @@ impl<const D: usize> ParticleModel<D> for SphModel<D> {
         self.rate = p.extra_index(DENSITY_RATE);
         self.stress = p.extra_index(VISCOUS_STRESS);
         self.xsph = p.extra_index(XSPH_CORRECTION);
+        if self.polymer.is_some() {
+            let tau = p
+                .extra_index(POLYMER_STRESS)
+                .ok_or("the polymer stress field is not registered")?;
+            let rate = p
+                .extra_index(POLYMER_STRESS_RATE)
+                .ok_or("the polymer stress rate field is not registered")?;
+            self.polymer_stress = Some((tau, rate));
+        }
         if !restarted && self.rate.is_some() {
             // Continuity density starts at ρ₀ (the lattice is uniform).
             p.extra[self.density].data.fill(self.cfg.rest_density);
@@ -947,6 +1050,8 @@ mod tests {
             body_force: Vec::new(),
             morris_regularisation: 0.01,
             xsph: 0.0,
+            background_pressure: 0.0,
+            polymer: None,
         }
     }
 
@@ -1004,6 +1109,7 @@ mod tests {
                     inv_density: &inv_density,
                     p_over_rho2: &p_over_rho2,
                     stress: model.stress.map(|s| p.extra[s].data.as_slice()),
+                    polymer: None,
                     two_eta_morris: if viscous == ViscousTerm::Morris {
                         0.6
                     } else {
