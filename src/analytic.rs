@@ -166,7 +166,12 @@ mod tests {
         let steps = 1_000_000;
         let dt = 0.5 / steps as f64;
         for _ in 0..steps {
-            let f = |a: f64, b: f64| (-eta_s * k * k * a - k * b, eta_p * k / lambda * a - b / lambda);
+            let f = |a: f64, b: f64| {
+                (
+                    -eta_s * k * k * a - k * b,
+                    eta_p * k / lambda * a - b / lambda,
+                )
+            };
             let (k1a, k1b) = f(a, b);
             let (k2a, k2b) = f(a + 0.5 * dt * k1a, b + 0.5 * dt * k1b);
             a += dt * k2a;

@@ -357,7 +357,13 @@ impl<'c, const D: usize> Simulation<'c, D> {
             wants_full_list: false,
             restarted,
             virial: None,
-            virial_scope: virial_scope(&case.diagnostics.observables),
+            // SPH measures its stress from the particles' fields, never from a pair virial:
+            // a virial recomputation would also rewrite the rates the next step integrates.
+            virial_scope: if matches!(case.fluid, crate::config::FluidCfg::Sph(_)) {
+                VirialScope::Off
+            } else {
+                virial_scope(&case.diagnostics.observables)
+            },
             step: 0,
             skin: case.neighbour.skin,
             total_particles: total,
@@ -1423,10 +1429,7 @@ pub fn initial_particles<const D: usize>(
         VelocityProfile::Rest | VelocityProfile::HalfSine => false,
     };
     let half_sine = case.particles.velocity_profile == VelocityProfile::HalfSine;
-    let (amplitude, ly) = (
-        case.particles.velocity_amplitude,
-        sim_box.lengths[GRADIENT],
-    );
+    let (amplitude, ly) = (case.particles.velocity_amplitude, sim_box.lengths[GRADIENT]);
     let mut particles = Particles::default();
     for (g, (x, mut v)) in positions.into_iter().zip(velocities).enumerate() {
         if shear_profile {

@@ -140,10 +140,7 @@ fn check_startup(
         StartupFlow::ViscoelasticRelaxation => {
             let a = case.particles.velocity_amplitude;
             let (rho, eta_s) = (s.rest_density, s.viscosity);
-            let polymer = s
-                .polymer
-                .as_ref()
-                .map(|p| (p.viscosity, p.relaxation_time));
+            let polymer = s.polymer.as_ref().map(|p| (p.viscosity, p.relaxation_time));
             (
                 Box::new(move |y, t| {
                     relaxation(t, a, l, rho, eta_s, polymer) * (std::f64::consts::PI * y / l).sin()

@@ -589,7 +589,7 @@ fn an_unwritable_checkpoint_directory_stops_every_rank_with_an_error_not_a_hang(
 
 /// A walled SPH channel (boundary species, a moving wall, XSPH's drift correction, integrated
 /// continuity density, the two-stage integrator's scratch fields, the density profile's
-/// series): N steps ≡ N/2 + checkpoint + restart on another rank count + N/2, bitwise.
+/// series, a polymer stress): N steps ≡ N/2 + checkpoint + restart on another rank count + N/2, bitwise.
 #[test]
 fn sph_channel_restart_is_bitwise() {
     let channel = |extra_fluid: &str, integrator: &str| {
@@ -634,6 +634,12 @@ profile_bins = 6
         channel(
             "density = \"continuity\"\nviscous_term = \"morris\"",
             "heun",
+        ),
+        // A Maxwell fluid: the polymer stress, its rate and the half-step scratch.
+        channel(
+            "viscous_term = \"morris\"\n[fluid.polymer]\nmodel = \"corotational_maxwell\"\n\
+             viscosity = 1.0\nrelaxation_time = 0.05",
+            "kick_drift_kick",
         ),
     ] {
         let whole = uninterrupted(&text);

@@ -13,6 +13,10 @@ and writes plots to docs/ when matplotlib is available.
   sph_convergence  SPH start-up Couette (t = 0.1) and Poiseuille (t = 0.4): the error against
                  Δt and against Δ for each integrator, with the observed orders and the wall
                  time of each run, and docs/sph_convergence.png (~20 min on 2 cores)
+  maxwell        corotational Maxwell SPH: Lees–Edwards steady shear at the thesis's 12 De
+                 (η and Ψ₁ against the corotational Jeffreys solution, docs/maxwell_shear.png),
+                 and the channel relaxation of sin(πy), cases (a) and (b), linear variant and
+                 full model, against the linearised solution (~25 min on 2 cores)
 """
 import json, os, subprocess, sys, tempfile
 
@@ -299,10 +303,74 @@ def viscometric():
     print(f"\nAll within 3σ with 3σ ≤ 1 %: {'yes' if ok else '**no**'}\n")
 
 
+MAXWELL_DE = [0.0125, 0.025, 0.05, 0.1, 0.2, 0.4, 0.8, 1.0, 1.6, 3.2, 6.4, 12.8]
+
+
+def maxwell():
+    eta_s, eta_p, dt = 0.1, 9.9, 1e-3
+    eta0 = eta_s + eta_p
+    print("### Corotational Maxwell SPH in Lees–Edwards steady shear (cases/maxwell_shear_2d.toml at each De)\n")
+    print(f"η_s = {eta_s} (Morris), η_p = {eta_p}, γ̇ = 1, Δt = {dt}; averaged after t = max(8, 7λ) over "
+          "max(8, 4π) time units. Reference: the corotational Jeffreys fluid, η = η_s + η_p/(1+De²), "
+          "Ψ₁γ̇ = 2η_pDe/(1+De²).\n")
+    print("| De | η/η₀ | exact | error | Ψ₁γ̇/η₀ | exact | error | steps | wall s |")
+    print("|---|---|---|---|---|---|---|---|---|")
+    rows = []
+    for de in MAXWELL_DE:
+        t_eq = max(8.0, 7.0 * de)
+        t_avg = max(8.0, 4.0 * 3.141592653589793)
+        steps = int(round((t_eq + t_avg) / dt))
+        eq = int(round(t_eq / dt))
+        s = run("maxwell_shear_2d.toml", [f"fluid.polymer.relaxation_time={de}", f"run.steps={steps}",
+                                          f"run.equilibration={eq}", "diagnostics.blocks=8"])
+        o = s["observables"]
+        eta, n1 = o["viscosity"], o["first_normal_stress_difference"]
+        eta_x = (eta_s + eta_p / (1 + de * de)) / eta0
+        psi_x = 2 * eta_p * de / (1 + de * de) / eta0
+        e_eta = eta["mean"] / eta0 / eta_x - 1
+        e_psi = n1["mean"] / eta0 / psi_x - 1
+        rows.append((de, eta["mean"] / eta0, eta["stderr"] / eta0, eta_x, n1["mean"] / eta0, n1["stderr"] / eta0, psi_x))
+        print(f"| {de} | {eta['mean']/eta0:.5f} ± {eta['stderr']/eta0:.5f} | {eta_x:.5f} | {100*e_eta:+.2f} % "
+              f"| {n1['mean']/eta0:.5f} ± {n1['stderr']/eta0:.5f} | {psi_x:.5f} | {100*e_psi:+.2f} % | {steps} | {s['wall_seconds']:.0f} |")
+    try:
+        import matplotlib
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+        import numpy as np
+        fig, ax = plt.subplots(figsize=(5.5, 3.8))
+        de = np.logspace(-2.2, 1.3, 200)
+        ax.plot(de, (eta_s + eta_p / (1 + de**2)) / eta0, "k-", lw=1, label="η/η₀ exact")
+        ax.plot(de, 2 * eta_p * de / (1 + de**2) / eta0, "k--", lw=1, label="Ψ₁γ̇/η₀ exact")
+        ax.errorbar([r[0] for r in rows], [r[1] for r in rows], yerr=[r[2] for r in rows], fmt="o", label="η/η₀ SPH")
+        ax.errorbar([r[0] for r in rows], [r[4] for r in rows], yerr=[r[5] for r in rows], fmt="s", label="Ψ₁γ̇/η₀ SPH")
+        ax.set_xscale("log"); ax.set_xlabel("De = λγ̇"); ax.legend(fontsize=8)
+        fig.tight_layout(); fig.savefig(os.path.join(ROOT, "docs/maxwell_shear.png"), dpi=120)
+        print("\n![Maxwell viscometric functions](maxwell_shear.png)\n")
+    except ImportError:
+        print("\n(matplotlib missing: no plot)\n")
+
+    print("### Channel relaxation of sin(πy) (cases/maxwell_channel_relaxation_2d.toml)\n")
+    print("max over the 32 bins of |u_x − u_exact| / (initial amplitude); exact: the linearised Jeffreys "
+          "solution with η_s = 1 % of η₀ (for η_s = 0 the spec's corrected IVP).\n")
+    times = [0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.8, 1.0, 1.2, 1.4, 1.6, 1.8, 2.0]
+    print("| case | model | " + " | ".join(f"t = {t}" for t in times) + " | wall s |")
+    print("|---|---|" + "---|" * (len(times) + 1))
+    for label, re, de in (("(a) Re = 1, De = 0.25", 1.0, 0.25), ("(b) Re = 2.5, De = 0.1", 2.5, 0.1)):
+        eta0 = 1.0 / re
+        for model, rot in (("linear (SPH2)", "false"), ("corotational (SPH1)", "true")):
+            s = run("maxwell_channel_relaxation_2d.toml",
+                    [f"fluid.viscosity={0.01 * eta0}", f"fluid.polymer.viscosity={0.99 * eta0}",
+                     f"fluid.polymer.relaxation_time={de}", f"fluid.polymer.rotation={rot}"])
+            e = startup_errors(s)
+            print(f"| {label} | {model} | " + " | ".join(f"{100*e[t]:.2f} %" for t in times) + f" | {s['wall_seconds']:.0f} |")
+    print()
+
+
 if __name__ == "__main__":
-    todo = sys.argv[1:] or ["stock", "kt_vs_dt", "viscosity", "viscometric", "sph", "sph_convergence"]
+    todo = sys.argv[1:] or ["stock", "kt_vs_dt", "viscosity", "viscometric", "sph", "sph_convergence", "maxwell"]
     targets = {"kt_vs_dt": kt_vs_dt, "viscosity": viscosity, "stock": stock,
-               "viscometric": viscometric, "sph": sph, "sph_convergence": sph_convergence}
+               "viscometric": viscometric, "sph": sph, "sph_convergence": sph_convergence,
+               "maxwell": maxwell}
     for name in todo:
         if name not in targets:
             sys.exit(f"unknown validation '{name}'; valid: {', '.join(targets)}")
