@@ -61,6 +61,29 @@ pub fn report(case: &Case, ranks: usize) -> String {
                 sph.density,
                 sph.viscous_term
             ));
+            if let Some(poly) = &sph.polymer {
+                let gamma = case.domain.shear_rate;
+                let de = if gamma != 0.0 {
+                    format!(", De = λγ̇ = {}", poly.relaxation_time * gamma.abs())
+                } else {
+                    String::new()
+                };
+                line(format!(
+                    "polymer: {:?}{}, η_p = {}, λ = {}, modulus η_p/λ = {}{de}; zero-shear \
+                     viscosity η₀ = η + η_p = {}, background pressure {}",
+                    poly.model,
+                    if poly.rotation {
+                        ""
+                    } else {
+                        " (rotation terms off)"
+                    },
+                    poly.viscosity,
+                    poly.relaxation_time,
+                    poly.viscosity / poly.relaxation_time,
+                    sph.viscosity + poly.viscosity,
+                    sph.background_pressure
+                ));
+            }
             let (binding, _) = crate::stability::sph_binding_limit(sph);
             for (name, limit) in crate::stability::sph_limits(sph) {
                 line(format!(

@@ -15,6 +15,14 @@
 //! Morris viscosity (alternative)   dv_i/dt += Σ_j m_j (2η/(ρ_i ρ_j)) (x_ij·∇_i W_ij)/(r_ij² + 0.01h²) v_ij
 //! ```
 //!
+//! With `[fluid.polymer]` every particle also carries a polymer stress τ_i ([`maxwell`]),
+//! integrated state advanced with the constitutive rate that the velocity-gradient pass forms
+//! from G_i; it joins σ̄ in the momentum equation (σ̄_i → σ̄_i + τ_i). Boundary particles advance
+//! their own τ from their own G (method B, the λ → 0 limit of the nested summation's wall
+//! stress); with Morris's images a fluid–boundary pair uses the fluid particle's τ for both ends
+//! (τ_j := τ_i, zero normal gradient, spec §2.3). With Morris's viscous term the Newtonian
+//! stress η(G + Gᵀ − (2/d) tr G I) of a polymer fluid is still formed, for the observables only.
+//!
 //! Departures from the printed text (spec §1.2, §1.12, §2.2): the momentum equation contracts
 //! the stress with ∂_b W (the thesis prints ∂_a); the wall repulsion is made to repel; the
 //! thesis's first-order predictor–corrector is only one of the integrators
