@@ -14,7 +14,9 @@
 //! - the wall repulsion alone stops a row of fluid thrown at the wall before the wall plane.
 
 mod common;
-use common::{assert_all_equal, case_from_str, digests_on_1_to_4_ranks, stock_case};
+use common::{
+    assert_all_equal, assert_references_pass, case_from_str, digests_on_1_to_4_ranks, stock_case,
+};
 use mesorheo::comm::SerialComm;
 use mesorheo::driver::run_in_process;
 use mesorheo::sim::Simulation;
@@ -187,12 +189,7 @@ fn stock_startup_cases_pass_their_references() {
                 }
             }
         }
-        let s = run_in_process(&loaded, 1, 2, None).unwrap_or_else(|e| panic!("{name}: {e}"));
-        assert!(!s.validation.is_empty());
-        for v in &s.validation {
-            eprintln!("{name}: {} = {:.3e}", v.name, v.value);
-            assert!(v.pass, "{name}: {v:?}");
-        }
+        assert_references_pass(name, &loaded);
     }
 }
 

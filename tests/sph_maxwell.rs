@@ -12,10 +12,11 @@
 //! thesis's printed sign failing it) is a unit test of `models::sph::maxwell`.
 
 mod common;
-use common::{assert_all_equal, case_from_str, digests_on_1_to_4_ranks, stock_case};
+use common::{
+    assert_all_equal, assert_references_pass, case_from_str, digests_on_1_to_4_ranks, stock_case,
+};
 use mesorheo::analytic::relaxation;
 use mesorheo::comm::SerialComm;
-use mesorheo::driver::run_in_process;
 use mesorheo::sim::Simulation;
 
 /// A periodic box of side 1, square lattice of spacing 0.02, Lucy support 0.06, Tait EOS,
@@ -106,13 +107,7 @@ fn stock_maxwell_cases_pass_their_references() {
         "maxwell_shear_2d.toml",
         "maxwell_channel_relaxation_2d.toml",
     ] {
-        let loaded = stock_case(name);
-        let s = run_in_process(&loaded, 1, 2, None).unwrap_or_else(|e| panic!("{name}: {e}"));
-        assert!(!s.validation.is_empty());
-        for v in &s.validation {
-            eprintln!("{name}: {} = {:.3e}", v.name, v.value);
-            assert!(v.pass, "{name}: {v:?}");
-        }
+        assert_references_pass(name, &stock_case(name));
     }
 }
 

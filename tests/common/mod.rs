@@ -23,6 +23,18 @@ pub fn stock_case(name: &str) -> LoadedCase {
     config::load(&path).unwrap_or_else(|e| panic!("{e}"))
 }
 
+/// Runs a loaded case on 1 rank × 2 threads and asserts that it has references and that every
+/// one passes (each check printed).
+pub fn assert_references_pass(name: &str, loaded: &LoadedCase) {
+    let s = mesorheo::driver::run_in_process(loaded, 1, 2, None)
+        .unwrap_or_else(|e| panic!("{name}: {e}"));
+    assert!(!s.validation.is_empty(), "{name} has no reference");
+    for v in &s.validation {
+        eprintln!("{name}: {} = {:.3e}", v.name, v.value);
+        assert!(v.pass, "{name}: {v:?}");
+    }
+}
+
 /// Runs `text` on 1–4 in-process ranks × 1–2 threads; `check` sees every summary. Returns, per
 /// run, the state digest and the averaged observables (exact reductions, so comparable to the
 /// last bit).
