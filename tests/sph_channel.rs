@@ -15,45 +15,12 @@
 
 mod common;
 use common::{
-    assert_all_equal, assert_references_pass, case_from_str, digests_on_1_to_4_ranks, stock_case,
+    assert_all_equal, assert_references_pass, case_from_str, digests_on_1_to_4_ranks,
+    sph_periodic_box as periodic_box, stock_case,
 };
 use mesorheo::comm::SerialComm;
 use mesorheo::driver::run_in_process;
 use mesorheo::sim::Simulation;
-
-/// A periodic box of side 1 with a square lattice of spacing 0.02 and Lucy support `support`.
-fn periodic_box(viscous_term: &str, support: f64, extra_fluid: &str) -> String {
-    format!(
-        r#"
-dimension = 2
-[box]
-lengths = [1.0, 1.0]
-[particles]
-lattice = "cubic"
-density = 2500.0
-mass = 0.0004
-temperature = 0.0
-[fluid]
-kind = "sph"
-kernel = "lucy"
-smoothing_length = {support}
-sound_speed = 10.0
-viscosity = 1.0
-equation_of_state = "tait"
-viscous_term = "{viscous_term}"
-{extra_fluid}
-[integrator]
-kind = "kick_drift_kick"
-dt = 1e-4
-[neighbour]
-skin = 0.01
-[run]
-steps = 100
-[diagnostics]
-observables = ["momentum"]
-"#
-    )
-}
 
 /// A channel between walls at y = 0 and y = 1 (Δ = 0.02, Lucy support 2.5Δ), the upper wall
 /// at `upper` along x.

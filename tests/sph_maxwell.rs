@@ -13,49 +13,27 @@
 
 mod common;
 use common::{
-    assert_all_equal, assert_references_pass, case_from_str, digests_on_1_to_4_ranks, stock_case,
+    assert_all_equal, assert_references_pass, case_from_str, digests_on_1_to_4_ranks,
+    sph_periodic_box, stock_case,
 };
 use mesorheo::analytic::relaxation;
 use mesorheo::comm::SerialComm;
 use mesorheo::sim::Simulation;
 
 /// A periodic box of side 1, square lattice of spacing 0.02, Lucy support 0.06, Tait EOS,
-/// no Newtonian viscosity, a polymer of viscosity 1 and relaxation time `lambda`.
+/// no Newtonian viscosity, a polymer of viscosity 1 and relaxation time `lambda`; `extra` is
+/// appended to `[box]`.
 fn maxwell_box(lambda: f64, rotation: bool, extra: &str) -> String {
-    format!(
-        r#"
-dimension = 2
-[box]
-lengths = [1.0, 1.0]
-{extra}
-[particles]
-lattice = "cubic"
-density = 2500.0
-mass = 0.0004
-temperature = 0.0
-[fluid]
-kind = "sph"
-kernel = "lucy"
-smoothing_length = 0.06
-sound_speed = 10.0
-viscosity = 0.0
-equation_of_state = "tait"
-[fluid.polymer]
-model = "corotational_maxwell"
-viscosity = 1.0
-relaxation_time = {lambda}
-rotation = {rotation}
-[integrator]
-kind = "kick_drift_kick"
-dt = 1e-4
-[neighbour]
-skin = 0.01
-[run]
-steps = 100
-[diagnostics]
-observables = ["momentum"]
-"#
-    )
+    let polymer = format!(
+        "[fluid.polymer]\nmodel = \"corotational_maxwell\"\nviscosity = 1.0\n\
+         relaxation_time = {lambda}\nrotation = {rotation}"
+    );
+    sph_periodic_box("nested_summation", 0.06, &polymer)
+        .replacen("viscosity = 1.0", "viscosity = 0.0", 1)
+        .replace(
+            "lengths = [1.0, 1.0]",
+            &format!("lengths = [1.0, 1.0]\n{extra}"),
+        )
 }
 
 /// u_x = A sin(2πy) in a Maxwell fluid (η_p = 1, λ = 0.05, τ = 0 at t = 0): the projected

@@ -23,6 +23,42 @@ pub fn stock_case(name: &str) -> LoadedCase {
     config::load(&path).unwrap_or_else(|e| panic!("{e}"))
 }
 
+/// An SPH fluid (Tait, η = 1, kick–drift–kick, Δt = 10⁻⁴) in a periodic box of side 1 with a
+/// square lattice of spacing 0.02 and Lucy support `support`; `extra_fluid` is appended to
+/// `[fluid]` (it may open a sub-table such as `[fluid.polymer]`).
+pub fn sph_periodic_box(viscous_term: &str, support: f64, extra_fluid: &str) -> String {
+    format!(
+        r#"
+dimension = 2
+[box]
+lengths = [1.0, 1.0]
+[particles]
+lattice = "cubic"
+density = 2500.0
+mass = 0.0004
+temperature = 0.0
+[fluid]
+kind = "sph"
+kernel = "lucy"
+smoothing_length = {support}
+sound_speed = 10.0
+viscosity = 1.0
+equation_of_state = "tait"
+viscous_term = "{viscous_term}"
+{extra_fluid}
+[integrator]
+kind = "kick_drift_kick"
+dt = 1e-4
+[neighbour]
+skin = 0.01
+[run]
+steps = 100
+[diagnostics]
+observables = ["momentum"]
+"#
+    )
+}
+
 /// Runs a loaded case on 1 rank × 2 threads and asserts that it has references and that every
 /// one passes (each check printed).
 pub fn assert_references_pass(name: &str, loaded: &LoadedCase) {
