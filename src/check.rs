@@ -84,8 +84,8 @@ pub fn report(case: &Case, ranks: usize) -> String {
                     sph.background_pressure
                 ));
             }
-            let (binding, _) = crate::stability::sph_binding_limit(sph);
-            for (name, limit) in crate::stability::sph_limits(sph) {
+            let (binding, _) = crate::stability::sph_binding_limit(sph, case.inclusions.is_some());
+            for (name, limit) in crate::stability::sph_limits(sph, case.inclusions.is_some()) {
                 line(format!(
                     "time step Δt = {dt}: {name} = {limit:.4e} [{}{}]",
                     if dt <= limit { "ok" } else { "VIOLATED" },
@@ -108,6 +108,31 @@ pub fn report(case: &Case, ranks: usize) -> String {
                     w.treatment,
                     w.lower_velocity,
                     w.upper_velocity
+                ));
+            }
+            if let Some(inc) = &case.inclusions {
+                let phi = inc.volume_fraction(&case.domain.lengths);
+                let shape = if case.dimension == 2 {
+                    "discs"
+                } else {
+                    "spheres"
+                };
+                line(format!(
+                    "inclusions: {} fixed {shape} of radius {}, volume fraction φ = {phi:.5}, \
+                     Morris images capped at β = {}; a Newtonian fluid's mean stress over the \
+                     fluid is exactly 1/(1 − φ) = {:.5} of ηγ̇{}",
+                    inc.centres.len(),
+                    inc.radius,
+                    inc.morris_cap,
+                    1.0 / (1.0 - phi),
+                    if case.dimension == 2 {
+                        format!(
+                            "; dilute composite viscosity η(1 + 3φ) = {:.5} η (fixed discs)",
+                            1.0 + 3.0 * phi
+                        )
+                    } else {
+                        String::new()
+                    }
                 ));
             }
         }

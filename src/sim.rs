@@ -134,6 +134,7 @@ pub fn build_fluid<const D: usize>(case: &Case) -> Box<dyn ParticleModel<D>> {
                 &lengths,
                 case.lattice_spacing(),
                 case.walls.as_ref(),
+                case.inclusions.as_ref(),
             ))
         }
     }
@@ -185,19 +186,23 @@ impl<'c, const D: usize> Simulation<'c, D> {
         let (particles, total) = initial_particles(case, &sim_box, &slab);
         let mut sim = Self::assemble(case, comm, threads, sim_box, slab, particles, total, false)?;
         sim.attach(build_fluid::<D>(case))?;
-        if let Some(walls) = &case.walls {
-            let table = crate::models::sph::wall_species::<D>(walls, case.particles.mass);
-            let axis = walls.axis.index();
-            let l = case.domain.lengths[axis];
-            sim.set_species(table, |_, x| {
-                use crate::models::sph::{FLUID, LOWER_WALL, UPPER_WALL};
-                if x[axis] < 0.0 {
-                    LOWER_WALL
-                } else if x[axis] >= l {
-                    UPPER_WALL
-                } else {
-                    FLUID
-                }
+        if case.walls.is_some() || case.inclusions.is_some() {
+            use crate::models::sph::{FLUID, INCLUSION, LOWER_WALL, UPPER_WALL};
+            let table = crate::models::sph::boundary_species::<D>(
+                case.walls.as_ref(),
+                case.inclusions.is_some(),
+                case.particles.mass,
+            );
+            let wall_axis = case.walls.as_ref().map(|w| {
+                let axis = w.axis.index();
+                (axis, case.domain.lengths[axis])
+            });
+            let inclusions = case.inclusions.as_ref();
+            sim.set_species(table, |_, x| match wall_axis {
+                Some((axis, _)) if x[axis] < 0.0 => LOWER_WALL,
+                Some((axis, l)) if x[axis] >= l => UPPER_WALL,
+                _ if inclusions.is_some_and(|inc| inc.offset(x).is_some()) => INCLUSION,
+                _ => FLUID,
             })?;
         } else {
             sim.rebuild()?;
@@ -938,6 +943,56 @@ impl<'c, const D: usize> Simulation<'c, D> {
         (mean, sums[dd + 1].value() / n)
     }
 
+    /// The composite shear stress of an SPH suspension, [Σ_fluid (m/ρ_i) σ_i,xy + Σ_inclusion
+    /// particles M_j^{xy}] / V with M the traction moments F ⊗ (x − c) (Batchelor 1970: the
+    /// cell average of the stress, the inclusions' share from their surface tractions), and
+    /// the mean torque per inclusion about z, Σ_j (M_j^{yx} − M_j^{xy}) / N_inclusions
+    /// (collective).
+    fn composite_stress(&self) -> (f64, f64) {
+        use crate::models::sph::maxwell::{packed_index, packed_width};
+        use crate::models::sph::{
+            DENSITY, INCLUSION, INCLUSION_TRACTION_MOMENT, POLYMER_STRESS, VISCOUS_STRESS,
+        };
+        let p = &self.particles;
+        let (Some(density), Some(moment)) = (
+            p.extra_index(DENSITY),
+            p.extra_index(INCLUSION_TRACTION_MOMENT),
+        ) else {
+            return (f64::NAN, f64::NAN);
+        };
+        let dd = D * D;
+        let viscous = p.extra_index(VISCOUS_STRESS);
+        let polymer = p.extra_index(POLYMER_STRESS);
+        let w = packed_width(D);
+        let xy = packed_index::<D>(0, 1);
+        // Fluid Σ V_i σ_i,xy; inclusions Σ M^{xy}; Σ (M^{yx} − M^{xy}).
+        let mut sums = [FixedSum::ZERO; 3];
+        for k in 0..p.n_owned {
+            let species = p.species_of(k);
+            if self.species[species as usize].is_fluid() {
+                let mut s = viscous.map_or(0.0, |v| p.extra[v].data[k * dd + 1]);
+                if let Some(t) = polymer {
+                    s += p.extra[t].data[k * w + xy];
+                }
+                sums[0].add(self.species[species as usize].mass / p.extra[density].data[k] * s);
+            } else if species == INCLUSION {
+                let m = &p.extra[moment].data[k * dd..(k + 1) * dd];
+                sums[1].add(m[1]);
+                sums[2].add(m[D] - m[1]);
+            }
+            if k % 2048 == 2047 {
+                sums.iter_mut().for_each(FixedSum::normalize);
+            }
+        }
+        sums.iter_mut().for_each(FixedSum::normalize);
+        FixedSum::allreduce(self.comm, &mut sums);
+        let inclusions = self.case.inclusions.as_ref().map_or(1, |i| i.centres.len()) as f64;
+        (
+            (sums[0].value() + sums[1].value()) / self.sim_box.volume(),
+            sums[2].value() / inclusions,
+        )
+    }
+
     /// Samples every observable the case asked for (collective).
     pub fn sample(&mut self) {
         let t0 = Instant::now();
@@ -1139,6 +1194,14 @@ impl<'c, const D: usize> Simulation<'c, D> {
                 Observable::PolymerStressTrace => {
                     out.scalars.push(("polymer_stress_trace".into(), trace));
                 }
+                Observable::CompositeViscosity => {
+                    let (stress, torque) = self.composite_stress();
+                    out.scalars.push((
+                        "composite_viscosity".into(),
+                        stress / self.sim_box.shear_rate,
+                    ));
+                    out.scalars.push(("inclusion_torque".into(), torque));
+                }
                 Observable::DensityProfile => {
                     for (b, rho) in self.density_profile().into_iter().enumerate() {
                         out.scalars
@@ -1273,7 +1336,8 @@ fn virial_scope(observables: &[Observable]) -> VirialScope {
         | Observable::VelocityProfile
         | Observable::WallShearStress
         | Observable::DensityProfile
-        | Observable::PolymerStressTrace => VirialScope::Off,
+        | Observable::PolymerStressTrace
+        | Observable::CompositeViscosity => VirialScope::Off,
     };
     let scopes: Vec<VirialScope> = observables.iter().map(needs).collect();
     if scopes.contains(&VirialScope::Full) {

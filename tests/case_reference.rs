@@ -148,6 +148,10 @@ treatment = "morris"
 morris_cap = 2.0
 repulsion_strength = 100.0
 repulsion_range = 0.05
+[inclusions]
+centres = [[0.5, 0.5]]
+radius = 0.1
+morris_cap = 1.5
 [integrator]
 kind = "kick_drift_kick"
 dt = 1e-4

@@ -16,7 +16,7 @@ use crate::geometry::Boundary;
 pub use crate::integrators::groot_warren::GrootWarrenCfg;
 pub use crate::integrators::sph_schemes::{KickDriftKickCfg, TwoStageCfg};
 pub use crate::models::dpd::DpdCfg;
-pub use crate::models::sph::{SphCfg, WallsCfg};
+pub use crate::models::sph::{InclusionsCfg, SphCfg, WallsCfg};
 pub use crate::models::summation_gas::SummationGasCfg;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
@@ -51,6 +51,9 @@ pub struct Case {
     /// Boundary-particle walls (SPH channels).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub walls: Option<WallsCfg>,
+    /// Rigid fixed inclusions filled with boundary particles (SPH).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub inclusions: Option<InclusionsCfg>,
     /// Neighbour lists.
     #[serde(default)]
     pub neighbour: NeighbourCfg,
@@ -389,6 +392,11 @@ pub enum Observable {
     /// Mean |tr τ| of the SPH fluid particles' polymer stress (needs `[fluid.polymer]`): the
     /// corotational Maxwell model keeps τ traceless, so this monitors its integration.
     PolymerStressTrace,
+    /// The composite (cell) shear viscosity of an SPH suspension (needs `[inclusions]` and
+    /// shear): `composite_viscosity` = [Σ_fluid (m/ρ_i) σ_i,xy + Σ_inclusions ∮ (σ·n)_x y dS]
+    /// / (V γ̇), the fluid's stress plus the inclusions' traction moments; and
+    /// `inclusion_torque`, the mean torque per inclusion about z, ∮ (x − c) × (σ·n) dS.
+    CompositeViscosity,
 }
 
 impl Observable {
@@ -406,6 +414,7 @@ impl Observable {
             Observable::WallShearStress => "wall_shear_stress",
             Observable::DensityProfile => "density_profile",
             Observable::PolymerStressTrace => "polymer_stress_trace",
+            Observable::CompositeViscosity => "composite_viscosity",
         }
     }
 }

@@ -41,6 +41,10 @@ pub fn scalar_names(case: &Case) -> Vec<String> {
                 out.push("wall_shear_stress_lower".to_owned());
                 out.push("wall_shear_stress_upper".to_owned());
             }
+            Observable::CompositeViscosity => {
+                out.push("composite_viscosity".to_owned());
+                out.push("inclusion_torque".to_owned());
+            }
             other => out.push(other.name().to_owned()),
         }
     }

@@ -308,6 +308,24 @@ pub const KEYS: &[KeyDoc] = &[
         "r₀ of the fluid–wall repulsion (the initial fluid–wall distance, where it vanishes).",
     ),
     key(
+        "inclusions.centres",
+        "list of D-vectors",
+        "required",
+        "Centres of rigid, fixed (neither moving nor rotating) inclusions — discs in 2D, spheres in 3D — of an SPH fluid; each lies inside the box and none overlaps another. The lattice sites inside become frozen boundary particles (species \"inclusion\") that see Morris's images of their fluid neighbours and carry their pressure and stress.",
+    ),
+    key(
+        "inclusions.radius",
+        "float ≥ lattice spacing",
+        "required",
+        "Radius R of every inclusion. The viscous time-step limit tightens to 0.025 r_s² ρ₀/η (measured).",
+    ),
+    key(
+        "inclusions.morris_cap",
+        "float ≥ 1",
+        "1.5",
+        "Cap β_max of Morris's extrapolation factor β = 1 + d_j/d_i (v_j = −(d_j/d_i) v_i relative to the inclusion).",
+    ),
+    key(
         "neighbour.skin",
         "float > 0",
         "0.3",
@@ -371,7 +389,7 @@ pub const KEYS: &[KeyDoc] = &[
         "diagnostics.observables",
         "array of observable names",
         "[\"temperature\", \"pressure\"]",
-        "What to average: \"temperature\", \"pressure\", \"stress\" (full tensor by contribution), \"viscosity\", \"first_normal_stress_difference\", \"second_normal_stress_difference\", \"momentum\", \"velocity_profile\" (under shear, or across [walls]), \"wall_shear_stress\" (force along x per unit area the fluid exerts on each wall: wall_shear_stress_lower, _upper; needs [walls]), \"density_profile\" (the SPH density of the fluid per bin along y, diagnostics.profile_bins bins; needs sph), \"polymer_stress_trace\" (mean |tr τ| of the fluid particles; needs [fluid.polymer]). For sph, \"viscosity\" and the normal stress differences come from the fluid particles' own deviatoric stress (viscous + polymer, the mean over fluid particles), \"pressure\" and \"stress\" are not available. The shear ones need box.shear_rate ≠ 0. Only what is listed is computed: the pair virial is skipped without \"pressure\", \"stress\" or the stress differences, and only its diagonal is accumulated without \"stress\" or \"viscosity\".",
+        "What to average: \"temperature\", \"pressure\", \"stress\" (full tensor by contribution), \"viscosity\", \"first_normal_stress_difference\", \"second_normal_stress_difference\", \"momentum\", \"velocity_profile\" (under shear, or across [walls]), \"wall_shear_stress\" (force along x per unit area the fluid exerts on each wall: wall_shear_stress_lower, _upper; needs [walls]), \"density_profile\" (the SPH density of the fluid per bin along y, diagnostics.profile_bins bins; needs sph), \"polymer_stress_trace\" (mean |tr τ| of the fluid particles; needs [fluid.polymer]), \"composite_viscosity\" (an SPH suspension's cell stress, the fluid's Σ (m/ρ)σ_xy plus the inclusions' traction moments ∮ (σ·n)_x y dS, over Vγ̇; also gives inclusion_torque, the mean torque per inclusion; needs [inclusions] and shear). For sph, \"viscosity\" and the normal stress differences come from the fluid particles' own deviatoric stress (viscous + polymer, the mean over fluid particles), \"pressure\" and \"stress\" are not available. The shear ones need box.shear_rate ≠ 0. Only what is listed is computed: the pair virial is skipped without \"pressure\", \"stress\" or the stress differences, and only its diagonal is accumulated without \"stress\" or \"viscosity\".",
     ),
     key(
         "diagnostics.profile_bins",

@@ -216,6 +216,12 @@ pub fn validate(case: &Case, ix: &SpanIndex) -> Result<(), CaseError> {
         }
         FluidCfg::Sph(sph) => validate_sph(case, sph, ix)?,
     }
+    if case.inclusions.is_some() && !matches!(case.fluid, FluidCfg::Sph(_)) {
+        return err(
+            &["inclusions"],
+            "inclusions of boundary particles belong to SPH fluids (kind = \"sph\")".to_string(),
+        );
+    }
     if case.walls.is_some() && !matches!(case.fluid, FluidCfg::Sph(_)) {
         return err(
             &["walls"],
@@ -344,9 +350,9 @@ pub fn validate(case: &Case, ix: &SpanIndex) -> Result<(), CaseError> {
             }
         }
         FluidCfg::Sph(s) => {
-            let (name, limit) = stability::sph_binding_limit(s);
+            let (name, limit) = stability::sph_binding_limit(s, case.inclusions.is_some());
             if dt > limit {
-                let all: Vec<String> = stability::sph_limits(s)
+                let all: Vec<String> = stability::sph_limits(s, case.inclusions.is_some())
                     .iter()
                     .map(|(n, l)| format!("{n} = {l:.4e}"))
                     .collect();
@@ -452,6 +458,7 @@ pub fn validate(case: &Case, ix: &SpanIndex) -> Result<(), CaseError> {
             FluidCfg::Sph(s) => {
                 s.viscous_term == crate::models::sph::ViscousTerm::NestedSummation
                     || s.polymer.is_some()
+                    || (case.inclusions.is_some() && s.viscosity > 0.0)
             }
             _ => false,
         };
@@ -479,6 +486,16 @@ pub fn validate(case: &Case, ix: &SpanIndex) -> Result<(), CaseError> {
                 &[k("diagnostics"), k("observables"), Segment::Index(i)],
                 "\"polymer_stress_trace\" needs a polymer stress ([fluid.polymer] of an SPH \
                  fluid)"
+                    .to_string(),
+            ));
+        }
+        if *o == Observable::CompositeViscosity
+            && (case.inclusions.is_none() || case.domain.shear_rate == 0.0)
+        {
+            return Err(ix.error(
+                &[k("diagnostics"), k("observables"), Segment::Index(i)],
+                "\"composite_viscosity\" needs [inclusions] in a sheared box (box.shear_rate \
+                 ≠ 0)"
                     .to_string(),
             ));
         }
@@ -542,6 +559,84 @@ pub fn validate(case: &Case, ix: &SpanIndex) -> Result<(), CaseError> {
                 }
             }
             ReferenceCfg::StartupProfile(sp) => validate_startup_reference(case, sp, i, ix)?,
+        }
+    }
+    Ok(())
+}
+
+/// `[inclusions]`: each inside the box (none straddles a boundary, so a sheared image never
+/// splits one), none overlapping another or a wall layer, each holding boundary particles.
+fn validate_inclusions(case: &Case, ix: &SpanIndex) -> Result<(), CaseError> {
+    let Some(inc) = &case.inclusions else {
+        return Ok(());
+    };
+    let dim = case.dimension;
+    let ik = |key: &str| vec![k("inclusions"), k(key)];
+    let spacing = case.lattice_spacing();
+    if !(inc.radius.is_finite() && inc.radius >= spacing) {
+        return Err(ix.error(
+            &ik("radius"),
+            format!(
+                "found {}; an inclusion needs a radius of at least the lattice spacing {spacing:.4e} \
+                 (it is filled with lattice sites)",
+                inc.radius
+            ),
+        ));
+    }
+    if !(inc.morris_cap.is_finite() && inc.morris_cap >= 1.0) {
+        return Err(ix.error(
+            &ik("morris_cap"),
+            format!(
+                "found {}; the extrapolation factor β = 1 + d_j/d_i is ≥ 1, so its cap must be \
+                 ≥ 1 (1.5 is usual)",
+                inc.morris_cap
+            ),
+        ));
+    }
+    if inc.centres.is_empty() {
+        return Err(ix.error(
+            &ik("centres"),
+            "give at least one centre, e.g. centres = [[0.5, 0.5]]".to_string(),
+        ));
+    }
+    let r = inc.radius;
+    for (n, c) in inc.centres.iter().enumerate() {
+        let at = vec![k("inclusions"), k("centres"), Segment::Index(n)];
+        if c.len() != dim || c.iter().any(|x| !x.is_finite()) {
+            return Err(ix.error(
+                &at,
+                format!(
+                    "found {} components; give {dim} finite coordinates",
+                    c.len()
+                ),
+            ));
+        }
+        for d in 0..dim {
+            let l = case.domain.lengths[d];
+            if c[d] - r < 0.0 || c[d] + r > l {
+                return Err(ix.error(
+                    &at,
+                    format!(
+                        "the inclusion reaches beyond the box along {} ({} ± {r} outside [0, {l}]); \
+                         inclusions lie inside the box",
+                        ["x", "y", "z"][d],
+                        c[d]
+                    ),
+                ));
+            }
+        }
+        for (m, e) in inc.centres.iter().enumerate().take(n) {
+            let d2: f64 = c.iter().zip(e).map(|(a, b)| (a - b) * (a - b)).sum();
+            if e.len() == dim && d2 < 4.0 * r * r {
+                return Err(ix.error(
+                    &at,
+                    format!(
+                        "overlaps inclusion {m} (centres {:.4} apart, 2R = {})",
+                        d2.sqrt(),
+                        2.0 * r
+                    ),
+                ));
+            }
         }
     }
     Ok(())
@@ -665,6 +760,7 @@ fn validate_sph(
             ),
         ));
     }
+    validate_inclusions(case, ix)?;
     let Some(w) = &case.walls else {
         return Ok(());
     };

@@ -206,6 +206,44 @@ fn beta_max() -> f64 {
     1.5
 }
 
+/// `[inclusions]`: rigid, fixed (neither translating nor rotating) inclusions of equal radius
+/// — discs in 2D, spheres in 3D — filled with boundary particles that see Morris's images of
+/// their fluid neighbours (spec §2.3, §2.5).
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct InclusionsCfg {
+    /// Centres c_k (D coordinates each); every inclusion lies inside the box.
+    pub centres: Vec<Vec<f64>>,
+    /// Radius R of every inclusion.
+    pub radius: f64,
+    /// Cap β_max of Morris's extrapolation factor β = 1 + d_j/d_i.
+    #[serde(default = "beta_max")]
+    pub morris_cap: f64,
+}
+
+impl InclusionsCfg {
+    /// x − c of the inclusion whose disc holds `x` (|x − c| < R), if any (inclusions lie
+    /// inside the box, so no periodic image is needed).
+    pub fn offset<const D: usize>(&self, x: &[f64; D]) -> Option<[f64; D]> {
+        self.centres.iter().find_map(|c| {
+            let o: [f64; D] = std::array::from_fn(|d| x[d] - c[d]);
+            let r2: f64 = o.iter().map(|v| v * v).sum();
+            (r2 < self.radius * self.radius).then_some(o)
+        })
+    }
+
+    /// The volume fraction of the inclusions, N πR² / A (2D) or N (4/3)πR³ / V (3D).
+    pub fn volume_fraction(&self, lengths: &[f64]) -> f64 {
+        let r = self.radius;
+        let each = if lengths.len() == 2 {
+            std::f64::consts::PI * r * r
+        } else {
+            4.0 / 3.0 * std::f64::consts::PI * r * r * r
+        };
+        self.centres.len() as f64 * each / lengths.iter().product::<f64>()
+    }
+}
+
 /// `[walls] treatment`
 #[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq, Eq, Default)]
 #[serde(rename_all = "snake_case")]
@@ -259,6 +297,13 @@ pub const POLYMER_STRESS: &str = "polymer_stress";
 pub const POLYMER_STRESS_RATE: &str = "polymer_stress_rate";
 /// The XSPH drift correction v̂ − v (D per particle).
 pub const XSPH_CORRECTION: &str = "xsph_correction";
+/// An inclusion particle's offset x_j − c from its inclusion's centre (0 for every other
+/// particle): constant, since inclusions are fixed.
+pub const INCLUSION_OFFSET: &str = "inclusion_offset";
+/// An inclusion particle's share of its inclusion's traction moment ∮ (σ·n) ⊗ (x − c) dS:
+/// Σ_i F_{i→j}^a s_i^b over its fluid neighbours i, the pair force on it times the surface
+/// point s_i = R n_i nearest i (relative to the centre), D×D row-major.
+pub const INCLUSION_TRACTION_MOMENT: &str = "inclusion_traction_moment";
 
 /// Species indices of a walled scene: the fluid, the wall at 0, the wall at L.
 pub const FLUID: u8 = 0;
@@ -266,6 +311,36 @@ pub const FLUID: u8 = 0;
 pub const LOWER_WALL: u8 = 1;
 /// The wall at the upper face.
 pub const UPPER_WALL: u8 = 2;
+/// The boundary particles filling the inclusions.
+pub const INCLUSION: u8 = 3;
+
+/// The species of a scene with boundary particles (fluid, lower wall, upper wall, and with
+/// inclusions the inclusion particles), every particle of mass `mass`; a wall at rest and
+/// the inclusions are frozen (never integrated). Without walls the wall species have no
+/// particles.
+pub fn boundary_species<const D: usize>(
+    walls: Option<&WallsCfg>,
+    inclusions: bool,
+    mass: f64,
+) -> Vec<Species> {
+    let frozen = |name: &str| Species {
+        name: name.into(),
+        mass,
+        motion: Motion::Frozen,
+    };
+    let mut table = match walls {
+        Some(w) => wall_species::<D>(w, mass),
+        None => vec![
+            Species::fluid(mass),
+            frozen("lower wall"),
+            frozen("upper wall"),
+        ],
+    };
+    if inclusions {
+        table.push(frozen("inclusion"));
+    }
+    table
+}
 
 /// The species of a walled scene (fluid, lower wall, upper wall), every particle of mass
 /// `mass`; a wall at rest is frozen (never integrated).
@@ -309,6 +384,90 @@ struct WallGeometry<const D: usize> {
     /// D and r₀ of the repulsion.
     strength: f64,
     range: f64,
+}
+
+/// The inclusions as the pair kernels see them.
+#[derive(Clone, Copy, Debug)]
+struct InclusionGeometry {
+    radius: f64,
+    beta_max: f64,
+    /// Floor of a fluid particle's distance to the surface (Δ/2).
+    min_distance: f64,
+    /// Index of the [`INCLUSION_OFFSET`] field.
+    offset: usize,
+}
+
+impl InclusionGeometry {
+    /// For fluid particle i and inclusion particle j with x_ij = x_i − x_j: the vector from
+    /// the centre to i, x_ij + o_j, and its length.
+    #[inline(always)]
+    fn centre_to_fluid<const D: usize>(
+        &self,
+        p: &Particles<D>,
+        j: usize,
+        x: &[f64; D],
+    ) -> ([f64; D], f64) {
+        let o = &p.extra[self.offset].data[j * D..(j + 1) * D];
+        let ric: [f64; D] = std::array::from_fn(|d| x[d] + o[d]);
+        let dist = ric.iter().map(|v| v * v).sum::<f64>().sqrt();
+        (ric, dist)
+    }
+
+    /// The surface point R n_i (relative to the centre) nearest fluid particle i, for the
+    /// pair of i and inclusion particle j with x_ij = x_i − x_j.
+    #[inline(always)]
+    fn surface_point<const D: usize>(&self, p: &Particles<D>, j: usize, x: &[f64; D]) -> [f64; D] {
+        let (ric, dist) = self.centre_to_fluid(p, j, x);
+        std::array::from_fn(|d| self.radius * ric[d] / dist)
+    }
+}
+
+/// Every boundary the pair kernels know: walls and inclusions.
+#[derive(Clone, Copy, Debug, Default)]
+struct Boundaries<const D: usize> {
+    walls: Option<WallGeometry<D>>,
+    inclusions: Option<InclusionGeometry>,
+}
+
+impl<const D: usize> Boundaries<D> {
+    fn any(&self) -> bool {
+        self.walls.is_some() || self.inclusions.is_some()
+    }
+
+    /// The velocity fluid particle i sees for boundary particle j of species `sj`, with
+    /// x_ij = x_i − x_j.
+    ///
+    /// Inclusion (spec §2.3, a circle of centre c and radius R): with o_j = x_j − c,
+    /// n = (x_ij + o_j)/|x_ij + o_j|, d_i = |x_ij + o_j| − R ≥ Δ/2, d_j = R − o_j·n,
+    /// v_j = U − (d_j/d_i)(v_i − U), i.e. v_i − v_j = β (v_i − U), β = min(1 + d_j/d_i, β_max),
+    /// with U = v_j as stored: the inclusion's velocity (0 in the box, the Lees–Edwards image
+    /// velocity for an image across the sheared boundary).
+    #[inline(always)]
+    fn seen_velocity(
+        &self,
+        p: &Particles<D>,
+        i: usize,
+        j: usize,
+        sj: u8,
+        x: &[f64; D],
+    ) -> [f64; D] {
+        if sj == INCLUSION {
+            let Some(inc) = &self.inclusions else {
+                return p.vel[j];
+            };
+            let (ric, dist) = inc.centre_to_fluid(p, j, x);
+            let o = &p.extra[inc.offset].data[j * D..(j + 1) * D];
+            let o_dot_n = (0..D).map(|d| o[d] * ric[d]).sum::<f64>() / dist;
+            let (di, dj) = (dist - inc.radius, inc.radius - o_dot_n);
+            let beta = (1.0 + dj / di.max(inc.min_distance)).min(inc.beta_max);
+            let u = p.vel[j];
+            return std::array::from_fn(|d| p.vel[i][d] - beta * (p.vel[i][d] - u[d]));
+        }
+        match &self.walls {
+            Some(w) => w.seen_velocity(p, i, j, sj),
+            None => p.vel[j],
+        }
+    }
 }
 
 impl<const D: usize> WallGeometry<D> {
@@ -371,7 +530,7 @@ struct GradientKernel<'a, K, const D: usize> {
     kernel: K,
     mass: f64,
     density: &'a [f64],
-    walls: Option<WallGeometry<D>>,
+    boundaries: Boundaries<D>,
     scales: Vec<Scale>,
 }
 
@@ -384,11 +543,10 @@ impl<K: Kernel, const D: usize> GatherKernel<D> for GradientKernel<'_, K, D> {
     }
     #[inline(always)]
     fn pair(&self, p: &Particles<D>, i: usize, j: usize, x: &[f64; D], r: f64, out: &mut [f64]) {
-        let vj = match &self.walls {
-            Some(w) if p.species_of(i) == FLUID && p.species_of(j) != FLUID => {
-                w.seen_velocity(p, i, j, p.species_of(j))
-            }
-            _ => p.vel[j],
+        let vj = if self.boundaries.any() && p.species_of(i) == FLUID && p.species_of(j) != FLUID {
+            self.boundaries.seen_velocity(p, i, j, p.species_of(j), x)
+        } else {
+            p.vel[j]
         };
         let s = self.mass / self.density[j] * self.kernel.dw_over_r(r);
         for a in 0..D {
@@ -420,7 +578,7 @@ struct MomentumKernel<'a, K, const D: usize> {
     continuity: bool,
     /// ε m (XSPH), or 0.
     xsph_eps_mass: f64,
-    walls: Option<WallGeometry<D>>,
+    boundaries: Boundaries<D>,
     scales: Vec<Scale>,
     parities: Vec<Parity>,
 }
@@ -434,7 +592,7 @@ impl<K: Kernel, const D: usize> SymmetricKernel<D> for MomentumKernel<'_, K, D> 
     /// weakly compressible scheme) in loops over the batch; anything else pair by pair.
     #[inline(always)]
     fn pair_batch(&self, p: &Particles<D>, batch: &PairBatch<D>, out: &mut BatchTerms) {
-        if self.walls.is_some()
+        if self.boundaries.any()
             || self.stress.is_some()
             || self.polymer.is_some()
             || p.species.is_some()
@@ -534,46 +692,63 @@ impl<K: Kernel, const D: usize> GatherKernel<D> for MomentumKernel<'_, K, D> {
             return;
         }
         let boundary_pair = si != sj;
+        // The fluid end of a boundary pair; whether the boundary end is an inclusion particle.
+        let fluid_end = if si == FLUID { i } else { j };
+        let inclusion_pair = boundary_pair && (si == INCLUSION || sj == INCLUSION);
         // v_ij, with the velocity the fluid end sees for a boundary end.
-        let vij: [f64; D] = match &self.walls {
-            Some(w) if boundary_pair && si == FLUID => {
-                let vj = w.seen_velocity(p, i, j, sj);
+        let vij: [f64; D] = if boundary_pair && self.boundaries.any() {
+            if si == FLUID {
+                let vj = self.boundaries.seen_velocity(p, i, j, sj, x);
                 std::array::from_fn(|d| p.vel[i][d] - vj[d])
-            }
-            Some(w) if boundary_pair => {
-                let vi = w.seen_velocity(p, j, i, si);
+            } else {
+                let xji: [f64; D] = std::array::from_fn(|d| -x[d]);
+                let vi = self.boundaries.seen_velocity(p, j, i, si, &xji);
                 std::array::from_fn(|d| vi[d] - p.vel[j][d])
             }
-            _ => std::array::from_fn(|d| p.vel[i][d] - p.vel[j][d]),
+        } else {
+            std::array::from_fn(|d| p.vel[i][d] - p.vel[j][d])
         };
         let mm = self.mass * self.mass;
         let gw = self.kernel.dw_over_r(r); // ∇_i W_ij = gw x_ij
-        let pressure = -(self.p_over_rho2[i] + self.p_over_rho2[j]) * gw;
+        // Both ends' 1/ρ², for the stresses an inclusion mirrors.
+        let (ri2, rj2) = (
+            self.density[i] * self.density[i],
+            self.density[j] * self.density[j],
+        );
+        let p_sum = if inclusion_pair {
+            // An inclusion particle carries its fluid neighbour's pressure (zero normal
+            // gradient, spec §2.3): p_j := p_i.
+            let pf =
+                self.p_over_rho2[fluid_end] * self.density[fluid_end] * self.density[fluid_end];
+            pf * (1.0 / ri2 + 1.0 / rj2)
+        } else {
+            self.p_over_rho2[i] + self.p_over_rho2[j]
+        };
+        let pressure = -p_sum * gw;
         let mut f = [0.0; D];
         for a in 0..D {
             f[a] = pressure * x[a];
         }
         if self.stress.is_some() || self.polymer.is_some() {
-            let mirror_polymer = boundary_pair && self.walls.is_some_and(|w| w.morris);
-            let (ri2, rj2) = (
-                self.density[i] * self.density[i],
-                self.density[j] * self.density[j],
-            );
+            // Morris's images (walls or inclusions) carry the fluid end's stress (zero normal
+            // gradient, spec §2.3): σ̄_j := σ̄_i, τ_j := τ_i. Method-B walls carry their own.
+            let mirror = inclusion_pair
+                || (boundary_pair && self.boundaries.walls.is_some_and(|w| w.morris));
             let w = packed_width(D);
             for a in 0..D {
                 let mut t = 0.0;
                 for b in 0..D {
                     let mut sab = match self.stress {
+                        Some(s) if inclusion_pair => {
+                            s[fluid_end * D * D + a * D + b] * (1.0 / ri2 + 1.0 / rj2)
+                        }
                         Some(s) => s[i * D * D + a * D + b] / ri2 + s[j * D * D + a * D + b] / rj2,
                         None => 0.0,
                     };
                     if let Some(tau) = self.polymer {
                         let c = packed_index::<D>(a, b);
-                        sab += if mirror_polymer {
-                            // Morris's images carry the fluid end's stress (zero normal
-                            // gradient, spec §2.3): τ_j := τ_i.
-                            let f = if si == FLUID { i } else { j };
-                            tau[f * w + c] * (1.0 / ri2 + 1.0 / rj2)
+                        sab += if mirror {
+                            tau[fluid_end * w + c] * (1.0 / ri2 + 1.0 / rj2)
                         } else {
                             tau[i * w + c] / ri2 + tau[j * w + c] / rj2
                         };
@@ -593,8 +768,9 @@ impl<K: Kernel, const D: usize> GatherKernel<D> for MomentumKernel<'_, K, D> {
                 f[a] += s * vij[a];
             }
         }
-        if let Some(w) = &self.walls
+        if let Some(w) = &self.boundaries.walls
             && boundary_pair
+            && !inclusion_pair
             && r < w.range
         {
             // An acceleration of the fluid particle (Eq. 2.48 adds it without a mass), so the
@@ -624,6 +800,30 @@ impl<K: Kernel, const D: usize> GatherKernel<D> for MomentumKernel<'_, K, D> {
                 out[first + a] = -s * vij[a];
             }
         }
+        if let Some(inc) = &self.boundaries.inclusions {
+            // The traction moment F^a s^b of the pair force on the inclusion end, acting at the
+            // surface point s = R n nearest the fluid end (relative to the centre): odd, so
+            // the inclusion end receives F_j ⊗ s whichever end i is (n is the same bits from
+            // both ends: x_ji = −x_ij exactly).
+            let first =
+                D + usize::from(self.continuity) + if self.xsph_eps_mass != 0.0 { D } else { 0 };
+            let moment = &mut out[first..first + D * D];
+            if inclusion_pair {
+                let (incl, x_fi): (usize, [f64; D]) = if si == FLUID {
+                    (j, *x)
+                } else {
+                    (i, std::array::from_fn(|d| -x[d]))
+                };
+                let sp = inc.surface_point(p, incl, &x_fi);
+                for a in 0..D {
+                    for b in 0..D {
+                        moment[a * D + b] = mm * f[a] * sp[b];
+                    }
+                }
+            } else {
+                moment.fill(0.0);
+            }
+        }
     }
 }
 
@@ -639,12 +839,16 @@ pub struct SphModel<const D: usize> {
     cfg: SphCfg,
     mass: f64,
     passes: Vec<Pass>,
-    walls: Option<WallGeometry<D>>,
+    boundaries: Boundaries<D>,
+    /// The inclusions' layout (to give their particles their offsets).
+    inclusions: Option<InclusionsCfg>,
     body_force: [f64; D],
     density: usize,
     rate: Option<usize>,
     stress: Option<usize>,
     xsph: Option<usize>,
+    /// The traction moments of the inclusion particles ([`INCLUSION_TRACTION_MOMENT`]).
+    traction_moment: Option<usize>,
     polymer: Option<Maxwell>,
     /// τ and dτ/dt.
     polymer_stress: Option<(usize, usize)>,
@@ -656,19 +860,21 @@ pub struct SphModel<const D: usize> {
 
 impl<const D: usize> SphModel<D> {
     /// The fluid of particles of mass `mass`, in a box of edge lengths `lengths` with lattice
-    /// spacing `spacing` (the default range of the wall repulsion), with the walls given.
+    /// spacing `spacing` (the default range of the wall repulsion), with the walls and
+    /// inclusions given.
     pub fn new(
         cfg: &SphCfg,
         mass: f64,
         lengths: &[f64; D],
         spacing: f64,
         walls: Option<&WallsCfg>,
+        inclusions: Option<&InclusionsCfg>,
     ) -> Self {
         let mut passes = Vec::new();
         if cfg.density == DensityMethod::Summation {
             passes.push(Pass::Density);
         }
-        if cfg.viscous_term == ViscousTerm::NestedSummation || cfg.polymer.is_some() {
+        if Self::forms_viscous_stress(cfg, inclusions.is_some()) || cfg.polymer.is_some() {
             passes.push(Pass::Gradient);
         }
         passes.push(Pass::Momentum);
@@ -688,16 +894,27 @@ impl<const D: usize> SphModel<D> {
                 range: w.repulsion_range.unwrap_or(spacing),
             }
         });
+        let inclusions_geometry = inclusions.map(|inc| InclusionGeometry {
+            radius: inc.radius,
+            beta_max: inc.morris_cap,
+            min_distance: 0.5 * spacing,
+            offset: usize::MAX,
+        });
         Self {
             cfg: cfg.clone(),
             mass,
             passes,
-            walls,
+            boundaries: Boundaries {
+                walls,
+                inclusions: inclusions_geometry,
+            },
+            inclusions: inclusions.cloned(),
             body_force: std::array::from_fn(|d| cfg.body_force.get(d).copied().unwrap_or(0.0)),
             density: usize::MAX,
             rate: None,
             stress: None,
             xsph: None,
+            traction_moment: None,
             polymer: cfg.polymer.as_ref().map(Maxwell::from),
             polymer_stress: None,
             p_over_rho2: Vec::new(),
@@ -705,6 +922,14 @@ impl<const D: usize> SphModel<D> {
             sums: Vec::new(),
             scatter: ScatterBuffers::default(),
         }
+    }
+
+    /// Whether the fluid forms its Newtonian stress η(G + Gᵀ − (2/d) tr G I): with the nested
+    /// summation it enters the momentum equation; with Morris's term it is only measured (the
+    /// viscometric observables), when a polymer or inclusions make the run a viscometric one.
+    fn forms_viscous_stress(cfg: &SphCfg, inclusions: bool) -> bool {
+        cfg.viscous_term == ViscousTerm::NestedSummation
+            || ((cfg.polymer.is_some() || inclusions) && cfg.viscosity > 0.0)
     }
 
     /// Bounds of the exact sums. The scales exist to stop a blown-up run (a term not finite or
@@ -750,7 +975,7 @@ impl<const D: usize> SphModel<D> {
                     kernel,
                     mass: self.mass,
                     density: &p.extra[self.density].data,
-                    walls: self.walls,
+                    boundaries: self.boundaries,
                     scales: vec![Scale::covering(HEADROOM * gradient_scale); D * D],
                 };
                 let r = gather(&k, p, full, &mut sums);
@@ -808,7 +1033,13 @@ impl<const D: usize> SphModel<D> {
                     .extend(density.iter().map(|&rho| 1.0 / rho));
                 let continuity = self.rate.is_some();
                 let xsph_first = D + usize::from(continuity);
-                let width = xsph_first + if self.xsph.is_some() { D } else { 0 };
+                let moment_first = xsph_first + if self.xsph.is_some() { D } else { 0 };
+                let width = moment_first
+                    + if self.traction_moment.is_some() {
+                        D * D
+                    } else {
+                        0
+                    };
                 let mut scales = vec![Scale::covering(HEADROOM * momentum_scale); width];
                 let mut parities = vec![Parity::Odd; width];
                 if continuity {
@@ -816,8 +1047,13 @@ impl<const D: usize> SphModel<D> {
                     parities[D] = Parity::Even;
                 }
                 // XSPH terms: at most ε (m/ρ) W(0) |v|, |v| bounded by c₀ in any sane run.
-                for scale in &mut scales[xsph_first..] {
+                for scale in &mut scales[xsph_first..moment_first] {
                     *scale = Scale::covering(HEADROOM * density_scale / rho0 * c0_velocity);
+                }
+                // Traction moments: a pair force times a radius.
+                let radius = self.inclusions.as_ref().map_or(0.0, |inc| inc.radius);
+                for scale in &mut scales[moment_first..] {
+                    *scale = Scale::covering(HEADROOM * momentum_scale * radius);
                 }
                 let k = MomentumKernel {
                     kernel,
@@ -841,7 +1077,7 @@ impl<const D: usize> SphModel<D> {
                         * self.cfg.smoothing_length,
                     continuity,
                     xsph_eps_mass: self.cfg.xsph * self.mass,
-                    walls: self.walls,
+                    boundaries: self.boundaries,
                     scales,
                     parities,
                 };
@@ -868,7 +1104,13 @@ impl<const D: usize> SphModel<D> {
                     if let Some(xsph) = self.xsph {
                         let out = &mut p.extra[xsph].data;
                         for (i, s) in sums.chunks_exact(width).enumerate() {
-                            out[i * D..(i + 1) * D].copy_from_slice(&s[xsph_first..]);
+                            out[i * D..(i + 1) * D].copy_from_slice(&s[xsph_first..moment_first]);
+                        }
+                    }
+                    if let Some(moment) = self.traction_moment {
+                        let out = &mut p.extra[moment].data;
+                        for (i, s) in sums.chunks_exact(width).enumerate() {
+                            out[i * D * D..(i + 1) * D * D].copy_from_slice(&s[moment_first..]);
                         }
                     }
                 })
@@ -908,9 +1150,7 @@ impl<const D: usize> ParticleModel<D> for SphModel<D> {
                 flags: FieldFlags::STATE,
             });
         }
-        if self.cfg.viscous_term == ViscousTerm::NestedSummation
-            || (self.cfg.polymer.is_some() && self.cfg.viscosity > 0.0)
-        {
+        if Self::forms_viscous_stress(&self.cfg, self.inclusions.is_some()) {
             f.push(FieldSpec {
                 name: VISCOUS_STRESS,
                 kind: FieldKind::Tensor,
@@ -926,6 +1166,18 @@ impl<const D: usize> ParticleModel<D> for SphModel<D> {
                     flags: FieldFlags::STATE,
                 });
             }
+        }
+        if self.inclusions.is_some() {
+            f.push(FieldSpec {
+                name: INCLUSION_OFFSET,
+                kind: FieldKind::Vector,
+                flags: FieldFlags::STATE,
+            });
+            f.push(FieldSpec {
+                name: INCLUSION_TRACTION_MOMENT,
+                kind: FieldKind::Tensor,
+                flags: FieldFlags::DERIVED,
+            });
         }
         if self.cfg.xsph != 0.0 {
             // Like the forces: of the last evaluation, used by the next drift, so kept across a
@@ -945,6 +1197,9 @@ impl<const D: usize> ParticleModel<D> for SphModel<D> {
 
     fn passes(&self) -> Vec<PassSpec> {
         let mut density_refreshed = false;
+        // The inclusion offsets never change; the ghosts get them before the first pass that
+        // sees a boundary velocity (they persist until the next rebuild).
+        let mut offsets_refreshed = self.inclusions.is_none();
         self.passes
             .iter()
             .map(|pass| match pass {
@@ -954,15 +1209,23 @@ impl<const D: usize> ParticleModel<D> for SphModel<D> {
                 },
                 Pass::Gradient => {
                     density_refreshed = true;
+                    let mut ghost_fields = vec![DENSITY];
+                    if !offsets_refreshed {
+                        ghost_fields.push(INCLUSION_OFFSET);
+                        offsets_refreshed = true;
+                    }
                     PassSpec {
                         name: "velocity gradient",
-                        ghost_fields: vec![DENSITY],
+                        ghost_fields,
                     }
                 }
                 Pass::Momentum => {
                     let mut ghost_fields = Vec::new();
                     if !density_refreshed {
                         ghost_fields.push(DENSITY);
+                    }
+                    if !offsets_refreshed {
+                        ghost_fields.push(INCLUSION_OFFSET);
                     }
                     if self.cfg.viscous_term == ViscousTerm::NestedSummation {
                         ghost_fields.push(VISCOUS_STRESS);
@@ -1011,6 +1274,7 @@ impl<const D: usize> ParticleModel<D> for SphModel<D> {
         self.rate = p.extra_index(DENSITY_RATE);
         self.stress = p.extra_index(VISCOUS_STRESS);
         self.xsph = p.extra_index(XSPH_CORRECTION);
+        self.traction_moment = p.extra_index(INCLUSION_TRACTION_MOMENT);
         if self.polymer.is_some() {
             let tau = p
                 .extra_index(POLYMER_STRESS)
@@ -1023,6 +1287,21 @@ impl<const D: usize> ParticleModel<D> for SphModel<D> {
         if !restarted && self.rate.is_some() {
             // Continuity density starts at ρ₀ (the lattice is uniform).
             p.extra[self.density].data.fill(self.cfg.rest_density);
+        }
+        if let (Some(inc), Some(geometry)) = (&self.inclusions, &mut self.boundaries.inclusions) {
+            let offset = p
+                .extra_index(INCLUSION_OFFSET)
+                .ok_or("the inclusion offset field is not registered")?;
+            geometry.offset = offset;
+            if !restarted {
+                // The particles inside a disc are its boundary particles (the species the
+                // engine gives them follows the same test, [`InclusionsCfg::offset`]).
+                for i in 0..p.n_owned {
+                    if let Some(o) = inc.offset(&p.pos[i]) {
+                        p.extra[offset].data[i * D..(i + 1) * D].copy_from_slice(&o);
+                    }
+                }
+            }
         }
         Ok(())
     }
@@ -1086,7 +1365,7 @@ mod tests {
         ] {
             let mut p = random_particles();
             let model_cfg = cfg(viscous, density);
-            let mut model = SphModel::<3>::new(&model_cfg, 0.05, &[4.0; 3], 0.2, None);
+            let mut model = SphModel::<3>::new(&model_cfg, 0.05, &[4.0; 3], 0.2, None, None);
             for spec in model.fields() {
                 p.register_field(spec.name, spec.kind.width(3), spec.flags)
                     .expect("new field");
@@ -1126,7 +1405,7 @@ mod tests {
                     regulariser,
                     continuity,
                     xsph_eps_mass: 0.0,
-                    walls: None,
+                    boundaries: Boundaries::default(),
                     scales: vec![Scale::covering(1e6); 3 + usize::from(continuity)],
                     parities: {
                         let mut parity = vec![Parity::Odd; 3];

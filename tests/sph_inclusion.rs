@@ -1,0 +1,99 @@
+//! Rigid fixed inclusions in SPH (`[inclusions]`) against exact and Stokes results, and the
+//! engine's invariants:
+//!
+//! - the stock Newtonian cell passes its references: the mean fluid stress 1/(1 − πR²) of ηγ̇
+//!   (exact for no-slip on a fixed inclusion) and the torque −2πηR²γ̇ of Stokes flow;
+//! - the shear rate near the top of the cylinder follows the Stokes single-inclusion solution
+//!   (3γ̇ at the surface);
+//! - a sheared cell with an inclusion gives the same bits on 1–4 ranks × 1–2 threads.
+
+mod common;
+use common::{assert_all_equal, assert_references_pass, digests_on_1_to_4_ranks, stock_case};
+use mesorheo::comm::SerialComm;
+use mesorheo::sim::Simulation;
+
+#[test]
+fn stock_inclusion_cases_pass_their_references() {
+    let name = "inclusion_newtonian_2d.toml";
+    assert_references_pass(name, &stock_case(name));
+}
+
+/// Velocity of Stokes flow past a fixed cylinder of radius `r0` at the origin in the simple
+/// shear v = γ̇ y x̂ (γ̇ = 1; spec sph-maxwell.md §3 T5, Eq. 3.23 with Ω = 0):
+/// v = (1 − R⁴/r⁴) Γ·r + (1 − R²/r²) ω×r + 2 (R⁴/r⁴ − R²/r²) r (r̂·Γ·r̂).
+fn stokes_velocity(x: f64, y: f64, r0: f64) -> [f64; 2] {
+    let r2 = x * x + y * y;
+    let (a2, a4) = (r0 * r0 / r2, r0.powi(4) / (r2 * r2));
+    let strain = [0.5 * y, 0.5 * x]; // Γ·r
+    let rotation = [0.5 * y, -0.5 * x]; // ω×r, ω = −γ̇/2 ẑ
+    let rgr = x * y / r2; // r̂·Γ·r̂ · r²/r² … times r below
+    std::array::from_fn(|d| {
+        let r = [x, y][d];
+        (1.0 - a4) * strain[d] + (1.0 - a2) * rotation[d] + 2.0 * (a4 - a2) * r * rgr
+    })
+}
+
+/// ∂_y v_x + ∂_x v_y of the Stokes solution (central differences of the exact field).
+fn stokes_shear_rate(x: f64, y: f64, r0: f64) -> f64 {
+    let h = 1e-6;
+    (stokes_velocity(x, y + h, r0)[0] - stokes_velocity(x, y - h, r0)[0]) / (2.0 * h)
+        + (stokes_velocity(x + h, y, r0)[1] - stokes_velocity(x - h, y, r0)[1]) / (2.0 * h)
+}
+
+/// Above and below the cylinder (|x − x₀| < Δ), in the band R + Δ/2 < r < R + 3Δ, the fluid
+/// particles' own shear rate S_xy/η = ∂_y v_x + ∂_x v_y against the Stokes solution at their
+/// positions, which rises to 3γ̇ at the surface (2.5γ̇ at r = R + Δ/4). Measured at t = 0.5 of
+/// the stock cell: the band's mean 1.4272 against Stokes 1.4329 (−0.4 %, 10 particles; the
+/// periodic images and Re = 1 change the field by a few per cent). In the first row
+/// (r < R + Δ/2, not tested) the kernel (support 3.1Δ) smears the steep gradient: 1.85
+/// against 2.5. The bound, 4 % on the band's mean, fails the Morris images switched off
+/// (morris_cap = 1: the disc's particles seen at rest; measured −9.2 %).
+#[test]
+fn shear_rate_near_the_inclusion_follows_stokes() {
+    let loaded = stock_case("inclusion_newtonian_2d.toml");
+    let comm = SerialComm::new();
+    let mut sim = Simulation::<2>::new(&loaded.case, &comm, 2).expect("set up");
+    sim.run_steps(5556, |_| {}).expect("run");
+    let p = &sim.particles;
+    let stress = p.extra_index("viscous_stress").expect("viscous stress");
+    let (r0, spacing) = (0.1, 0.02);
+    let (mut sph, mut stokes, mut n) = (0.0, 0.0, 0);
+    for i in 0..p.n_owned {
+        let (x, y) = (p.pos[i][0] - 0.5, p.pos[i][1] - 0.5);
+        let r = (x * x + y * y).sqrt();
+        if p.species_of(i) != 0 || x.abs() >= spacing || r <= r0 + 0.5 * spacing {
+            continue;
+        }
+        if r < r0 + 3.0 * spacing {
+            sph += p.extra[stress].data[i * 4 + 1]; // η = 1
+            stokes += stokes_shear_rate(x, y, r0);
+            n += 1;
+        }
+    }
+    let (sph, stokes) = (sph / n as f64, stokes / n as f64);
+    eprintln!(
+        "shear rate near the top and bottom: SPH {sph:.4}, Stokes {stokes:.4} ({n} particles)"
+    );
+    assert!(n >= 8, "only {n} particles in the band");
+    assert!(
+        (sph / stokes - 1.0).abs() < 0.04,
+        "SPH {sph} vs Stokes {stokes}"
+    );
+    // The Stokes field itself: 3γ̇ at the top of the cylinder.
+    assert!((stokes_shear_rate(0.0, r0 * (1.0 + 1e-9), r0) - 3.0).abs() < 1e-6);
+}
+
+/// A sheared cell with an inclusion (Morris images, the traction moments, XSPH) gives the
+/// same bits on 1–4 ranks × 1–2 threads.
+#[test]
+fn inclusion_cell_is_bitwise_rank_invariant() {
+    let path =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("cases/inclusion_newtonian_2d.toml");
+    let text = std::fs::read_to_string(path)
+        .expect("stock case")
+        .replace("steps = 11112", "steps = 60")
+        .replace("equilibration = 2222", "equilibration = 0")
+        .replace("sample_every = 10", "sample_every = 5");
+    let d = digests_on_1_to_4_ranks(&text, "inclusion.toml", |_| {});
+    assert_all_equal("inclusion cell", &d);
+}
