@@ -152,6 +152,7 @@ repulsion_range = 0.05
 centres = [[0.5, 0.5]]
 radius = 0.1
 morris_cap = 1.5
+mirror_pressure = true
 [integrator]
 kind = "kick_drift_kick"
 dt = 1e-4

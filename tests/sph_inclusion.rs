@@ -14,8 +14,9 @@ use mesorheo::sim::Simulation;
 
 #[test]
 fn stock_inclusion_cases_pass_their_references() {
-    let name = "inclusion_newtonian_2d.toml";
-    assert_references_pass(name, &stock_case(name));
+    for name in ["inclusion_newtonian_2d.toml", "inclusion_maxwell_2d.toml"] {
+        assert_references_pass(name, &stock_case(name));
+    }
 }
 
 /// Velocity of Stokes flow past a fixed cylinder of radius `r0` at the origin in the simple

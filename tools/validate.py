@@ -17,8 +17,12 @@ and writes plots to docs/ when matplotlib is available.
                  (η and Ψ₁ against the corotational Jeffreys solution, docs/maxwell_shear.png),
                  and the channel relaxation of sin(πy), cases (a) and (b), linear variant and
                  full model, against the linearised solution (~25 min on 2 cores)
+  inclusion      SPH rigid inclusions in Lees–Edwards shear: the Newtonian cell at R = 0.1, 0.15,
+                 0.2 and Δ = 0.02, 0.01 (mean fluid stress against 1/(1 − πR²), composite
+                 viscosity against dilute theory, torque against Stokes), and the Maxwell matrix
+                 at De = 0.01, 0.1 against the thesis's linear-in-concentration fit (~35 min)
 """
-import json, os, subprocess, sys, tempfile
+import json, math, os, subprocess, sys, tempfile
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 BIN = os.environ.get("MESORHEO_BIN", os.path.join(ROOT, "target/mpi/release/mesorheo"))
@@ -368,11 +372,65 @@ def maxwell():
     print()
 
 
+def inclusion():
+    print("### Newtonian cell (cases/inclusion_newtonian_2d.toml at each R and Δ)\n")
+    print("Mean fluid stress σ_xy/(ηγ̇) against the exact 1/(1 − φ), φ = πR²; composite viscosity "
+          "(fluid stress + traction moments) against dilute theory 1 + 3φ (fixed discs); torque "
+          "against the isolated cylinder's −2πηR²γ̇. Averaged over t ∈ [0.2, 1] (one period of the "
+          "image lattice).\n")
+    print("| R | Δ | fluid mean | exact | error | composite | 1 + 3φ | torque | −2πR² | steps | wall s |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
+    for delta in (0.02, 0.01):
+        for r in (0.1, 0.15, 0.2):
+            sets = [f"inclusions.radius={r}"]
+            if delta == 0.01:
+                sets += ["particles.density=10000.0", "particles.mass=0.0001",
+                         "fluid.smoothing_length=0.01033333", "integrator.dt=2e-5", "run.steps=50000",
+                         "run.equilibration=10000", "run.sample_every=50", "neighbour.skin=0.005"]
+            s = run("inclusion_newtonian_2d.toml", sets)
+            o = s["observables"]
+            phi = math.pi * r * r
+            exact = 1 / (1 - phi)
+            eta, comp, torque = o["viscosity"], o["composite_viscosity"], o["inclusion_torque"]
+            print(f"| {r} | {delta} | {fmt(eta)} | {exact:.4f} | {100*(eta['mean']/exact-1):+.2f} % "
+                  f"| {fmt(comp)} | {1+3*phi:.4f} | {torque['mean']:.4f} ± {torque['stderr']:.4f} "
+                  f"| {-2*math.pi*r*r:.4f} | {s['steps']} | {s['wall_seconds']:.0f} |")
+    print()
+    print("### Maxwell matrix (cases/inclusion_maxwell_2d.toml at each De and R)\n")
+    print("η_s = 0.01, η_p = 0.99, Δ = 0.02, Δt = min(4·10⁻⁴, λ/25), t ∈ [1, 3]. Fluid averages "
+          "against the matrix's η(De) = η_s + η_p/(1+De²) and Ψ₁(De)γ̇ = 2η_pDe/(1+De²): the ratios "
+          "η_eff/η and Ψ₁,eff/Ψ₁, beside the thesis's fit 1 + ρ_v (slope ≈ 1) and the Newtonian "
+          "1/(1 − ρ_v).\n")
+    print("| De | R | ρ_v | η_eff | η_eff/η | Ψ₁,eff/Ψ₁ | 1 + ρ_v | 1/(1 − ρ_v) | composite | torque | wall s |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
+    for de in (0.01, 0.1):
+        dt = min(4e-4, de / 25)
+        steps, eq = int(round(3.0 / dt)), int(round(1.0 / dt))
+        slope_num = slope_den = 0.0
+        for r in (0.1, 0.15, 0.2):
+            s = run("inclusion_maxwell_2d.toml",
+                    [f"inclusions.radius={r}", f"fluid.polymer.relaxation_time={de}", f"integrator.dt={dt}",
+                     f"run.steps={steps}", f"run.equilibration={eq}"])
+            o = s["observables"]
+            rho_v = math.pi * r * r
+            eta_m = 0.01 + 0.99 / (1 + de * de)
+            n1_m = 2 * 0.99 * de / (1 + de * de)
+            eta, n1 = o["viscosity"], o["first_normal_stress_difference"]
+            slope_num += rho_v * (eta["mean"] / eta_m - 1)
+            slope_den += rho_v * rho_v
+            print(f"| {de} | {r} | {rho_v:.4f} | {fmt(eta)} | {eta['mean']/eta_m:.4f} "
+                  f"| {n1['mean']/n1_m:.3f} ± {n1['stderr']/n1_m:.3f} | {1+rho_v:.4f} | {1/(1-rho_v):.4f} "
+                  f"| {fmt(o['composite_viscosity'])} | {o['inclusion_torque']['mean']:.4f} | {s['wall_seconds']:.0f} |")
+        print(f"| {de} | slope of η_eff/η − 1 against ρ_v (through 0) | | | {slope_num/slope_den:.3f} | | | | | | |")
+    print()
+
+
 if __name__ == "__main__":
-    todo = sys.argv[1:] or ["stock", "kt_vs_dt", "viscosity", "viscometric", "sph", "sph_convergence", "maxwell"]
+    todo = sys.argv[1:] or ["stock", "kt_vs_dt", "viscosity", "viscometric", "sph", "sph_convergence", "maxwell",
+                            "inclusion"]
     targets = {"kt_vs_dt": kt_vs_dt, "viscosity": viscosity, "stock": stock,
                "viscometric": viscometric, "sph": sph, "sph_convergence": sph_convergence,
-               "maxwell": maxwell}
+               "maxwell": maxwell, "inclusion": inclusion}
     for name in todo:
         if name not in targets:
             sys.exit(f"unknown validation '{name}'; valid: {', '.join(targets)}")

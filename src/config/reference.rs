@@ -326,6 +326,12 @@ pub const KEYS: &[KeyDoc] = &[
         "Cap β_max of Morris's extrapolation factor β = 1 + d_j/d_i (v_j = −(d_j/d_i) v_i relative to the inclusion).",
     ),
     key(
+        "inclusions.mirror_pressure",
+        "bool",
+        "true",
+        "Whether an inclusion particle carries its fluid neighbour's pressure in their pair (p_j := p_i, the thesis's zero normal gradient) or its own; its stress is always mirrored. With a polymer, its own pressure gives 40× quieter stresses (docs/validation.md).",
+    ),
+    key(
         "neighbour.skin",
         "float > 0",
         "0.3",

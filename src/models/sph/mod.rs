@@ -219,6 +219,15 @@ pub struct InclusionsCfg {
     /// Cap β_max of Morris's extrapolation factor β = 1 + d_j/d_i.
     #[serde(default = "beta_max")]
     pub morris_cap: f64,
+    /// Whether an inclusion particle carries its fluid neighbour's pressure in their pair
+    /// (p_j := p_i, the thesis's "von Neumann" condition, spec §2.3; default) or its own, from
+    /// its summation density. Its stress is always mirrored.
+    #[serde(default = "yes")]
+    pub mirror_pressure: bool,
+}
+
+fn yes() -> bool {
+    true
 }
 
 impl InclusionsCfg {
@@ -390,6 +399,7 @@ struct WallGeometry<const D: usize> {
 #[derive(Clone, Copy, Debug)]
 struct InclusionGeometry {
     radius: f64,
+    mirror_pressure: bool,
     beta_max: f64,
     /// Floor of a fluid particle's distance to the surface (Δ/2).
     min_distance: f64,
@@ -715,7 +725,12 @@ impl<K: Kernel, const D: usize> GatherKernel<D> for MomentumKernel<'_, K, D> {
             self.density[i] * self.density[i],
             self.density[j] * self.density[j],
         );
-        let p_sum = if inclusion_pair {
+        let mirror_pressure = inclusion_pair
+            && self
+                .boundaries
+                .inclusions
+                .is_some_and(|g| g.mirror_pressure);
+        let p_sum = if mirror_pressure {
             // An inclusion particle carries its fluid neighbour's pressure (zero normal
             // gradient, spec §2.3): p_j := p_i.
             let pf =
@@ -896,6 +911,7 @@ impl<const D: usize> SphModel<D> {
         });
         let inclusions_geometry = inclusions.map(|inc| InclusionGeometry {
             radius: inc.radius,
+            mirror_pressure: inc.mirror_pressure,
             beta_max: inc.morris_cap,
             min_distance: 0.5 * spacing,
             offset: usize::MAX,
