@@ -24,6 +24,12 @@ pub fn run_case(
 ) -> Result<Summary, String> {
     let threads = threads_of(options);
     let path = &loaded.path;
+    if loaded.case.run.beyond_stability_limits && comm.rank() == 0 {
+        tracing::warn!(
+            "run.beyond_stability_limits: the time step is not checked against the stability \
+             limits (see `mesorheo check`); a blow-up stops the run"
+        );
+    }
     match loaded.case.dimension {
         2 => {
             let sim = Simulation::<2>::new(&loaded.case, comm, threads)?;

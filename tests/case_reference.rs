@@ -43,6 +43,7 @@ steps = 100
 equilibration = 10
 sample_every = 5
 progress_seconds = 1.0
+beyond_stability_limits = false
 [output]
 checkpoint_every = 1000
 checkpoint_keep = 2

@@ -98,3 +98,20 @@ fn inclusion_cell_is_bitwise_rank_invariant() {
     let d = digests_on_1_to_4_ranks(&text, "inclusion.toml", |_| {});
     assert_all_equal("inclusion cell", &d);
 }
+
+/// A time step beyond the inclusion viscous limit is refused, naming the limit, unless the case
+/// asks to run beyond the limits (stability studies).
+#[test]
+fn time_step_limit_can_be_lifted_for_stability_studies() {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/bad_cases/inclusion_dt_beyond_viscous_limit.toml");
+    let text = std::fs::read_to_string(path).expect("bad case");
+    let refused = mesorheo::config::parse(&text, std::path::Path::new("dt.toml"))
+        .expect_err("Δt beyond the limit must be refused");
+    assert!(
+        refused.to_string().contains("viscous (inclusions)"),
+        "{refused}"
+    );
+    let lifted = text.replace("[run]", "[run]\nbeyond_stability_limits = true");
+    common::case_from_str(&lifted, "dt_lifted.toml");
+}

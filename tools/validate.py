@@ -21,6 +21,10 @@ and writes plots to docs/ when matplotlib is available.
                  0.2 and Δ = 0.02, 0.01 (mean fluid stress against 1/(1 − πR²), composite
                  viscosity against dilute theory, torque against Stokes), and the Maxwell matrix
                  at De = 0.01, 0.1 against the thesis's linear-in-concentration fit (~35 min)
+  maxwell_convergence  the Maxwell shear case at De = 1: the errors of η and N₁ against Δt and
+                 against the resolution Δ, with the cost of each run (~15 min)
+  maxwell_stability  the largest stable Δt of the Maxwell shear case against De, by bisection
+                 (2000 steps survive = stable), beside the limit `check` predicts (~10 min)
 """
 import json, math, os, subprocess, sys, tempfile
 
@@ -372,6 +376,119 @@ def maxwell():
     print()
 
 
+def maxwell_convergence():
+    eta_x, n1_x = 0.1 + 9.9 / 2, 9.9
+    print("### Maxwell shear at De = 1: error and cost against Δt and Δ (cases/maxwell_shear_2d.toml)\n")
+    print("η = η_s + η_p/(1+De²) = 5.05, N₁ = 2η_pλγ̇²/(1+De²) = 9.9; t ∈ [8, 16]. Lucy support 3Δ, "
+          "skin Δ/2; cost in particle-steps and wall seconds (2 threads).\n")
+    print("| sweep | Δ | particles | Δt | steps | η error | N₁ error | particle-steps | wall s |")
+    print("|---|---|---|---|---|---|---|---|---|")
+    rows = []
+    def one(label, delta, dt):
+        n = round(1 / delta)
+        steps, eq = int(round(16 / dt)), int(round(8 / dt))
+        s = run("maxwell_shear_2d.toml", [f"particles.density={n*n}.0", f"particles.mass={1/(n*n)}",
+                                          f"fluid.smoothing_length={3*delta}", f"neighbour.skin={delta/2}",
+                                          f"integrator.dt={dt}", f"run.steps={steps}", f"run.equilibration={eq}",
+                                          f"run.sample_every={max(1, round(0.01 / dt))}"])
+        o = s["observables"]
+        e_eta = o["viscosity"]["mean"] / eta_x - 1
+        e_n1 = o["first_normal_stress_difference"]["mean"] / n1_x - 1
+        cost = n * n * steps
+        rows.append((label, delta, dt, e_eta, e_n1, cost, s["wall_seconds"]))
+        print(f"| {label} | {delta:.4f} | {n*n} | {dt:.2e} | {steps} | {100*e_eta:+.2f} ± {100*o['viscosity']['stderr']/eta_x:.2f} % "
+              f"| {100*e_n1:+.2f} ± {100*o['first_normal_stress_difference']['stderr']/n1_x:.2f} % | {cost:.2e} | {s['wall_seconds']:.0f} |")
+    for dt in (1e-3, 5e-4, 2.5e-4):
+        one("Δt", 0.02, dt)
+    for n in (25, 40, 50, 70):
+        delta = 1 / n
+        # the viscous limit 0.042 (3Δ)² ρ₀/η_s at 0.7 of it, and at most the stock 10⁻³
+        one("Δ", delta, min(1e-3, round(0.7 * 0.042 * (3 * delta) ** 2 / 0.1, 6)))
+    try:
+        import matplotlib
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+        fig, ax = plt.subplots(figsize=(5.5, 3.8))
+        for label, marker in (("Δt", "o"), ("Δ", "s")):
+            r = [x for x in rows if x[0] == label]
+            ax.loglog([x[5] for x in r], [max(abs(x[3]), 1e-5) for x in r], marker + "-", label=f"|η error|, {label} sweep")
+            ax.loglog([x[5] for x in r], [max(abs(x[4]), 1e-5) for x in r], marker + "--", label=f"|N₁ error|, {label} sweep")
+        ax.set_xlabel("cost (particle-steps)"); ax.set_ylabel("relative error"); ax.legend(fontsize=7)
+        fig.tight_layout(); fig.savefig(os.path.join(ROOT, "docs/maxwell_convergence.png"), dpi=120)
+        print("\n![Maxwell error against cost](maxwell_convergence.png)\n")
+    except ImportError:
+        print("\n(matplotlib missing: no plot)\n")
+
+
+def try_run(case, sets=(), ranks=1, threads=2):
+    """run(), but None when the run fails (a blow-up)."""
+    with tempfile.TemporaryDirectory() as out:
+        cmd = ["mpirun", "-n", str(ranks), "--oversubscribe", "--bind-to", "none", BIN, "run",
+               os.path.join(ROOT, "cases", case), "--out", out, "-t", str(threads), "-q"]
+        for s in sets:
+            cmd += ["--set", s]
+        p = subprocess.run(cmd, env=ENV, capture_output=True, text=True)
+        if p.returncode not in (0, 3):
+            return None
+        with open(os.path.join(out, "summary.json")) as f:
+            return json.load(f)
+
+
+def predicted_limit(case, sets):
+    """The binding time-step limit `mesorheo check` prints: (name, value)."""
+    cmd = [BIN, "check", os.path.join(ROOT, "cases", case), "--set", "run.beyond_stability_limits=true"]
+    for s in sets:
+        cmd += ["--set", s]
+    p = subprocess.run(cmd, env=ENV, capture_output=True, text=True)
+    for line in p.stdout.splitlines():
+        if "binding]" in line:
+            name, value = line.split(": ", 1)[1].rsplit(" = ", 1)
+            return name, float(value.split()[0])
+    sys.exit(f"no binding limit in:\n{p.stdout}{p.stderr}")
+
+
+def maxwell_stability():
+    print("### Largest stable Δt of the Maxwell fluid against De (cases/maxwell_shear_2d.toml)\n")
+    print("η_s = 0.1 (Morris), η_p = 9.9, p_b = 20, Lucy 0.06, Δ = 0.02, γ̇ = 1, kick–drift–kick. "
+          "Stable: 2000 steps run without a blow-up (a non-finite or out-of-range pair term, or a "
+          "particle moving beyond the list's reach). Bisection in log Δt to 2 %, between Δt known "
+          "to run and one known to fail; `run.beyond_stability_limits` lets Δt pass the limits.\n")
+    print("| De | largest stable Δt | first failing Δt | binding limit (`check`) | limit value | measured / limit |")
+    print("|---|---|---|---|---|---|")
+    rows = []
+    for de in (0.0125, 0.05, 0.2, 1.0, 3.2, 12.8):
+        base = [f"fluid.polymer.relaxation_time={de}", "run.steps=2000", "run.equilibration=0",
+                "run.sample_every=100", "diagnostics.blocks=2"]
+        name, limit = predicted_limit("maxwell_shear_2d.toml", base)
+        ok = lambda dt: try_run("maxwell_shear_2d.toml", base + [f"integrator.dt={dt}",
+                                                                  "run.beyond_stability_limits=true"]) is not None
+        lo, hi = 0.5 * limit, 2.0 * limit
+        while not ok(lo):
+            hi, lo = lo, lo / 2
+        while ok(hi):
+            lo, hi = hi, hi * 2
+        while hi / lo > 1.02:
+            mid = math.sqrt(lo * hi)
+            if ok(mid):
+                lo = mid
+            else:
+                hi = mid
+        rows.append((de, lo, limit))
+        print(f"| {de} | {lo:.4e} | {hi:.4e} | {name} | {limit:.4e} | {lo/limit:.2f} |")
+    try:
+        import matplotlib
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+        fig, ax = plt.subplots(figsize=(5.5, 3.8))
+        ax.loglog([r[0] for r in rows], [r[1] for r in rows], "o-", label="largest stable Δt (measured)")
+        ax.loglog([r[0] for r in rows], [r[2] for r in rows], "k--", label="binding limit of `check`")
+        ax.set_xlabel("De = λγ̇"); ax.set_ylabel("Δt"); ax.legend(fontsize=8)
+        fig.tight_layout(); fig.savefig(os.path.join(ROOT, "docs/maxwell_stability.png"), dpi=120)
+        print("\n![Maxwell stability map](maxwell_stability.png)\n")
+    except ImportError:
+        print("\n(matplotlib missing: no plot)\n")
+
+
 def inclusion():
     print("### Newtonian cell (cases/inclusion_newtonian_2d.toml at each R and Δ)\n")
     print("Mean fluid stress σ_xy/(ηγ̇) against the exact 1/(1 − φ), φ = πR²; composite viscosity "
@@ -427,10 +544,11 @@ def inclusion():
 
 if __name__ == "__main__":
     todo = sys.argv[1:] or ["stock", "kt_vs_dt", "viscosity", "viscometric", "sph", "sph_convergence", "maxwell",
-                            "inclusion"]
+                            "inclusion", "maxwell_convergence", "maxwell_stability"]
     targets = {"kt_vs_dt": kt_vs_dt, "viscosity": viscosity, "stock": stock,
                "viscometric": viscometric, "sph": sph, "sph_convergence": sph_convergence,
-               "maxwell": maxwell, "inclusion": inclusion}
+               "maxwell": maxwell, "inclusion": inclusion,
+               "maxwell_convergence": maxwell_convergence, "maxwell_stability": maxwell_stability}
     for name in todo:
         if name not in targets:
             sys.exit(f"unknown validation '{name}'; valid: {', '.join(targets)}")

@@ -354,6 +354,11 @@ pub struct RunCfg {
     /// Seconds between progress lines (0: none).
     #[serde(default = "ten_f")]
     pub progress_seconds: f64,
+    /// Run a time step beyond the stability limits instead of refusing it (default false):
+    /// for stability studies, which measure what the limits only estimate. `check` still marks
+    /// the violated limit, and the run logs a warning.
+    #[serde(default)]
+    pub beyond_stability_limits: bool,
 }
 
 fn ten() -> u64 {

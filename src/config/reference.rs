@@ -362,6 +362,12 @@ pub const KEYS: &[KeyDoc] = &[
         "Seconds between progress lines on rank 0 (0: off).",
     ),
     key(
+        "run.beyond_stability_limits",
+        "bool",
+        "false",
+        "Run a time step beyond the stability limits instead of refusing it: for stability studies, which measure what the limits estimate (`check` still marks the violated limit; the run logs a warning).",
+    ),
+    key(
         "output.checkpoint_every",
         "integer ≥ 0",
         "0",
