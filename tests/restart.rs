@@ -657,3 +657,28 @@ profile_bins = 6
         }
     }
 }
+
+/// A sheared cell with an inclusion in a Maxwell fluid (the inclusion species and offsets, the
+/// polymer stress, XSPH): N steps ≡ N/2 + checkpoint + restart on another rank count + N/2,
+/// bitwise.
+#[test]
+fn sph_inclusion_restart_is_bitwise() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("cases/inclusion_maxwell_2d.toml");
+    let text = std::fs::read_to_string(path)
+        .expect("stock case")
+        .replace("steps = 7500", "steps = 120")
+        .replace("equilibration = 2500", "equilibration = 0");
+    let whole = uninterrupted(&text);
+    for (first, second) in [(1, 2), (2, 1)] {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let out = dir.path().to_path_buf();
+        let half = run_until(&text, first, &out, 60);
+        assert_eq!(half.steps, 60);
+        let rest = restart_into(&out.join("checkpoints"), second, &out).expect("second half");
+        assert!(rest.completed);
+        assert_eq!(
+            rest.state_digest, whole,
+            "inclusion cell: {first} ranks → checkpoint at 60 → {second} ranks differs"
+        );
+    }
+}

@@ -227,7 +227,7 @@ pub const KEYS: &[KeyDoc] = &[
         "fluid.polymer.relaxation_time",
         "float > 0",
         "required ([fluid.polymer])",
-        "Relaxation time λ; Δt must stay below it and below the elastic-wave limit 0.4 r_s/√(c₀² + η_p/(ρ₀λ)) (the coefficient measured).",
+        "Relaxation time λ; Δt must stay below it and below the elastic-wave limit 0.35 r_s/√(c₀² + η_p/(ρ₀λ)) (the coefficient measured).",
     ),
     key(
         "fluid.polymer.rotation",
