@@ -642,19 +642,24 @@ profile_bins = 6
             "kick_drift_kick",
         ),
     ] {
-        let whole = uninterrupted(&text);
-        for (first, second) in [(1, 2), (2, 1)] {
-            let dir = tempfile::tempdir().expect("tempdir");
-            let out = dir.path().to_path_buf();
-            let half = run_until(&text, first, &out, 60);
-            assert_eq!(half.steps, 60);
-            let rest = restart_into(&out.join("checkpoints"), second, &out).expect("second half");
-            assert!(rest.completed);
-            assert_eq!(
-                rest.state_digest, whole,
-                "SPH channel: {first} ranks → checkpoint at 60 → {second} ranks differs"
-            );
-        }
+        assert_restart_at_60_is_bitwise(&text, "SPH channel");
+    }
+}
+
+/// `text` run whole ≡ run to step 60 on 1 (2) ranks + restarted on 2 (1) ranks, bitwise.
+fn assert_restart_at_60_is_bitwise(text: &str, name: &str) {
+    let whole = uninterrupted(text);
+    for (first, second) in [(1, 2), (2, 1)] {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let out = dir.path().to_path_buf();
+        let half = run_until(text, first, &out, 60);
+        assert_eq!(half.steps, 60);
+        let rest = restart_into(&out.join("checkpoints"), second, &out).expect("second half");
+        assert!(rest.completed);
+        assert_eq!(
+            rest.state_digest, whole,
+            "{name}: {first} ranks → checkpoint at 60 → {second} ranks differs"
+        );
     }
 }
 
@@ -668,17 +673,5 @@ fn sph_inclusion_restart_is_bitwise() {
         .expect("stock case")
         .replace("steps = 7500", "steps = 120")
         .replace("equilibration = 2500", "equilibration = 0");
-    let whole = uninterrupted(&text);
-    for (first, second) in [(1, 2), (2, 1)] {
-        let dir = tempfile::tempdir().expect("tempdir");
-        let out = dir.path().to_path_buf();
-        let half = run_until(&text, first, &out, 60);
-        assert_eq!(half.steps, 60);
-        let rest = restart_into(&out.join("checkpoints"), second, &out).expect("second half");
-        assert!(rest.completed);
-        assert_eq!(
-            rest.state_digest, whole,
-            "inclusion cell: {first} ranks → checkpoint at 60 → {second} ranks differs"
-        );
-    }
+    assert_restart_at_60_is_bitwise(&text, "inclusion cell");
 }

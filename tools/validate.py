@@ -33,7 +33,9 @@ BIN = os.environ.get("MESORHEO_BIN", os.path.join(ROOT, "target/mpi/release/meso
 ENV = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
 
 
-def run(case, sets=(), ranks=1, threads=2):
+def launch(case, sets=(), ranks=1, threads=2):
+    """Runs a case on `ranks` MPI ranks: (summary, or None when the run failed; the command;
+    its stderr)."""
     with tempfile.TemporaryDirectory() as out:
         cmd = ["mpirun", "-n", str(ranks), "--oversubscribe", "--bind-to", "none", BIN, "run",
                os.path.join(ROOT, "cases", case), "--out", out, "-t", str(threads), "-q"]
@@ -41,9 +43,16 @@ def run(case, sets=(), ranks=1, threads=2):
             cmd += ["--set", s]
         p = subprocess.run(cmd, env=ENV, capture_output=True, text=True)
         if p.returncode not in (0, 3):
-            sys.exit(f"failed: {' '.join(cmd)}\n{p.stderr}")
+            return None, cmd, p.stderr
         with open(os.path.join(out, "summary.json")) as f:
-            return json.load(f)
+            return json.load(f), cmd, p.stderr
+
+
+def run(case, sets=(), ranks=1, threads=2):
+    summary, cmd, stderr = launch(case, sets, ranks, threads)
+    if summary is None:
+        sys.exit(f"failed: {' '.join(cmd)}\n{stderr}")
+    return summary
 
 
 def run_text(text, sets=(), ranks=1, threads=2):
@@ -422,16 +431,7 @@ def maxwell_convergence():
 
 def try_run(case, sets=(), ranks=1, threads=2):
     """run(), but None when the run fails (a blow-up)."""
-    with tempfile.TemporaryDirectory() as out:
-        cmd = ["mpirun", "-n", str(ranks), "--oversubscribe", "--bind-to", "none", BIN, "run",
-               os.path.join(ROOT, "cases", case), "--out", out, "-t", str(threads), "-q"]
-        for s in sets:
-            cmd += ["--set", s]
-        p = subprocess.run(cmd, env=ENV, capture_output=True, text=True)
-        if p.returncode not in (0, 3):
-            return None
-        with open(os.path.join(out, "summary.json")) as f:
-            return json.load(f)
+    return launch(case, sets, ranks, threads)[0]
 
 
 def predicted_limit(case, sets):
