@@ -84,19 +84,39 @@ fn shear_rate_near_the_inclusion_follows_stokes() {
     assert!((stokes_shear_rate(0.0, r0 * (1.0 + 1e-9), r0) - 3.0).abs() < 1e-6);
 }
 
-/// A sheared cell with an inclusion (Morris images, the traction moments, XSPH) gives the
-/// same bits on 1–4 ranks × 1–2 threads.
+/// A sheared cell with an inclusion (Morris images, the traction moments, XSPH), Newtonian and
+/// Maxwell (the mirrored polymer stress), gives the same bits on 1–4 ranks × 1–2 threads.
 #[test]
 fn inclusion_cell_is_bitwise_rank_invariant() {
-    let path =
-        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("cases/inclusion_newtonian_2d.toml");
-    let text = std::fs::read_to_string(path)
-        .expect("stock case")
-        .replace("steps = 11112", "steps = 60")
-        .replace("equilibration = 2222", "equilibration = 0")
-        .replace("sample_every = 10", "sample_every = 5");
-    let d = digests_on_1_to_4_ranks(&text, "inclusion.toml", |_| {});
-    assert_all_equal("inclusion cell", &d);
+    for (name, steps, equilibration, sample) in [
+        (
+            "inclusion_newtonian_2d.toml",
+            "steps = 11112",
+            "equilibration = 2222",
+            "sample_every = 10",
+        ),
+        (
+            "inclusion_maxwell_2d.toml",
+            "steps = 7500",
+            "equilibration = 2500",
+            "sample_every = 5",
+        ),
+    ] {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("cases")
+            .join(name);
+        let text = std::fs::read_to_string(path)
+            .expect("stock case")
+            .replace(steps, "steps = 60")
+            .replace(equilibration, "equilibration = 0")
+            .replace(sample, "sample_every = 5");
+        assert!(
+            text.contains("steps = 60\n"),
+            "{name}: the run length was not replaced"
+        );
+        let d = digests_on_1_to_4_ranks(&text, name, |_| {});
+        assert_all_equal(name, &d);
+    }
 }
 
 /// A time step beyond the inclusion viscous limit is refused, naming the limit, unless the case
