@@ -128,14 +128,21 @@ pub fn build_fluid<const D: usize>(case: &Case) -> Box<dyn ParticleModel<D>> {
         FluidCfg::SummationGas(g) => Box::new(SummationGas::<D>::new(g, case.particles.mass)),
         FluidCfg::Sph(s) => {
             let lengths = std::array::from_fn(|d| case.domain.lengths[d]);
-            Box::new(SphModel::<D>::new(
-                s,
-                case.particles.mass,
-                &lengths,
-                case.lattice_spacing(),
-                case.walls.as_ref(),
-                case.inclusions.as_ref(),
-            ))
+            let composite = case
+                .diagnostics
+                .observables
+                .contains(&crate::config::Observable::CompositeViscosity);
+            Box::new(
+                SphModel::<D>::new(
+                    s,
+                    case.particles.mass,
+                    &lengths,
+                    case.lattice_spacing(),
+                    case.walls.as_ref(),
+                    case.inclusions.as_ref(),
+                )
+                .with_traction_moments(composite),
+            )
         }
     }
 }
@@ -175,6 +182,35 @@ pub fn build_integrator<const D: usize>(
             case.particles.mass,
             species,
         )),
+    }
+}
+
+/// Where an SPH particle's deviatoric stress lives: the Newtonian (viscous) stress, D×D, and
+/// the polymer stress, packed symmetric; either may be absent.
+struct ParticleStress {
+    viscous: Option<usize>,
+    polymer: Option<usize>,
+}
+
+impl ParticleStress {
+    fn of<const D: usize>(p: &Particles<D>) -> Self {
+        Self {
+            viscous: p.extra_index(crate::models::sph::VISCOUS_STRESS),
+            polymer: p.extra_index(crate::models::sph::POLYMER_STRESS),
+        }
+    }
+
+    /// σ_ab of particle k, viscous + polymer.
+    #[inline]
+    fn component<const D: usize>(&self, p: &Particles<D>, k: usize, a: usize, b: usize) -> f64 {
+        use crate::models::sph::maxwell::{packed_index, packed_width};
+        let mut s = self
+            .viscous
+            .map_or(0.0, |v| p.extra[v].data[k * D * D + a * D + b]);
+        if let Some(t) = self.polymer {
+            s += p.extra[t].data[k * packed_width(D) + packed_index::<D>(a, b)];
+        }
+        s
     }
 }
 
@@ -903,11 +939,11 @@ impl<'c, const D: usize> Simulation<'c, D> {
     /// summation) + polymer stress τ, D×D row-major (the thesis's unweighted particle mean,
     /// Eq. 3.18), and the mean |tr τ|; summed exactly over the ranks (collective).
     fn sph_mean_stress(&self) -> (Vec<f64>, f64) {
+        use crate::models::sph::POLYMER_STRESS;
         use crate::models::sph::maxwell::{packed_index, packed_width};
-        use crate::models::sph::{POLYMER_STRESS, VISCOUS_STRESS};
         let p = &self.particles;
         let dd = D * D;
-        let viscous = p.extra_index(VISCOUS_STRESS);
+        let stress = ParticleStress::of(p);
         let polymer = p.extra_index(POLYMER_STRESS);
         let w = packed_width(D);
         // Count, D² stress components, |tr τ|.
@@ -919,11 +955,7 @@ impl<'c, const D: usize> Simulation<'c, D> {
             sums[0].add(1.0);
             for a in 0..D {
                 for b in 0..D {
-                    let mut s = viscous.map_or(0.0, |v| p.extra[v].data[k * dd + a * D + b]);
-                    if let Some(t) = polymer {
-                        s += p.extra[t].data[k * w + packed_index::<D>(a, b)];
-                    }
-                    sums[1 + a * D + b].add(s);
+                    sums[1 + a * D + b].add(stress.component(p, k, a, b));
                 }
             }
             if let Some(t) = polymer {
@@ -949,10 +981,7 @@ impl<'c, const D: usize> Simulation<'c, D> {
     /// the mean torque per inclusion about z, Σ_j (M_j^{yx} − M_j^{xy}) / N_inclusions
     /// (collective).
     fn composite_stress(&self) -> (f64, f64) {
-        use crate::models::sph::maxwell::{packed_index, packed_width};
-        use crate::models::sph::{
-            DENSITY, INCLUSION, INCLUSION_TRACTION_MOMENT, POLYMER_STRESS, VISCOUS_STRESS,
-        };
+        use crate::models::sph::{DENSITY, INCLUSION, INCLUSION_TRACTION_MOMENT};
         let p = &self.particles;
         let (Some(density), Some(moment)) = (
             p.extra_index(DENSITY),
@@ -961,19 +990,13 @@ impl<'c, const D: usize> Simulation<'c, D> {
             return (f64::NAN, f64::NAN);
         };
         let dd = D * D;
-        let viscous = p.extra_index(VISCOUS_STRESS);
-        let polymer = p.extra_index(POLYMER_STRESS);
-        let w = packed_width(D);
-        let xy = packed_index::<D>(0, 1);
+        let stress = ParticleStress::of(p);
         // Fluid Σ V_i σ_i,xy; inclusions Σ M^{xy}; Σ (M^{yx} − M^{xy}).
         let mut sums = [FixedSum::ZERO; 3];
         for k in 0..p.n_owned {
             let species = p.species_of(k);
             if self.species[species as usize].is_fluid() {
-                let mut s = viscous.map_or(0.0, |v| p.extra[v].data[k * dd + 1]);
-                if let Some(t) = polymer {
-                    s += p.extra[t].data[k * w + xy];
-                }
+                let s = stress.component(p, k, 0, 1);
                 sums[0].add(self.species[species as usize].mass / p.extra[density].data[k] * s);
             } else if species == INCLUSION {
                 let m = &p.extra[moment].data[k * dd..(k + 1) * dd];

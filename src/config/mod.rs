@@ -400,7 +400,8 @@ pub enum Observable {
     /// The composite (cell) shear viscosity of an SPH suspension (needs `[inclusions]` and
     /// shear): `composite_viscosity` = [Σ_fluid (m/ρ_i) σ_i,xy + Σ_inclusions ∮ (σ·n)_x y dS]
     /// / (V γ̇), the fluid's stress plus the inclusions' traction moments; and
-    /// `inclusion_torque`, the mean torque per inclusion about z, ∮ (x − c) × (σ·n) dS.
+    /// `inclusion_torque`, the mean torque per inclusion about z, ∮ (x − c) × (σ·n) dS. Only a
+    /// case that lists it makes the momentum pass accumulate the traction moments.
     CompositeViscosity,
 }
 

@@ -399,6 +399,8 @@ struct WallGeometry<const D: usize> {
 #[derive(Clone, Copy, Debug)]
 struct InclusionGeometry {
     radius: f64,
+    /// Whether the momentum pass accumulates the traction moments (only when measured).
+    traction_moments: bool,
     mirror_pressure: bool,
     beta_max: f64,
     /// Floor of a fluid particle's distance to the surface (Δ/2).
@@ -815,7 +817,7 @@ impl<K: Kernel, const D: usize> GatherKernel<D> for MomentumKernel<'_, K, D> {
                 out[first + a] = -s * vij[a];
             }
         }
-        if let Some(inc) = &self.boundaries.inclusions {
+        if let Some(inc) = self.boundaries.inclusions.filter(|g| g.traction_moments) {
             // The traction moment F^a s^b of the pair force on the inclusion end, acting at the
             // surface point s = R n nearest the fluid end (relative to the centre): odd, so
             // the inclusion end receives F_j ⊗ s whichever end i is (n is the same bits from
@@ -911,6 +913,7 @@ impl<const D: usize> SphModel<D> {
         });
         let inclusions_geometry = inclusions.map(|inc| InclusionGeometry {
             radius: inc.radius,
+            traction_moments: false,
             mirror_pressure: inc.mirror_pressure,
             beta_max: inc.morris_cap,
             min_distance: 0.5 * spacing,
@@ -938,6 +941,22 @@ impl<const D: usize> SphModel<D> {
             sums: Vec::new(),
             scatter: ScatterBuffers::default(),
         }
+    }
+
+    /// The same fluid, with the inclusions' traction moments ([`INCLUSION_TRACTION_MOMENT`])
+    /// accumulated by the momentum pass when `measure` (the `composite_viscosity` observable);
+    /// otherwise no pass spends work on them.
+    pub fn with_traction_moments(mut self, measure: bool) -> Self {
+        if let Some(g) = &mut self.boundaries.inclusions {
+            g.traction_moments = measure;
+        }
+        self
+    }
+
+    fn measures_traction(&self) -> bool {
+        self.boundaries
+            .inclusions
+            .is_some_and(|g| g.traction_moments)
     }
 
     /// Whether the fluid forms its Newtonian stress η(G + Gᵀ − (2/d) tr G I): with the nested
@@ -1189,6 +1208,8 @@ impl<const D: usize> ParticleModel<D> for SphModel<D> {
                 kind: FieldKind::Vector,
                 flags: FieldFlags::STATE,
             });
+        }
+        if self.measures_traction() {
             f.push(FieldSpec {
                 name: INCLUSION_TRACTION_MOMENT,
                 kind: FieldKind::Tensor,
