@@ -68,6 +68,17 @@ pub fn report(case: &Case, ranks: usize) -> String {
                 } else {
                     String::new()
                 };
+                if poly.is_ensemble() {
+                    line(format!(
+                        "dumbbells: {} per fluid particle, spring {:?}, scheme {:?}, {:?} \
+                         precision; Kramers stress G(⟨QF(Q)⟩ − I) with G = η_p/λ = {}",
+                        poly.per_particle.unwrap_or(0),
+                        poly.spring_law(),
+                        poly.scheme_or_default(),
+                        poly.connector_precision(),
+                        poly.modulus()
+                    ));
+                }
                 line(format!(
                     "polymer: {:?}{}, η_p = {}, λ = {}, modulus η_p/λ = {}{de}; zero-shear \
                      viscosity η₀ = η + η_p = {}, background pressure {}",
@@ -151,7 +162,7 @@ pub fn report(case: &Case, ranks: usize) -> String {
     }
     let slab = l_axis / ranks as f64;
     line(format!(
-        "decomposition: slabs along {}, {ranks} rank(s) → width {slab:.3} (needs ≥ {range}); at most {max_ranks} ranks [{}]",
+        "decomposition: slabs along {}, {ranks} rank(s) → width {slab:.3} (needs ≥ {range:.4}); at most {max_ranks} ranks [{}]",
         ["x", "y", "z"][axis],
         if ranks <= max_ranks {
             "ok"
@@ -168,9 +179,14 @@ pub fn report(case: &Case, ranks: usize) -> String {
     };
     let bytes_entry = 8.0;
     let bytes_pair = 8.0 + (dim as f64 + 4.0) * 8.0;
+    let ensembles = match &case.fluid {
+        FluidCfg::Sph(s) => s.polymer.as_ref().filter(|p| p.is_ensemble()),
+        _ => None,
+    };
     let mem = owned * BYTES_CORE
         + ghosts * (8.0 + 2.0 * 8.0 * dim as f64)
-        + owned * list_neighbours * (bytes_entry + 0.5 * bytes_pair);
+        + owned * list_neighbours * (bytes_entry + 0.5 * bytes_pair)
+        + owned * ensembles.map_or(0.0, |p| p.bytes_per_particle(dim));
     line(format!(
         "memory per rank ≈ {:.1} MiB ({:.0} owned + {:.0} ghost particles)",
         mem / 1048576.0,
@@ -184,6 +200,15 @@ pub fn report(case: &Case, ranks: usize) -> String {
         case.run.steps as f64 * n as f64,
         pair_evals
     ));
+    if let Some(p) = ensembles {
+        // An upper bound: wall and inclusion particles carry none.
+        let work = n as f64 * p.per_particle.unwrap_or(0) as f64 * case.run.steps as f64;
+        line(format!(
+            "dumbbells: ≤ {work:.3e} dumbbell-steps; at ~5·10⁷ per second per core (Hookean, \
+             docs/performance.md) about {:.1} core-seconds",
+            work / 5e7
+        ));
+    }
     s
 }
 

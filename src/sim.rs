@@ -147,6 +147,31 @@ pub fn build_fluid<const D: usize>(case: &Case) -> Box<dyn ParticleModel<D>> {
     }
 }
 
+/// The models a case needs beside its fluid: the dumbbell ensembles of a CONNFFESSIT fluid
+/// (`[fluid.polymer] model = "dumbbells"`), carried by the fluid species only, stepping with
+/// the SPH velocity gradient. Attached after the species are known.
+pub fn build_companions<const D: usize>(
+    case: &Case,
+) -> Result<Vec<Box<dyn ParticleModel<D>>>, String> {
+    let mut out: Vec<Box<dyn ParticleModel<D>>> = Vec::new();
+    if let FluidCfg::Sph(s) = &case.fluid
+        && let Some(poly) = s.polymer.as_ref().filter(|p| p.is_ensemble())
+    {
+        let carrier = (case.walls.is_some() || case.inclusions.is_some())
+            .then_some(crate::models::sph::FLUID);
+        out.push(Box::new(
+            crate::models::dumbbell_ensemble::DumbbellEnsemble::<D>::of_fluid(
+                poly,
+                case.integrator.dt(),
+                case.seed,
+                crate::models::sph::VELOCITY_GRADIENT,
+                carrier,
+            )?,
+        ));
+    }
+    Ok(out)
+}
+
 /// The integrator the case names, for the species `species` (a one-species scene: `&[]`).
 pub fn build_integrator<const D: usize>(
     case: &Case,
@@ -244,6 +269,14 @@ impl<'c, const D: usize> Simulation<'c, D> {
             sim.rebuild()?;
             sim.compute_forces(sim.virial_scope)?;
         }
+        let companions = build_companions::<D>(case)?;
+        if !companions.is_empty() {
+            for model in companions {
+                sim.attach(model)?;
+            }
+            // The initial forces with the companions' initial state (the ensembles' stress).
+            sim.compute_forces(sim.virial_scope)?;
+        }
         Ok(sim)
     }
 
@@ -311,6 +344,9 @@ impl<'c, const D: usize> Simulation<'c, D> {
         // The models register their fields now, after the list-build positions have left:
         // the indices they keep stay valid.
         sim.attach(build_fluid::<D>(case))?;
+        for model in build_companions::<D>(case)? {
+            sim.attach(model)?;
+        }
         // The list was built at the build positions, not at the current ones.
         sim.list.at_build_positions = false;
         sim.step = step;

@@ -131,6 +131,7 @@ equation_of_state = "tait"
 density = "continuity"
 viscosity = 1.0
 viscous_term = "morris"
+velocity_gradient = "corrected"
 body_force = [0.0, 0.0]
 morris_regularisation = 0.0
 xsph = 0.5
@@ -196,6 +197,50 @@ fn paths(prefix: &str, v: &toml::Value, out: &mut BTreeSet<String>) {
     }
 }
 
+/// The dumbbell keys of `[fluid.polymer]` (which a constitutive model refuses).
+const EVERY_DUMBBELL_KEY: &str = r#"
+dimension = 2
+[box]
+lengths = [1.0, 1.0]
+shear_rate = 1.0
+[particles]
+lattice = "cubic"
+density = 400.0
+mass = 0.0025
+temperature = 0.0
+[fluid]
+kind = "sph"
+kernel = "lucy"
+smoothing_length = 0.15
+sound_speed = 10.0
+viscosity = 0.5
+[fluid.polymer]
+model = "dumbbells"
+viscosity = 0.5
+relaxation_time = 1.0
+per_particle = 10
+spring = "fene"
+b = 50.0
+scheme = "semi_implicit"
+precision = "single"
+[integrator]
+kind = "kick_drift_kick"
+dt = 1e-3
+[run]
+steps = 100
+sample_every = 10
+[diagnostics]
+observables = ["viscosity"]
+[[reference]]
+kind = "value"
+name = "v"
+observable = "viscosity"
+value = 1.0
+metric = "relative_error"
+tolerance = 0.1
+source = "s"
+"#;
+
 #[test]
 fn documented_keys_are_exactly_the_parsed_keys() {
     let loaded = case_from_str(EVERY_KEY, "every_key.toml");
@@ -219,9 +264,14 @@ fn documented_keys_are_exactly_the_parsed_keys() {
         &toml::from_str(&text).expect("re-parse"),
         &mut found,
     );
-    let sph = case_from_str(EVERY_SPH_KEY, "sph.toml");
-    let text = toml::to_string(&sph.case).expect("serialise");
-    paths("", &toml::from_str(&text).expect("re-parse"), &mut found);
+    for (text, name) in [
+        (EVERY_SPH_KEY, "sph.toml"),
+        (EVERY_DUMBBELL_KEY, "dumbbells.toml"),
+    ] {
+        let sph = case_from_str(text, name);
+        let text = toml::to_string(&sph.case).expect("serialise");
+        paths("", &toml::from_str(&text).expect("re-parse"), &mut found);
+    }
     let documented: BTreeSet<String> = KEYS.iter().map(|k| k.path.to_owned()).collect();
     let missing: Vec<_> = found.difference(&documented).collect();
     let stale: Vec<_> = documented.difference(&found).collect();
@@ -235,7 +285,13 @@ fn documented_keys_are_exactly_the_parsed_keys() {
     );
     // The case itself uses every documented key.
     let mut in_text = BTreeSet::new();
-    for text in [EVERY_KEY, EVERY_FLOW_KEY, &every_gas_key, EVERY_SPH_KEY] {
+    for text in [
+        EVERY_KEY,
+        EVERY_FLOW_KEY,
+        &every_gas_key,
+        EVERY_SPH_KEY,
+        EVERY_DUMBBELL_KEY,
+    ] {
         paths(
             "",
             &toml::from_str::<toml::Value>(text).expect("toml"),

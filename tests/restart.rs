@@ -675,3 +675,18 @@ fn sph_inclusion_restart_is_bitwise() {
         .replace("equilibration = 2500", "equilibration = 0");
     assert_restart_at_60_is_bitwise(&text, "inclusion cell");
 }
+
+/// CONNFFESSIT in Lees–Edwards shear (the dumbbell ensembles, checkpointed as variable-length
+/// rows, and the velocity gradient they step with): N steps ≡ N/2 + checkpoint + restart on
+/// another rank count + N/2, bitwise.
+#[test]
+fn connffessit_restart_is_bitwise() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("cases/connffessit_shear_2d.toml");
+    let text = std::fs::read_to_string(path)
+        .expect("stock case")
+        .replace("steps = 12000", "steps = 120")
+        .replace("equilibration = 6000", "equilibration = 0")
+        .replace("per_particle = 100", "per_particle = 8");
+    assert!(text.contains("steps = 120\n") && text.contains("per_particle = 8\n"));
+    assert_restart_at_60_is_bitwise(&text, "CONNFFESSIT shear");
+}

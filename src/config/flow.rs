@@ -296,6 +296,68 @@ fn k(s: &str) -> Segment {
 /// are better spread over more particles.
 const MAX_PER_PARTICLE: usize = 1 << 26;
 
+/// Checks of a dumbbell ensemble's keys under the table `table` (`[polymer]` of a homogeneous
+/// flow, `[fluid.polymer]` of a CONNFFESSIT fluid): N_d, the spring and its b, the scheme.
+pub fn validate_ensemble(
+    table: &[Segment],
+    per_particle: usize,
+    spring: SpringKind,
+    b: Option<f64>,
+    scheme: Option<SchemeKind>,
+    ix: &SpanIndex,
+) -> Result<(), CaseError> {
+    let pk = |key: &str| {
+        let mut path = table.to_vec();
+        path.push(k(key));
+        path
+    };
+    if per_particle == 0 || per_particle > MAX_PER_PARTICLE {
+        return Err(ix.error(
+            &pk("per_particle"),
+            format!(
+                "found {}; must be between 1 and {MAX_PER_PARTICLE} (10²–10⁴ is typical)",
+                per_particle
+            ),
+        ));
+    }
+    match (spring, b) {
+        (SpringKind::Fene, None) => {
+            return Err(ix.error(
+                &pk("b"),
+                "missing: a FENE spring needs its extensibility b = H Q₀²/k_BT (> 2; 10–100 \
+                 typical)",
+            ));
+        }
+        (SpringKind::Fene, Some(b)) if !(b.is_finite() && b > 2.0) => {
+            return Err(ix.error(
+                &pk("b"),
+                format!("found {b}; must be > 2 (typically 10–100)"),
+            ));
+        }
+        (SpringKind::Hookean, Some(_)) => {
+            return Err(ix.error(
+                &pk("b"),
+                "a Hookean spring has no extensibility; remove b or use spring = \"fene\"",
+            ));
+        }
+        _ => {}
+    }
+    if spring == SpringKind::Fene && !matches!(scheme, None | Some(SchemeKind::SemiImplicit)) {
+        return Err(ix.error(
+            &pk("scheme"),
+            format!(
+                "found \"{}\": an explicit scheme can stretch a FENE dumbbell beyond √b; use \
+                 \"semi_implicit\" (or leave scheme out)",
+                match scheme {
+                    Some(SchemeKind::EulerMaruyama) => "euler_maruyama",
+                    _ => "heun",
+                }
+            ),
+        ));
+    }
+    Ok(())
+}
+
 /// Value checks of a homogeneous-flow scene; the first failure is reported.
 pub fn validate(case: &FlowCase, ix: &SpanIndex) -> Result<(), CaseError> {
     let err = |keys: &[&str], msg: String| -> Result<(), CaseError> {
@@ -396,50 +458,7 @@ pub fn validate(case: &FlowCase, ix: &SpanIndex) -> Result<(), CaseError> {
             format!("found {}; G = n k_BT must be > 0", p.modulus),
         ));
     }
-    if p.per_particle == 0 || p.per_particle > MAX_PER_PARTICLE {
-        return Err(ix.error(
-            &pk("per_particle"),
-            format!(
-                "found {}; must be between 1 and {MAX_PER_PARTICLE} (10²–10⁴ is typical)",
-                p.per_particle
-            ),
-        ));
-    }
-    match (p.spring, p.b) {
-        (SpringKind::Fene, None) => {
-            return Err(ix.error(
-                &pk("b"),
-                "missing: a FENE spring needs its extensibility b = H Q₀²/k_BT (> 2; 10–100 \
-                 typical)",
-            ));
-        }
-        (SpringKind::Fene, Some(b)) if !(b.is_finite() && b > 2.0) => {
-            return Err(ix.error(
-                &pk("b"),
-                format!("found {b}; must be > 2 (typically 10–100)"),
-            ));
-        }
-        (SpringKind::Hookean, Some(_)) => {
-            return Err(ix.error(
-                &pk("b"),
-                "a Hookean spring has no extensibility; remove b or use spring = \"fene\"",
-            ));
-        }
-        _ => {}
-    }
-    if p.spring == SpringKind::Fene && p.scheme_or_default() != Scheme::SemiImplicit {
-        return Err(ix.error(
-            &pk("scheme"),
-            format!(
-                "found \"{}\": an explicit scheme can stretch a FENE dumbbell beyond √b; use \
-                 \"semi_implicit\" (or leave scheme out)",
-                match p.scheme {
-                    Some(SchemeKind::EulerMaruyama) => "euler_maruyama",
-                    _ => "heun",
-                }
-            ),
-        ));
-    }
+    validate_ensemble(&[k("polymer")], p.per_particle, p.spring, p.b, p.scheme, ix)?;
     if p.variance_reduction && p.precision == Precision::Single {
         return Err(ix.error(
             &pk("variance_reduction"),

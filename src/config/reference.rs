@@ -212,10 +212,46 @@ pub const KEYS: &[KeyDoc] = &[
         "Constant p_b added to the equation of state (sph). No continuum pressure gradient changes; it keeps the total stress compressive where a polymer stress pulls (τ_xx > 0 in shear), which the SPH tensile instability feeds on.",
     ),
     key(
+        "fluid.velocity_gradient",
+        "\"sph\" | \"corrected\"",
+        "\"sph\"",
+        "The velocity-gradient estimate G_i (sph): \"sph\" is Σ_j (m_j/ρ_j)(v_j − v_i) ⊗ ∇W_ij (Ellero Eq. 3.7), exact for a linear field only on an undisturbed lattice; \"corrected\" is G_i M_i⁻¹ with M_i = Σ_j (m_j/ρ_j)(x_j − x_i) ⊗ ∇W_ij, exact on any arrangement (a particle with det M_i < 10⁻³ keeps G_i). Use \"corrected\" where noise disorders the particles (dumbbell ensembles): there the plain estimate reads the shear rate ~1 % low.",
+    ),
+    key(
         "fluid.polymer.model",
-        "\"corotational_maxwell\" | \"upper_convected_maxwell\"",
+        "\"corotational_maxwell\" | \"upper_convected_maxwell\" | \"dumbbells\"",
         "required ([fluid.polymer])",
-        "A polymer stress τ carried by every particle (sph): the corotational (Jaumann) Maxwell model of Ellero 2004 ch. 3 with its printed sign corrected, dτ/dt = Ωτ − τΩ + (2η_p/λ)D̄ − τ/λ, or the upper-convected Maxwell model dτ/dt = Gτ + τGᵀ + (2η_p/λ)D − τ/λ (Oldroyd-B with fluid.viscosity > 0). τ starts at 0, is advanced by the integrator and checkpointed.",
+        "A polymer stress τ carried by every particle (sph): the corotational (Jaumann) Maxwell model of Ellero 2004 ch. 3 with its printed sign corrected, dτ/dt = Ωτ − τΩ + (2η_p/λ)D̄ − τ/λ, or the upper-convected Maxwell model dτ/dt = Gτ + τGᵀ + (2η_p/λ)D − τ/λ (Oldroyd-B with fluid.viscosity > 0): τ starts at 0, is advanced by the integrator and checkpointed. \"dumbbells\" (CONNFFESSIT): every fluid particle carries per_particle Brownian dumbbells advanced once per step with the traceless part of its own velocity gradient; τ is their Kramers stress G(⟨QF(Q)⟩ − I), G = η_p/λ; the connectors start at equilibrium and are checkpointed; walls and inclusions carry none.",
+    ),
+    key(
+        "fluid.polymer.per_particle",
+        "integer in [1, 2²⁶]",
+        "required (dumbbells)",
+        "Dumbbells per fluid particle N_d (model = \"dumbbells\"). The stress noise falls as N_d^(−1/2); memory N_d × D × 8 bytes per particle (4 in single precision).",
+    ),
+    key(
+        "fluid.polymer.spring",
+        "\"hookean\" | \"fene\"",
+        "\"hookean\"",
+        "Spring law of the dumbbells (model = \"dumbbells\"). Hookean dumbbells are the Oldroyd-B fluid (η_p = Gλ); FENE needs b, and its zero-shear polymer viscosity is Gλ b/(b + D + 2).",
+    ),
+    key(
+        "fluid.polymer.b",
+        "float > 2",
+        "required (fene)",
+        "FENE extensibility b = H Q₀²/k_BT (model = \"dumbbells\", spring = \"fene\").",
+    ),
+    key(
+        "fluid.polymer.scheme",
+        "\"euler_maruyama\" | \"heun\" | \"semi_implicit\"",
+        "\"heun\" (Hookean), \"semi_implicit\" (FENE)",
+        "Stochastic scheme of the dumbbells (model = \"dumbbells\"); FENE needs \"semi_implicit\".",
+    ),
+    key(
+        "fluid.polymer.precision",
+        "\"double\" | \"single\"",
+        "\"double\"",
+        "Storage of the connectors (model = \"dumbbells\"); the arithmetic is double either way.",
     ),
     key(
         "fluid.polymer.viscosity",

@@ -735,6 +735,40 @@ fn validate_sph(
                     .to_string(),
             ));
         }
+        let ensemble_keys = [
+            ("per_particle", poly.per_particle.is_some()),
+            ("spring", poly.spring.is_some()),
+            ("b", poly.b.is_some()),
+            ("scheme", poly.scheme.is_some()),
+            ("precision", poly.precision.is_some()),
+        ];
+        if poly.is_ensemble() {
+            let Some(n_d) = poly.per_particle else {
+                return Err(ix.error(
+                    &pl("model"),
+                    "model = \"dumbbells\" needs per_particle = N_d, the dumbbells each fluid \
+                     particle carries (10²–10⁴ typical)"
+                        .to_string(),
+                ));
+            };
+            crate::config::flow::validate_ensemble(
+                &[k("fluid"), k("polymer")],
+                n_d,
+                poly.spring
+                    .unwrap_or(crate::config::flow::SpringKind::Hookean),
+                poly.b,
+                poly.scheme,
+                ix,
+            )?;
+        } else if let Some((key, _)) = ensemble_keys.iter().find(|(_, given)| *given) {
+            return Err(ix.error(
+                &pl(key),
+                format!(
+                    "`{key}` describes dumbbell ensembles; it belongs to model = \"dumbbells\" \
+                     (remove it for a constitutive model)"
+                ),
+            ));
+        }
     }
     let dim = case.dimension;
     if !s.body_force.is_empty() && s.body_force.len() != dim {

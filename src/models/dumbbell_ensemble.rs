@@ -11,6 +11,12 @@
 //! tensor field of the particle that another model computes (the SPH or MSPH estimate of ∇v:
 //! the coupling of issue #16).
 //!
+//! The stress is stored packed, the upper triangle row by row ((xx, xy, yy) in 2D, (xx, xy,
+//! xz, yy, yz, zz) in 3D), in the field the SPH momentum equation reads
+//! ([`crate::models::sph::POLYMER_STRESS`]). In a scene with species, only the carrier
+//! species (the fluid) holds dumbbells: a wall or inclusion particle has an empty ensemble and
+//! zero polymer stress, and costs nothing.
+//!
 //! Keys: the initial ensemble of particle g is drawn from the stream (seed, g) and the noise of
 //! step n from (seed, g, n, stage 0) — the keys of [`super::homogeneous_flow`], so a particle
 //! scene with an imposed flow reproduces a homogeneous-flow scene's connectors bit for bit
@@ -21,6 +27,7 @@ use super::dumbbells::{
 };
 use super::homogeneous_flow::Flow;
 use super::interface::{FieldKind, FieldSpec, ParticleModel};
+use super::sph::maxwell::{PolymerCfg, packed_index, packed_width};
 use crate::particles::{FieldFlags, Particles, Precision, VarData, tensor_rows};
 use rayon::prelude::*;
 
@@ -36,9 +43,9 @@ pub enum VelocityGradient {
 
 /// The connector field's name.
 pub const CONNECTORS: &str = "connectors";
-/// The polymer stress field's name (τ_p, D × D, row-major): derived from the connectors after
+/// The polymer stress field's name (τ_p, packed symmetric): derived from the connectors after
 /// every update, for the momentum equation of a coupled fluid.
-pub const POLYMER_STRESS: &str = "polymer_stress";
+pub const POLYMER_STRESS: &str = crate::models::sph::POLYMER_STRESS;
 
 /// Ensembles of `n_d` dumbbells per particle.
 pub struct DumbbellEnsemble<const D: usize> {
@@ -48,6 +55,10 @@ pub struct DumbbellEnsemble<const D: usize> {
     seed: u64,
     precision: Precision,
     kappa: VelocityGradient,
+    /// The only species that carries dumbbells (none: every particle).
+    carrier: Option<u8>,
+    /// Whether a field κ is used without its trace (κ − (tr κ/D) I).
+    deviatoric: bool,
     /// Field indices: connectors (var), stress, κ (extra, when a field is the source).
     connectors: usize,
     stress: usize,
@@ -72,28 +83,67 @@ impl<const D: usize> DumbbellEnsemble<D> {
             seed,
             precision,
             kappa,
+            carrier: None,
+            deviatoric: false,
             connectors: usize::MAX,
             stress: usize::MAX,
             kappa_field: None,
         })
     }
 
-    /// τ_p of every owned particle from its connectors.
+    /// The ensembles of a `[fluid.polymer] model = "dumbbells"` table, at time step `dt`,
+    /// stepping with the velocity-gradient field `kappa_field`, carried by the species
+    /// `carrier` only (none: every particle).
+    ///
+    /// The dumbbells see the traceless part κ − (tr κ/D) I of the fluid's estimate: the
+    /// polymer lives in an incompressible solvent, and the weakly compressible fluid's ∇·v is
+    /// acoustic, O(M²). On the disordered arrangement the ensembles' own noise makes, the
+    /// corrected SPH estimate's trace also has a spurious mean (+0.004γ̇ measured in
+    /// `connffessit_shear_2d.toml`, N_d = 100) that would stretch every dumbbell: N₁ +0.9 %
+    /// with it, −0.1 % without.
+    pub fn of_fluid(
+        cfg: &PolymerCfg,
+        dt: f64,
+        seed: u64,
+        kappa_field: &'static str,
+        carrier: Option<u8>,
+    ) -> Result<Self, String> {
+        let mut e = Self::new(
+            cfg.dumbbell_params(dt),
+            cfg.per_particle.unwrap_or(0),
+            cfg.modulus(),
+            seed,
+            cfg.connector_precision(),
+            VelocityGradient::Field(kappa_field),
+        )?;
+        e.carrier = carrier;
+        e.deviatoric = true;
+        Ok(e)
+    }
+
+    /// τ_p of every owned particle from its connectors (0 for an empty ensemble).
     fn update_stress(&self, p: &mut Particles<D>) {
         let (g, spring) = (self.modulus, self.params.spring);
         let Particles { var, extra, .. } = p;
         let rows = &var[self.connectors].data;
         let stress = &mut extra[self.stress].data;
+        let w = packed_width(D);
         stress
-            .par_chunks_mut(D * D)
+            .par_chunks_mut(w)
             .take(rows.len())
             .enumerate()
             .for_each_init(Vec::new, |wide: &mut Vec<f64>, (i, out)| {
                 wide.clear();
                 rows.extend_f64(i, wide);
+                if wide.is_empty() {
+                    out.fill(0.0);
+                    return;
+                }
                 let s = kramers_stress::<D>(wide, spring);
-                for (o, x) in out.iter_mut().zip(&s[..D * D]) {
-                    *o = g * x;
+                for a in 0..D {
+                    for b in a..D {
+                        out[packed_index::<D>(a, b)] = g * s[a * D + b];
+                    }
                 }
             });
     }
@@ -113,7 +163,7 @@ impl<const D: usize> ParticleModel<D> for DumbbellEnsemble<D> {
             },
             FieldSpec {
                 name: POLYMER_STRESS,
-                kind: FieldKind::Tensor,
+                kind: FieldKind::Values(packed_width(D)),
                 flags: FieldFlags::DERIVED,
             },
         ]
@@ -137,18 +187,26 @@ impl<const D: usize> ParticleModel<D> for DumbbellEnsemble<D> {
         };
         if !restarted {
             let (n_d, seed, spring) = (self.n_d, self.seed, self.params.spring);
-            let Particles { var, gid, .. } = p;
-            let fresh = |g: &u64| {
+            let carrier = self.carrier;
+            let Particles {
+                var, gid, species, ..
+            } = p;
+            let species = species.as_deref();
+            let fresh = |i: usize| {
+                if carrier.is_some_and(|c| species.is_some_and(|s| s[i] != c)) {
+                    return Vec::new();
+                }
                 let mut q = vec![0.0; n_d * D];
-                sample_equilibrium::<D>(&mut q, spring, &mut init_stream(seed, *g));
+                sample_equilibrium::<D>(&mut q, spring, &mut init_stream(seed, gid[i]));
                 q
             };
             let n = var[self.connectors].data.len();
             var[self.connectors].data = match self.precision {
-                Precision::Double => VarData::Double(gid[..n].par_iter().map(fresh).collect()),
+                Precision::Double => VarData::Double((0..n).into_par_iter().map(fresh).collect()),
                 Precision::Single => VarData::Single(
-                    (gid[..n].par_iter())
-                        .map(|g| fresh(g).into_iter().map(|x| x as f32).collect())
+                    (0..n)
+                        .into_par_iter()
+                        .map(|i| fresh(i).into_iter().map(|x| x as f32).collect())
                         .collect(),
                 ),
             };
@@ -176,7 +234,15 @@ impl<const D: usize> ParticleModel<D> for DumbbellEnsemble<D> {
                 (Some(k), _) => k,
                 (None, Some(f)) => {
                     let v = &extra[f].data[i * D * D..(i + 1) * D * D];
-                    std::array::from_fn(|a| std::array::from_fn(|b| v[a * D + b]))
+                    let mut k: [[f64; D]; D] =
+                        std::array::from_fn(|a| std::array::from_fn(|b| v[a * D + b]));
+                    if self.deviatoric {
+                        let mean = (0..D).map(|a| k[a][a]).sum::<f64>() / D as f64;
+                        for (a, row) in k.iter_mut().enumerate() {
+                            row[a] -= mean;
+                        }
+                    }
+                    k
                 }
                 (None, None) => unreachable!("attach resolved the source"),
             }
@@ -184,6 +250,9 @@ impl<const D: usize> ParticleModel<D> for DumbbellEnsemble<D> {
         match &mut var[self.connectors].data {
             VarData::Double(rows) => {
                 rows.par_iter_mut().enumerate().for_each(|(i, q)| {
+                    if q.is_empty() {
+                        return;
+                    }
                     let mut noise = noise_stream(seed, gid[i], n, 0);
                     step_ensemble::<D>(q, &kappa_of(i), &params, &mut noise);
                 });
@@ -193,6 +262,9 @@ impl<const D: usize> ParticleModel<D> for DumbbellEnsemble<D> {
                 rows.par_iter_mut().enumerate().for_each_init(
                     Vec::new,
                     |wide: &mut Vec<f64>, (i, q)| {
+                        if q.is_empty() {
+                            return;
+                        }
                         wide.clear();
                         wide.extend(q.iter().map(|&x| f64::from(x)));
                         let mut noise = noise_stream(seed, gid[i], n, 0);

@@ -28,6 +28,9 @@
 //! The stress is stored packed, the upper triangle row by row: (xx, xy, yy) in 2D,
 //! (xx, xy, xz, yy, yz, zz) in 3D.
 
+use crate::config::flow::{Precision as ConnectorPrecision, SchemeKind, SpringKind};
+use crate::models::dumbbells::{DumbbellParams, Scheme, Spring};
+use crate::particles::Precision;
 use serde::{Deserialize, Serialize};
 
 /// `[fluid.polymer]`: a polymer stress carried by every fluid particle.
@@ -44,6 +47,81 @@ pub struct PolymerCfg {
     /// linear variant "SPH2"). Only for `corotational_maxwell`.
     #[serde(default = "yes")]
     pub rotation: bool,
+    /// `dumbbells`: dumbbells per particle N_d (required).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub per_particle: Option<usize>,
+    /// `dumbbells`: spring law (default Hookean).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub spring: Option<SpringKind>,
+    /// `dumbbells` with `spring = "fene"`: maximum extensibility b = H Q₀²/k_BT.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub b: Option<f64>,
+    /// `dumbbells`: the stochastic scheme (default Heun for Hookean, semi-implicit for FENE).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub scheme: Option<SchemeKind>,
+    /// `dumbbells`: storage precision of the connectors (default double).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub precision: Option<ConnectorPrecision>,
+}
+
+impl PolymerCfg {
+    /// Whether the stress comes from dumbbell ensembles (CONNFFESSIT) rather than a
+    /// constitutive equation.
+    pub fn is_ensemble(&self) -> bool {
+        self.model == PolymerModel::Dumbbells
+    }
+
+    /// The ensembles' spring law (Hookean unless `spring = "fene"`).
+    pub fn spring_law(&self) -> Spring {
+        match self.spring.unwrap_or(SpringKind::Hookean) {
+            SpringKind::Hookean => Spring::Hookean,
+            SpringKind::Fene => Spring::Fene {
+                b: self.b.unwrap_or(f64::NAN),
+            },
+        }
+    }
+
+    /// The ensembles' scheme, with its default (Heun for Hookean, semi-implicit for FENE).
+    pub fn scheme_or_default(&self) -> Scheme {
+        match (self.scheme, self.spring.unwrap_or(SpringKind::Hookean)) {
+            (Some(SchemeKind::EulerMaruyama), _) => Scheme::EulerMaruyama,
+            (Some(SchemeKind::Heun), _) => Scheme::Heun,
+            (Some(SchemeKind::SemiImplicit), _) | (None, SpringKind::Fene) => Scheme::SemiImplicit,
+            (None, SpringKind::Hookean) => Scheme::Heun,
+        }
+    }
+
+    /// The ensembles' parameters at time step `dt`.
+    pub fn dumbbell_params(&self, dt: f64) -> DumbbellParams {
+        DumbbellParams {
+            spring: self.spring_law(),
+            scheme: self.scheme_or_default(),
+            lambda: self.relaxation_time,
+            dt,
+        }
+    }
+
+    /// The ensembles' modulus G = η_p/λ (= n k_BT: the stress unit of ⟨QF(Q)⟩ − I).
+    pub fn modulus(&self) -> f64 {
+        self.viscosity / self.relaxation_time
+    }
+
+    /// The connectors' storage precision.
+    pub fn connector_precision(&self) -> Precision {
+        match self.precision.unwrap_or_default() {
+            ConnectorPrecision::Double => Precision::Double,
+            ConnectorPrecision::Single => Precision::Single,
+        }
+    }
+
+    /// Bytes of connector storage per fluid particle (0 for a constitutive model).
+    pub fn bytes_per_particle(&self, dimension: usize) -> f64 {
+        let word = match self.connector_precision() {
+            Precision::Double => 8.0,
+            Precision::Single => 4.0,
+        };
+        self.per_particle.unwrap_or(0) as f64 * dimension as f64 * word
+    }
 }
 
 fn yes() -> bool {
@@ -58,6 +136,11 @@ pub enum PolymerModel {
     CorotationalMaxwell,
     /// The upper-convected Maxwell model (Oldroyd-B with `fluid.viscosity` > 0).
     UpperConvectedMaxwell,
+    /// Every fluid particle carries `per_particle` Brownian dumbbells advanced with its own
+    /// velocity gradient; their Kramers stress G(⟨QF(Q)⟩ − I), G = η_p/λ, is τ (CONNFFESSIT,
+    /// [`crate::models::dumbbell_ensemble`]). Hookean dumbbells are the stochastic
+    /// counterpart of `upper_convected_maxwell`.
+    Dumbbells,
 }
 
 /// Components of the packed symmetric stress in D dimensions.
@@ -92,14 +175,16 @@ pub struct Maxwell {
     pub rotation: bool,
 }
 
-impl From<&PolymerCfg> for Maxwell {
-    fn from(c: &PolymerCfg) -> Self {
-        Self {
+impl Maxwell {
+    /// The constitutive model of a `[fluid.polymer]` table (none for dumbbell ensembles, whose
+    /// stress is no function of τ and G).
+    pub fn constitutive(c: &PolymerCfg) -> Option<Self> {
+        (!c.is_ensemble()).then_some(Self {
             model: c.model,
             viscosity: c.viscosity,
             relaxation_time: c.relaxation_time,
             rotation: c.rotation,
-        }
+        })
     }
 }
 
@@ -125,6 +210,7 @@ impl Maxwell {
                         2.0 * modulus * deviatoric
                     }
                     PolymerModel::UpperConvectedMaxwell => 2.0 * modulus * strain,
+                    PolymerModel::Dumbbells => unreachable!("`constitutive` builds none"),
                 };
                 r -= t[a][b] * inv_lambda;
                 match self.model {
@@ -136,7 +222,7 @@ impl Maxwell {
                             r += omega_ac * t[c][b] - t[a][c] * omega_cb;
                         }
                     }
-                    PolymerModel::CorotationalMaxwell => {}
+                    PolymerModel::CorotationalMaxwell | PolymerModel::Dumbbells => {}
                     PolymerModel::UpperConvectedMaxwell => {
                         // (Gτ + τGᵀ)^{ab} = Σ_c G^{ac} τ^{cb} + τ^{ac} G^{bc}.
                         for c in 0..D {

@@ -126,6 +126,11 @@ pub struct SphCfg {
     /// instability otherwise feeds on.
     #[serde(default)]
     pub background_pressure: f64,
+    /// The velocity-gradient estimate: `sph` (default, the thesis's Eq. 3.7) or `corrected`
+    /// (first-order kernel-gradient correction, exact for a linear velocity field on any
+    /// particle arrangement).
+    #[serde(default)]
+    pub velocity_gradient: GradientEstimate,
     /// A polymer stress carried by every particle and advanced by its constitutive equation
     /// ([`maxwell`]); default none (a Newtonian fluid).
     #[serde(default)]
@@ -156,6 +161,21 @@ pub enum DensityMethod {
     Summation,
     /// dρ_i/dt = Σ_j m_j v_ij · ∇_i W_ij, integrated (ρ starts at ρ₀).
     Continuity,
+}
+
+/// `[fluid] velocity_gradient`
+#[derive(Clone, Copy, Debug, Default, Serialize, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum GradientEstimate {
+    /// G_i = Σ_j (m_j/ρ_j)(v_j − v_i) ⊗ ∇_i W_ij (Ellero Eq. 3.7 × 2): exact for a linear field
+    /// only where the lattice sum M_i = Σ_j (m_j/ρ_j)(x_j − x_i) ⊗ ∇_i W_ij is the identity
+    /// (an undisturbed lattice); on a disordered arrangement its mean falls below I.
+    #[default]
+    Sph,
+    /// G_i M_i⁻¹ (Randles & Libersky 1996; Bonet & Lok 1999): exact for any linear velocity
+    /// field on any arrangement whose M_i is invertible; where M_i is nearly singular
+    /// (det M_i < 10⁻³, a sparse neighbourhood) the uncorrected G_i is kept.
+    Corrected,
 }
 
 /// `[fluid] viscous_term`
@@ -306,6 +326,9 @@ pub const POLYMER_STRESS: &str = "polymer_stress";
 pub const POLYMER_STRESS_RATE: &str = "polymer_stress_rate";
 /// The XSPH drift correction v̂ − v (D per particle).
 pub const XSPH_CORRECTION: &str = "xsph_correction";
+/// The velocity gradient G_i^{ab} = ∂v^a/∂x^b (D × D, row-major) of the last evaluation, kept
+/// for the dumbbell ensembles (`model = "dumbbells"`), which step with it.
+pub const VELOCITY_GRADIENT: &str = "velocity_gradient";
 /// An inclusion particle's offset x_j − c from its inclusion's centre (0 for every other
 /// particle): constant, since inclusions are fixed.
 pub const INCLUSION_OFFSET: &str = "inclusion_offset";
@@ -537,12 +560,15 @@ impl<const D: usize, K: Kernel> SymmetricKernel<D> for DensityKernel<K> {
     }
 }
 
-/// Pass: the velocity gradient G_i^{ab} = Σ_j (m_j/ρ_j)(v_j^a − v_i^a) W'_ij x_ij^b / r_ij.
+/// Pass: the velocity gradient G_i^{ab} = Σ_j (m_j/ρ_j)(v_j^a − v_i^a) W'_ij x_ij^b / r_ij and,
+/// when `corrected`, the lattice sum M_i^{cb} = Σ_j (m_j/ρ_j)(x_j − x_i)^c W'_ij x_ij^b / r_ij
+/// (D × D more outputs) that the finish inverts.
 struct GradientKernel<'a, K, const D: usize> {
     kernel: K,
     mass: f64,
     density: &'a [f64],
     boundaries: Boundaries<D>,
+    corrected: bool,
     scales: Vec<Scale>,
 }
 
@@ -567,7 +593,75 @@ impl<K: Kernel, const D: usize> GatherKernel<D> for GradientKernel<'_, K, D> {
                 out[a * D + b] = dv * x[b];
             }
         }
+        if self.corrected {
+            for c in 0..D {
+                let dx = -s * x[c];
+                for b in 0..D {
+                    out[D * D + c * D + b] = dx * x[b];
+                }
+            }
+        }
     }
+}
+
+/// Smallest det M_i with which the corrected gradient G_i M_i⁻¹ is formed (M_i ≈ I inside a
+/// complete neighbourhood; a particle that sees few neighbours keeps its uncorrected G_i).
+const MIN_CORRECTION_DETERMINANT: f64 = 1e-3;
+
+/// Replaces each particle's G_i (the first D² numbers of every `width`-wide row of `sums`) by
+/// G_i M_i⁻¹, with M_i the next D² numbers; returns how many rows kept G_i because M_i was
+/// nearly singular.
+fn apply_gradient_correction<const D: usize>(sums: &mut [f64], width: usize) -> usize {
+    let mut kept = 0;
+    for row in sums.chunks_exact_mut(width) {
+        let m: [[f64; D]; D] =
+            std::array::from_fn(|c| std::array::from_fn(|b| row[D * D + c * D + b]));
+        let (det, inv) = determinant_and_inverse(&m);
+        if !(det > MIN_CORRECTION_DETERMINANT && det.is_finite()) {
+            kept += 1;
+            continue;
+        }
+        let g: [[f64; D]; D] = std::array::from_fn(|a| std::array::from_fn(|b| row[a * D + b]));
+        for a in 0..D {
+            for b in 0..D {
+                row[a * D + b] = (0..D).map(|c| g[a][c] * inv[c][b]).sum();
+            }
+        }
+    }
+    kept
+}
+
+/// det m and m⁻¹ (by cofactors) of a 1 × 1, 2 × 2 or 3 × 3 matrix.
+fn determinant_and_inverse<const D: usize>(m: &[[f64; D]; D]) -> (f64, [[f64; D]; D]) {
+    let mut inv = [[0.0; D]; D];
+    let det = match D {
+        1 => {
+            inv[0][0] = 1.0 / m[0][0];
+            return (m[0][0], inv);
+        }
+        2 => m[0][0] * m[1][1] - m[0][1] * m[1][0],
+        3 => {
+            m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
+                - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
+                + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0])
+        }
+        _ => unreachable!("SPH runs in 2 or 3 dimensions"),
+    };
+    for a in 0..D {
+        for b in 0..D {
+            // inv[a][b] = cofactor(b, a) / det.
+            let cof = if D == 2 {
+                let s = if (a + b) % 2 == 0 { 1.0 } else { -1.0 };
+                s * m[1 - b][1 - a]
+            } else {
+                let (r0, r1) = ((b + 1) % 3, (b + 2) % 3);
+                let (c0, c1) = ((a + 1) % 3, (a + 2) % 3);
+                m[r0][c0] * m[r1][c1] - m[r0][c1] * m[r1][c0]
+            };
+            inv[a][b] = cof / det;
+        }
+    }
+    (det, inv)
 }
 
 /// Pass: the momentum equation (and dρ/dt under continuity), per unit mass times m_i.
@@ -866,9 +960,12 @@ pub struct SphModel<const D: usize> {
     xsph: Option<usize>,
     /// The traction moments of the inclusion particles ([`INCLUSION_TRACTION_MOMENT`]).
     traction_moment: Option<usize>,
+    /// The constitutive polymer model (none for a Newtonian fluid or dumbbell ensembles).
     polymer: Option<Maxwell>,
-    /// τ and dτ/dt.
-    polymer_stress: Option<(usize, usize)>,
+    /// τ (either kind of polymer), dτ/dt (constitutive) and G (dumbbells).
+    polymer_stress: Option<usize>,
+    polymer_rate: Option<usize>,
+    velocity_gradient: Option<usize>,
     p_over_rho2: Vec<f64>,
     inv_density: Vec<f64>,
     sums: Vec<f64>,
@@ -934,8 +1031,10 @@ impl<const D: usize> SphModel<D> {
             stress: None,
             xsph: None,
             traction_moment: None,
-            polymer: cfg.polymer.as_ref().map(Maxwell::from),
+            polymer: cfg.polymer.as_ref().and_then(Maxwell::constitutive),
             polymer_stress: None,
+            polymer_rate: None,
+            velocity_gradient: None,
             p_over_rho2: Vec::new(),
             inv_density: Vec::new(),
             sums: Vec::new(),
@@ -1006,15 +1105,36 @@ impl<const D: usize> SphModel<D> {
                 })
             }
             Pass::Gradient => {
+                let corrected = self.cfg.velocity_gradient == GradientEstimate::Corrected;
+                let mut scales = vec![Scale::covering(HEADROOM * gradient_scale); D * D];
+                if corrected {
+                    // M_i terms: (m/ρ) |W'| r ≤ the gradient terms' bound with r_s for c₀.
+                    let lattice = gradient_scale / self.cfg.sound_speed * self.cfg.support();
+                    scales.extend(vec![Scale::covering(HEADROOM * lattice); D * D]);
+                }
+                let width = scales.len();
                 let k = GradientKernel {
                     kernel,
                     mass: self.mass,
                     density: &p.extra[self.density].data,
                     boundaries: self.boundaries,
-                    scales: vec![Scale::covering(HEADROOM * gradient_scale); D * D],
+                    corrected,
+                    scales,
                 };
                 let r = gather(&k, p, full, &mut sums);
                 r.map(|()| {
+                    if corrected {
+                        apply_gradient_correction::<D>(&mut sums, width);
+                        // The rows become G_i alone, D² wide, for what follows.
+                        let mut w = 0;
+                        for r in 0..sums.len() / width {
+                            for q in 0..D * D {
+                                sums[w] = sums[r * width + q];
+                                w += 1;
+                            }
+                        }
+                        sums.truncate(w);
+                    }
                     if let Some(stress) = self.stress {
                         let eta = self.cfg.viscosity;
                         let out = &mut p.extra[stress].data;
@@ -1031,7 +1151,13 @@ impl<const D: usize> SphModel<D> {
                             }
                         }
                     }
-                    if let (Some(model), Some((tau, rate))) = (self.polymer, self.polymer_stress) {
+                    if let Some(g) = self.velocity_gradient {
+                        // The dumbbells' κ for their next step (row-major ∂v^a/∂x^b).
+                        p.extra[g].data[..sums.len()].copy_from_slice(&sums);
+                    }
+                    if let (Some(model), Some(tau), Some(rate)) =
+                        (self.polymer, self.polymer_stress, self.polymer_rate)
+                    {
                         let w = packed_width(D);
                         let mut row = [0.0; 6];
                         let mut out = [0.0; 6];
@@ -1101,7 +1227,7 @@ impl<const D: usize> SphModel<D> {
                         .stress
                         .filter(|_| self.cfg.viscous_term == ViscousTerm::NestedSummation)
                         .map(|s| p.extra[s].data.as_slice()),
-                    polymer: self.polymer_stress.map(|(s, _)| p.extra[s].data.as_slice()),
+                    polymer: self.polymer_stress.map(|s| p.extra[s].data.as_slice()),
                     two_eta_morris: if self.cfg.viscous_term == ViscousTerm::Morris {
                         2.0 * self.cfg.viscosity
                     } else {
@@ -1192,15 +1318,34 @@ impl<const D: usize> ParticleModel<D> for SphModel<D> {
                 flags: FieldFlags::DERIVED,
             });
         }
-        if self.cfg.polymer.is_some() {
-            for name in [POLYMER_STRESS, POLYMER_STRESS_RATE] {
-                // The rate, like the forces: of the last evaluation, used by the next step.
+        match &self.cfg.polymer {
+            Some(poly) if poly.is_ensemble() => {
+                // τ is the ensembles' Kramers stress, derived anew after every ensemble step
+                // (and on restart) from the connectors, which are the state.
                 f.push(FieldSpec {
-                    name,
+                    name: POLYMER_STRESS,
                     kind: FieldKind::Values(packed_width(D)),
+                    flags: FieldFlags::DERIVED,
+                });
+                // Like the forces: of the last evaluation, used by the next ensemble step, so
+                // kept across a restart.
+                f.push(FieldSpec {
+                    name: VELOCITY_GRADIENT,
+                    kind: FieldKind::Tensor,
                     flags: FieldFlags::STATE,
                 });
             }
+            Some(_) => {
+                for name in [POLYMER_STRESS, POLYMER_STRESS_RATE] {
+                    // The rate, like the forces: of the last evaluation, used by the next step.
+                    f.push(FieldSpec {
+                        name,
+                        kind: FieldKind::Values(packed_width(D)),
+                        flags: FieldFlags::STATE,
+                    });
+                }
+            }
+            None => {}
         }
         if self.inclusions.is_some() {
             f.push(FieldSpec {
@@ -1294,7 +1439,7 @@ impl<const D: usize> ParticleModel<D> for SphModel<D> {
                 boundary_particles: false,
             });
         }
-        if self.cfg.polymer.is_some() {
+        if self.polymer.is_some() {
             out.push(Integrated {
                 state: POLYMER_STRESS,
                 rate: POLYMER_STRESS_RATE,
@@ -1312,15 +1457,19 @@ impl<const D: usize> ParticleModel<D> for SphModel<D> {
         self.stress = p.extra_index(VISCOUS_STRESS);
         self.xsph = p.extra_index(XSPH_CORRECTION);
         self.traction_moment = p.extra_index(INCLUSION_TRACTION_MOMENT);
-        if self.polymer.is_some() {
+        if self.cfg.polymer.is_some() {
             let tau = p
                 .extra_index(POLYMER_STRESS)
                 .ok_or("the polymer stress field is not registered")?;
+            self.polymer_stress = Some(tau);
+        }
+        if self.polymer.is_some() {
             let rate = p
                 .extra_index(POLYMER_STRESS_RATE)
                 .ok_or("the polymer stress rate field is not registered")?;
-            self.polymer_stress = Some((tau, rate));
+            self.polymer_rate = Some(rate);
         }
+        self.velocity_gradient = p.extra_index(VELOCITY_GRADIENT);
         if !restarted && self.rate.is_some() {
             // Continuity density starts at ρ₀ (the lattice is uniform).
             p.extra[self.density].data.fill(self.cfg.rest_density);
@@ -1375,7 +1524,86 @@ mod tests {
             morris_regularisation: 0.01,
             xsph: 0.0,
             background_pressure: 0.0,
+            velocity_gradient: GradientEstimate::Sph,
             polymer: None,
+        }
+    }
+
+    /// The corrected estimate G_i M_i⁻¹ recovers a linear velocity field v = A x + b exactly
+    /// (to round-off) on a random arrangement with random densities, where the plain SPH
+    /// estimate is off by several per cent; and the cofactor inverse is an inverse.
+    #[test]
+    fn corrected_gradient_is_exact_for_a_linear_field_on_a_disordered_arrangement() {
+        let key = StreamKey::new(5, Purpose::Test, 4);
+        let mut p = random_particles();
+        let a: [[f64; 3]; 3] = std::array::from_fn(|r| {
+            std::array::from_fn(|c| key.uniform2(2, r as u32, c as u32).0 - 0.5)
+        });
+        for i in 0..p.n_owned {
+            let x = p.pos[i];
+            p.vel[i] = std::array::from_fn(|r| 0.3 + (0..3).map(|c| a[r][c] * x[c]).sum::<f64>());
+        }
+        let density: Vec<f64> = (0..p.n_owned)
+            .map(|i| 0.9 + 0.2 * key.uniform2(3, i as u32, 0).0)
+            .collect();
+        let list = NeighbourList::build(&p, 1.2, 1.2);
+        let full = FullList::from_half(&list, p.n_owned);
+        let errors = |corrected: bool| -> f64 {
+            let width = if corrected { 18 } else { 9 };
+            let k = GradientKernel {
+                kernel: kernels::WendlandC2::new(0.6, 3),
+                // m/ρ ≈ the volume per particle (4³/300), so that M_i ≈ I.
+                mass: 0.2,
+                density: &density,
+                boundaries: Boundaries::default(),
+                corrected,
+                scales: vec![Scale::covering(1e3); width],
+            };
+            let mut sums = Vec::new();
+            gather(&k, &p, &full, &mut sums).expect("gather");
+            if corrected {
+                // Particles at the cube's corners see too few neighbours and keep G_i.
+                let kept = apply_gradient_correction::<3>(&mut sums, width);
+                assert!(kept < p.n_owned / 4, "{kept} of {} kept G_i", p.n_owned);
+            }
+            // Particles whose whole support (1.2) lies inside the cube of side 4.
+            let mut worst: f64 = 0.0;
+            for i in (0..p.n_owned).filter(|&i| p.pos[i].iter().all(|&x| (1.2..2.8).contains(&x))) {
+                for r in 0..3 {
+                    for c in 0..3 {
+                        worst = worst.max((sums[i * width + r * 3 + c] - a[r][c]).abs());
+                    }
+                }
+            }
+            worst
+        };
+        let (plain, corrected) = (errors(false), errors(true));
+        assert!(
+            plain > 0.02,
+            "the plain estimate is off by {plain}: the test needs disorder"
+        );
+        assert!(corrected < 1e-11, "corrected estimate off by {corrected}");
+        for m in [
+            [[2.0, 0.3, -0.1], [0.5, 1.1, 0.2], [-0.4, 0.7, 0.9]],
+            [[1.0, 0.0, 0.0], [0.0, 3.0, 1.0], [0.0, -1.0, 0.5]],
+        ] {
+            let (det, inv) = determinant_and_inverse(&m);
+            assert!(det.abs() > 0.1);
+            for r in 0..3 {
+                for c in 0..3 {
+                    let e: f64 = (0..3).map(|k| m[r][k] * inv[k][c]).sum();
+                    assert!((e - f64::from(u8::from(r == c))).abs() < 1e-14, "{m:?}");
+                }
+            }
+        }
+        let m2 = [[2.0, 0.3], [0.5, 1.1]];
+        let (det, inv) = determinant_and_inverse(&m2);
+        assert!((det - 2.05).abs() < 1e-14);
+        for r in 0..2 {
+            for c in 0..2 {
+                let e: f64 = (0..2).map(|k| m2[r][k] * inv[k][c]).sum();
+                assert!((e - f64::from(u8::from(r == c))).abs() < 1e-14);
+            }
         }
     }
 

@@ -1,0 +1,77 @@
+//! CONNFFESSIT: SPH particles carrying dumbbell ensembles (`[fluid.polymer] model =
+//! "dumbbells"`), the ensembles stepping with each particle's own velocity gradient and their
+//! Kramers stress driving the fluid.
+//!
+//! - The stock steady-shear scene meets its analytic references (Hookean dumbbells are the
+//!   Oldroyd-B fluid: η = η_s + Gλ, N₁ = 2Gλ²γ̇²) within 2 %.
+//! - The coupled run is the same bits on 1–4 ranks × 1–2 threads (ensembles migrate with their
+//!   particles; the noise is keyed by particle id and step).
+//! - Wall particles carry no dumbbells; fluid particles carry N_d each.
+
+mod common;
+use common::{assert_all_equal, assert_references_pass, case_from_str, digests_on_1_to_4_ranks};
+use mesorheo::comm::SerialComm;
+use mesorheo::models::dumbbell_ensemble::CONNECTORS;
+use mesorheo::models::sph::FLUID;
+use mesorheo::sim::Simulation;
+use std::path::Path;
+
+fn stock(name: &str) -> String {
+    std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("cases")
+            .join(name),
+    )
+    .expect("stock case")
+}
+
+#[test]
+fn stock_shear_scene_meets_the_oldroyd_b_references() {
+    let loaded = common::stock_case("connffessit_shear_2d.toml");
+    assert_references_pass("connffessit_shear_2d.toml", &loaded);
+}
+
+#[test]
+fn coupled_run_is_bitwise_on_1_to_4_ranks_and_1_2_threads() {
+    let text = stock("connffessit_shear_2d.toml")
+        .replace("steps = 12000", "steps = 80")
+        .replace("equilibration = 6000", "equilibration = 0")
+        .replace("per_particle = 100", "per_particle = 8");
+    let d = digests_on_1_to_4_ranks(&text, "connffessit shear", |s| assert_eq!(s.steps, 80));
+    assert_all_equal("connffessit shear", &d);
+}
+
+#[test]
+fn wall_particles_carry_no_dumbbells() {
+    let text = stock("sph_couette_2d.toml")
+        + "\n[fluid.polymer]\nmodel = \"dumbbells\"\nviscosity = 1.0\nrelaxation_time = 1.0\nper_particle = 7\n";
+    // [fluid.polymer] appended after [[reference]] tables would belong to them: move it up.
+    let (head, refs) = text.split_at(text.find("[[reference]]").expect("references"));
+    let polymer = refs[refs.find("\n[fluid.polymer]").expect("appended")..].to_owned();
+    let refs = &refs[..refs.find("\n[fluid.polymer]").expect("appended")];
+    let text = format!("{head}{polymer}\n{refs}");
+    let loaded = case_from_str(&text, "couette with dumbbells");
+    let comm = SerialComm::new();
+    let sim = Simulation::<2>::new(&loaded.case, &comm, 1).expect("set up");
+    let p = &sim.particles;
+    let k = p
+        .var
+        .iter()
+        .position(|f| f.name == CONNECTORS)
+        .expect("connectors");
+    let (mut fluid, mut walls) = (0, 0);
+    for i in 0..p.n_owned {
+        let len = p.var[k].data.row_len(i);
+        if p.species_of(i) == FLUID {
+            assert_eq!(len, 7 * 2, "fluid particle {}", p.gid[i]);
+            fluid += 1;
+        } else {
+            assert_eq!(len, 0, "wall particle {}", p.gid[i]);
+            walls += 1;
+        }
+    }
+    assert!(
+        fluid > 0 && walls > 0,
+        "{fluid} fluid, {walls} wall particles"
+    );
+}
