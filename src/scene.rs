@@ -286,7 +286,7 @@ impl<const D: usize> Scene for ParticleScene<'_, D> {
             case: serde_json::to_value(case).map_err(|e| e.to_string())?,
             dimension: D,
             particles: sim.total_particles,
-            dumbbells: None,
+            dumbbells: sim.dumbbell_count(),
             observables,
             velocity_profile,
             density_profile,

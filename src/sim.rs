@@ -43,6 +43,8 @@ use std::time::{Duration, Instant};
 pub struct PhaseTimes {
     /// Integration (both half steps).
     pub integrate: f64,
+    /// The models' per-particle state updates (the dumbbell ensembles of a CONNFFESSIT fluid).
+    pub particle_state: f64,
     /// Neighbour-list builds.
     pub neighbour: f64,
     /// Migration and halo build at rebuilds.
@@ -844,7 +846,9 @@ impl<'c, const D: usize> Simulation<'c, D> {
             self.pool.install(|| integrator.before_forces(p, stage));
         }
         self.reflect_at_walls();
+        self.times.integrate += t0.elapsed().as_secs_f64();
         if stage == 0 {
+            let t = Instant::now();
             self.step += 1;
             let (models, p, step) = (&self.models, &mut self.particles, self.step);
             self.pool.install(|| {
@@ -852,8 +856,8 @@ impl<'c, const D: usize> Simulation<'c, D> {
                     model.update_state(p, step);
                 }
             });
+            self.times.particle_state += t.elapsed().as_secs_f64();
         }
-        self.times.integrate += t0.elapsed().as_secs_f64();
 
         let t1 = Instant::now();
         let (list, particles) = (&self.list, &self.particles);
@@ -1337,6 +1341,20 @@ impl<'c, const D: usize> Simulation<'c, D> {
         self.comm.allreduce_u64(&mut sum, U64Op::Sum);
         self.comm.allreduce_u64(&mut xor, U64Op::Xor);
         format!("{:016x}{:016x}", sum[0], xor[0])
+    }
+
+    /// Dumbbells in the whole system (the rows of the `connectors` ensemble field over every
+    /// rank, / D), or None without ensembles. Collective.
+    pub fn dumbbell_count(&self) -> Option<u64> {
+        let p = &self.particles;
+        let k = p
+            .var
+            .iter()
+            .position(|f| f.name == crate::models::dumbbell_ensemble::CONNECTORS)?;
+        let mine: usize = (0..p.n_owned).map(|i| p.var[k].data.row_len(i)).sum();
+        let mut total = [(mine / D) as u64];
+        self.comm.allreduce_u64(&mut total, U64Op::Sum);
+        Some(total[0])
     }
 
     /// Runs `steps` steps, sampling on schedule and calling `progress` every step (rank-local).
