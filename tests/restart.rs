@@ -451,7 +451,29 @@ fn a_process_killed_while_writing_a_checkpoint_leaves_the_previous_one_usable() 
 
 #[test]
 fn until_step_and_sigterm_stop_cleanly_and_the_restart_matches_one_run() {
-    let text = le_case(3, 3000, "");
+    until_step_and_sigterm_then_restart(&le_case(3, 3000, ""), 3000);
+}
+
+/// The CONNFFESSIT shear scene (ensembles, velocity gradient) stopped at step 300 by
+/// --until-step, continued, stopped by SIGTERM, continued to the end ≡ one run, bitwise.
+#[test]
+fn connffessit_stopped_by_sigterm_continues_bitwise() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("cases/connffessit_shear_2d.toml");
+    let text = std::fs::read_to_string(path)
+        .expect("stock case")
+        .replace("steps = 12000", "steps = 3000")
+        .replace("equilibration = 6000", "equilibration = 0")
+        .replace("per_particle = 100", "per_particle = 8");
+    assert!(text.contains("steps = 3000\n") && text.contains("per_particle = 8\n"));
+    // Without the references (a short run meets none; a failed check is a non-zero exit).
+    let text = &text[..text.find("[[reference]]").expect("references")];
+    until_step_and_sigterm_then_restart(text, 3000);
+}
+
+/// `text` (of `total` steps) run with --until-step 300, restarted and stopped by SIGTERM,
+/// restarted again to the end: the final state equals one uninterrupted run.
+fn until_step_and_sigterm_then_restart(text: &str, total: u64) {
+    let text = text.to_owned();
     let whole = uninterrupted(&text);
     let dir = tempfile::tempdir().expect("tempdir");
     let case = write_case(dir.path(), &text);
@@ -502,7 +524,7 @@ fn until_step_and_sigterm_stop_cleanly_and_the_restart_matches_one_run() {
     let s = summary(&out);
     let stopped = s["steps"].as_u64().unwrap();
     assert_eq!(s["completed"], false, "the run finished before the signal");
-    assert!(stopped > 300 && stopped < 3000);
+    assert!(stopped > 300 && stopped < total);
     let last = s["last_checkpoint"].as_str().unwrap().to_owned();
     assert!(last.ends_with(&checkpoint::file_name(stopped)));
     // Continue to the end.
