@@ -75,3 +75,21 @@ fn wall_particles_carry_no_dumbbells() {
         "{fluid} fluid, {walls} wall particles"
     );
 }
+
+/// An SPH case that leaves out `[diagnostics] observables` gets ones SPH can record (not the
+/// DPD default, whose pressure needs a pair virial): the viscometric functions when sheared.
+#[test]
+fn an_sph_case_without_observables_gets_the_viscometric_ones() {
+    let text = stock("connffessit_shear_2d.toml");
+    let text = &text[..text.find("[diagnostics]").expect("diagnostics")];
+    let loaded = case_from_str(text, "no diagnostics");
+    use mesorheo::config::Observable;
+    assert_eq!(
+        loaded.case.diagnostics.observables,
+        vec![
+            Observable::Momentum,
+            Observable::Viscosity,
+            Observable::FirstNormalStressDifference
+        ]
+    );
+}

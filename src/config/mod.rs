@@ -692,9 +692,39 @@ pub fn parse(source: &str, path: &Path) -> Result<Case, CaseError> {
     }
     tagged::precheck(&table, &index)?;
     let de = toml::Deserializer::parse(source).map_err(|e| index.syntax_error(&e))?;
-    let case: Case = serde_path_to_error::deserialize(de).map_err(|e| index.serde_error(&e))?;
+    let mut case: Case = serde_path_to_error::deserialize(de).map_err(|e| index.serde_error(&e))?;
+    let observables_given = table
+        .get("diagnostics")
+        .and_then(|d| d.get("observables"))
+        .is_some();
+    if !observables_given {
+        case.diagnostics.observables = default_observables_of(&case);
+    }
     validate::validate(&case, &index)?;
     Ok(case)
+}
+
+/// The observables a case records when `[diagnostics] observables` is left out: temperature
+/// and pressure for DPD; temperature and momentum for the summation gas (no pair virial); for
+/// SPH (no virial either) the momentum and, in a sheared box, the viscometric functions.
+fn default_observables_of(case: &Case) -> Vec<Observable> {
+    match &case.fluid {
+        FluidCfg::Sph(_) => {
+            let mut o = vec![Observable::Momentum];
+            if case.domain.shear_rate != 0.0 {
+                o.extend([
+                    Observable::Viscosity,
+                    Observable::FirstNormalStressDifference,
+                ]);
+                if case.dimension == 3 {
+                    o.push(Observable::SecondNormalStressDifference);
+                }
+            }
+            o
+        }
+        FluidCfg::SummationGas(_) => vec![Observable::Temperature, Observable::Momentum],
+        FluidCfg::Dpd(_) => default_observables(),
+    }
 }
 
 impl Case {

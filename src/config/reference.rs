@@ -436,7 +436,7 @@ pub const KEYS: &[KeyDoc] = &[
     key(
         "diagnostics.observables",
         "array of observable names",
-        "[\"temperature\", \"pressure\"]",
+        "dpd: [\"temperature\", \"pressure\"]; summation_gas: [\"temperature\", \"momentum\"]; sph: [\"momentum\"], plus \"viscosity\", \"first_normal_stress_difference\" (and \"second_normal_stress_difference\" in 3D) under shear",
         "What to average: \"temperature\", \"pressure\", \"stress\" (full tensor by contribution), \"viscosity\", \"first_normal_stress_difference\", \"second_normal_stress_difference\", \"momentum\", \"velocity_profile\" (under shear, or across [walls]), \"wall_shear_stress\" (force along x per unit area the fluid exerts on each wall: wall_shear_stress_lower, _upper; needs [walls]), \"density_profile\" (the SPH density of the fluid per bin along y, diagnostics.profile_bins bins; needs sph), \"polymer_stress_trace\" (mean |tr τ| of the fluid particles; needs [fluid.polymer]), \"composite_viscosity\" (an SPH suspension's cell stress, the fluid's Σ (m/ρ)σ_xy plus the inclusions' traction moments ∮ (σ·n)_x y dS, over Vγ̇; also gives inclusion_torque, the mean torque per inclusion; needs [inclusions] and shear). For sph, \"viscosity\" and the normal stress differences come from the fluid particles' own deviatoric stress (viscous + polymer, the mean over fluid particles), \"pressure\" and \"stress\" are not available. The shear ones need box.shear_rate ≠ 0. Only what is listed is computed: the pair virial is skipped without \"pressure\", \"stress\" or the stress differences, and only its diagonal is accumulated without \"stress\" or \"viscosity\".",
     ),
     key(
