@@ -255,7 +255,8 @@ impl<const D: usize> Scene for ParticleScene<'_, D> {
                 }
             })
             .collect();
-        let warnings = crate::diagnostics::block_warnings(&sim.series.scalars, blocks);
+        let mut warnings = crate::diagnostics::block_warnings(&sim.series.scalars, blocks);
+        warnings.extend(sim.counted_warnings());
         let velocity_profile: Vec<ProfilePoint> = (sim.series.profile_estimates(blocks).iter())
             .enumerate()
             .map(|(b, e): (usize, &Estimate)| {

@@ -1343,6 +1343,28 @@ impl<'c, const D: usize> Simulation<'c, D> {
         format!("{:016x}{:016x}", sum[0], xor[0])
     }
 
+    /// The models' counted warnings (summed over the ranks), the non-zero ones. Collective.
+    pub fn counted_warnings(&self) -> Vec<String> {
+        let mut counts = Vec::new();
+        let mut texts = Vec::new();
+        for model in &self.models {
+            for (n, text) in model.counted_warnings() {
+                counts.push(n);
+                texts.push(text);
+            }
+        }
+        if counts.is_empty() {
+            return Vec::new(); // the same models on every rank: all return here
+        }
+        self.comm.allreduce_u64(&mut counts, U64Op::Sum);
+        counts
+            .iter()
+            .zip(texts)
+            .filter(|(n, _)| **n > 0)
+            .map(|(n, text)| text.replace("{n}", &n.to_string()))
+            .collect()
+    }
+
     /// Dumbbells in the whole system (the rows of the `connectors` ensemble field over every
     /// rank, / D), or None without ensembles. Collective.
     pub fn dumbbell_count(&self) -> Option<u64> {

@@ -93,3 +93,29 @@ fn an_sph_case_without_observables_gets_the_viscometric_ones() {
         ]
     );
 }
+
+/// A support barely beyond the lattice spacing leaves every moment matrix nearly singular:
+/// each estimate keeps the plain form and the summary counts them, summed over the ranks
+/// (400 particles × 22 evaluations: the initial ones and one per step).
+#[test]
+fn uncorrected_gradient_estimates_are_counted_in_the_summary() {
+    let text = stock("connffessit_shear_2d.toml");
+    let text = text[..text.find("[[reference]]").expect("references")]
+        .replace("smoothing_length = 0.15", "smoothing_length = 0.0505")
+        .replace("steps = 12000", "steps = 20")
+        .replace("equilibration = 6000", "equilibration = 0")
+        .replace("sample_every = 10", "sample_every = 2")
+        .replace("per_particle = 100", "per_particle = 4")
+        .replace("[run]", "[run]\nbeyond_stability_limits = true");
+    let loaded = case_from_str(&text, "sparse");
+    for ranks in [1, 2] {
+        let s = mesorheo::driver::run_in_process(&loaded, ranks, 1, None).expect("run");
+        assert!(
+            s.warnings
+                .iter()
+                .any(|w| w.starts_with("8800 velocity-gradient estimates")),
+            "{ranks} ranks: {:?}",
+            s.warnings
+        );
+    }
+}

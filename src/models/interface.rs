@@ -194,4 +194,11 @@ pub trait ParticleModel<const D: usize>: Send + Sync {
     fn update_state(&self, particles: &mut Particles<D>, step: u64) {
         let _ = (particles, step);
     }
+
+    /// Events this rank counted since the process started (a restart counts afresh) that the
+    /// summary should warn about, each with the sentence that explains it (`{n}` stands for the count summed over
+    /// the ranks); the engine sums the counts and reports the non-zero ones.
+    fn counted_warnings(&self) -> Vec<(u64, &'static str)> {
+        Vec::new()
+    }
 }

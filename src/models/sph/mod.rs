@@ -966,6 +966,8 @@ pub struct SphModel<const D: usize> {
     polymer_stress: Option<usize>,
     polymer_rate: Option<usize>,
     velocity_gradient: Option<usize>,
+    /// Velocity-gradient estimates left uncorrected (det M_i too small) on this rank.
+    uncorrected_gradients: u64,
     p_over_rho2: Vec<f64>,
     inv_density: Vec<f64>,
     sums: Vec<f64>,
@@ -1035,6 +1037,7 @@ impl<const D: usize> SphModel<D> {
             polymer_stress: None,
             polymer_rate: None,
             velocity_gradient: None,
+            uncorrected_gradients: 0,
             p_over_rho2: Vec::new(),
             inv_density: Vec::new(),
             sums: Vec::new(),
@@ -1124,7 +1127,8 @@ impl<const D: usize> SphModel<D> {
                 let r = gather(&k, p, full, &mut sums);
                 r.map(|()| {
                     if corrected {
-                        apply_gradient_correction::<D>(&mut sums, width);
+                        self.uncorrected_gradients +=
+                            apply_gradient_correction::<D>(&mut sums, width) as u64;
                         // The rows become G_i alone, D² wide, for what follows.
                         let mut w = 0;
                         for r in 0..sums.len() / width {
@@ -1490,6 +1494,15 @@ impl<const D: usize> ParticleModel<D> for SphModel<D> {
             }
         }
         Ok(())
+    }
+
+    fn counted_warnings(&self) -> Vec<(u64, &'static str)> {
+        vec![(
+            self.uncorrected_gradients,
+            "{n} velocity-gradient estimates (particle × evaluation) kept the plain SPH form: \
+             their moment matrix M_i had det M_i < 10⁻³ (too few neighbours); check the \
+             neighbour count or the support",
+        )]
     }
 
     fn pass(&mut self, pass: usize, ctx: PassContext<'_, D>) -> Result<PassOutput, String> {
