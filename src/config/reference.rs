@@ -153,9 +153,9 @@ pub const KEYS: &[KeyDoc] = &[
     ),
     key(
         "fluid.kernel",
-        "\"lucy\" | \"cubic_spline\" | \"quintic_spline\" | \"wendland_c2\"",
+        "\"lucy\" | \"cubic_spline\" | \"quintic_spline\" | \"wendland_c2\" | \"truncated_gaussian\"",
         "\"lucy\"",
-        "SPH smoothing kernel (sph).",
+        "SPH smoothing kernel (sph). Supports: Lucy h, cubic spline and Wendland C2 2h, quintic spline 3h, truncated Gaussian 2h (Murashima & Taniguchi's MSPH kernel, A_d/(h√π)^d (e^{−r²/h²} − e^{−4}); its W′ jumps at 2h).",
     ),
     key(
         "fluid.rest_density",

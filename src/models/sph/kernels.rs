@@ -34,6 +34,9 @@ pub enum KernelKind {
     QuinticSpline,
     /// Wendland's C2 function, support 2h (the common modern choice: no pairing instability).
     WendlandC2,
+    /// The truncated, shifted Gaussian of Murashima & Taniguchi (Zhang & Batra's "revised
+    /// Gaussian"), support 2h: the kernel of their MSPH runs.
+    TruncatedGaussian,
 }
 
 impl KernelKind {
@@ -41,7 +44,7 @@ impl KernelKind {
     pub fn support_factor(self) -> f64 {
         match self {
             KernelKind::Lucy => 1.0,
-            KernelKind::CubicSpline | KernelKind::WendlandC2 => 2.0,
+            KernelKind::CubicSpline | KernelKind::WendlandC2 | KernelKind::TruncatedGaussian => 2.0,
             KernelKind::QuinticSpline => 3.0,
         }
     }
@@ -53,6 +56,7 @@ impl KernelKind {
             KernelKind::CubicSpline => "cubic_spline",
             KernelKind::QuinticSpline => "quintic_spline",
             KernelKind::WendlandC2 => "wendland_c2",
+            KernelKind::TruncatedGaussian => "truncated_gaussian",
         }
     }
 }
@@ -326,13 +330,88 @@ impl Kernel for WendlandC2 {
     }
 }
 
+/// The truncated, shifted Gaussian (Murashima & Taniguchi Eq. 10; Zhang & Batra 2004), spec
+/// `msph-dumbbells.md` §1.2, support 2h:
+///
+/// ```text
+/// W = A_d/(h√π)^d (e^{−q²} − e^{−4}),  q = r/h < 2;   dW/dr = −(2A_d/(h√π)^d) (r/h²) e^{−q²}
+/// A_1 = 1/(erf 2 − 4e^{−4}/√π) = 1.04823,  A_2 = 1/(1 − 5e^{−4}) = 1.10081,
+/// A_3 = π^{3/2}/[4π(√π erf 2/4 − e^{−4}) − (32π/3) e^{−4}] = 1.18517
+/// ```
+///
+/// (each 1/∫W over the ball of radius 2h: the paper's constants to the digits it prints).
+/// W(2h) = 0 but W'(2h) ≠ 0: dW/dr jumps to 0 at the support.
+#[derive(Clone, Copy, Debug)]
+pub struct TruncatedGaussian {
+    h: f64,
+    inv_h2: f64,
+    /// A_d/(h√π)^d.
+    k: f64,
+}
+
+/// erf(2).
+const ERF_2: f64 = 0.995_322_265_018_952_7;
+
+impl TruncatedGaussian {
+    /// With smoothing length `h` (support 2h) in `dimension` (1, 2 or 3) dimensions.
+    pub fn new(h: f64, dimension: usize) -> Self {
+        let e4 = (-4.0f64).exp();
+        let sqrt_pi = PI.sqrt();
+        let a = match dimension {
+            1 => 1.0 / (ERF_2 - 4.0 * e4 / sqrt_pi),
+            2 => 1.0 / (1.0 - 5.0 * e4),
+            _ => PI.powf(1.5) / (4.0 * PI * (sqrt_pi / 4.0 * ERF_2 - e4) - 32.0 * PI / 3.0 * e4),
+        };
+        Self {
+            h,
+            inv_h2: 1.0 / (h * h),
+            k: a / (h * sqrt_pi).powi(dimension as i32),
+        }
+    }
+
+    /// A_d/(h√π)^d, the paper's K.
+    pub fn prefactor(&self) -> f64 {
+        self.k
+    }
+}
+
+impl Kernel for TruncatedGaussian {
+    #[inline(always)]
+    fn w(&self, r: f64) -> f64 {
+        if r >= 2.0 * self.h {
+            return 0.0;
+        }
+        self.k * ((-r * r * self.inv_h2).exp() - (-4.0f64).exp())
+    }
+    #[inline(always)]
+    fn dw(&self, r: f64) -> f64 {
+        if r >= 2.0 * self.h {
+            return 0.0;
+        }
+        -2.0 * self.k * self.inv_h2 * r * (-r * r * self.inv_h2).exp()
+    }
+    #[inline(always)]
+    fn dw_over_r(&self, r: f64) -> f64 {
+        let value = -2.0 * self.k * self.inv_h2 * (-r * r * self.inv_h2).exp();
+        // A select, not an early return, so that loops over pairs vectorise.
+        if r >= 2.0 * self.h { 0.0 } else { value }
+    }
+    fn support(&self) -> f64 {
+        2.0 * self.h
+    }
+    fn max_abs_dw(&self) -> f64 {
+        // 2K r/h² e^{−r²/h²} is largest at r = h/√2: √2 K e^{−1/2}/h (rounded up by 10⁻⁹).
+        (1.0 + 1e-9) * 2f64.sqrt() * self.k * (-0.5f64).exp() / self.h
+    }
+}
+
 /// Calls `$body` with `$k` bound to the kernel of `$kind` (smoothing length `$h`, dimension
 /// `$dim`): the one place a kernel choice becomes a monomorphised call.
 #[macro_export]
 macro_rules! with_kernel {
     ($kind:expr, $h:expr, $dim:expr, |$k:ident| $body:expr) => {{
         use $crate::models::sph::kernels::{
-            CubicSpline, KernelKind, Lucy, QuinticSpline, WendlandC2,
+            CubicSpline, KernelKind, Lucy, QuinticSpline, TruncatedGaussian, WendlandC2,
         };
         match $kind {
             KernelKind::Lucy => {
@@ -351,6 +430,10 @@ macro_rules! with_kernel {
                 let $k = WendlandC2::new($h, $dim);
                 $body
             }
+            KernelKind::TruncatedGaussian => {
+                let $k = TruncatedGaussian::new($h, $dim);
+                $body
+            }
         }
     }};
 }
@@ -359,11 +442,12 @@ macro_rules! with_kernel {
 mod tests {
     use super::*;
 
-    const KINDS: [KernelKind; 4] = [
+    const KINDS: [KernelKind; 5] = [
         KernelKind::Lucy,
         KernelKind::CubicSpline,
         KernelKind::QuinticSpline,
         KernelKind::WendlandC2,
+        KernelKind::TruncatedGaussian,
     ];
 
     /// Midpoint quadrature over the radius of ∫ W dV and of ∫ r W'(r) dV, which integration by
@@ -453,6 +537,27 @@ mod tests {
         ];
         for (got, want) in cases {
             assert!((got - want).abs() < 5e-5, "{got} vs {want}");
+        }
+        // The truncated Gaussian at the paper's h = 2a (msph-dumbbells.md §1.2, 7 digits):
+        // K = 0.0875997, W(0) = 0.0859952, bulk summation density 0.9995554.
+        let g = TruncatedGaussian::new(2.0, 2);
+        assert!(
+            (g.prefactor() - 0.0875997).abs() < 5e-8,
+            "{}",
+            g.prefactor()
+        );
+        assert!((g.w(0.0) - 0.0859952).abs() < 5e-8, "{}", g.w(0.0));
+        let rho = lattice_sum(&g);
+        assert!((rho - 0.9995554).abs() < 5e-8, "{rho}");
+    }
+
+    /// The normalisation constants A_d = K (h√π)^d are the paper's (Eq. 10 as printed:
+    /// 1.04823, 1.10081, 1.18516, and the spec's 7-digit 1.0482309, 1.1008102, 1.1851650).
+    #[test]
+    fn truncated_gaussian_constants_are_the_papers() {
+        for (dim, a) in [(1usize, 1.0482309), (2, 1.1008102), (3, 1.1851650)] {
+            let got = TruncatedGaussian::new(1.0, dim).prefactor() * PI.sqrt().powi(dim as i32);
+            assert!((got - a).abs() < 5e-8, "{dim}D: {got} vs {a}");
         }
     }
 }
