@@ -61,6 +61,7 @@
 
 pub mod kernels;
 pub mod maxwell;
+pub mod msph;
 
 use crate::fixed_sum::Scale;
 use crate::models::gather::{
