@@ -79,9 +79,16 @@ pub fn report(case: &Case, ranks: usize) -> String {
                         poly.modulus()
                     ));
                 }
+                // FENE dumbbells: the zero-shear polymer viscosity is Gλ b/(b + D + 2).
+                let fene = match poly.spring_law() {
+                    crate::models::dumbbells::Spring::Fene { b } if poly.is_ensemble() => {
+                        b / (b + case.dimension as f64 + 2.0)
+                    }
+                    _ => 1.0,
+                };
                 line(format!(
                     "polymer: {:?}{}, η_p = {}, λ = {}, modulus η_p/λ = {}{de}; zero-shear \
-                     viscosity η₀ = η + η_p = {}, background pressure {}",
+                     viscosity η₀ = η + η_p{} = {:.6}, background pressure {}",
                     poly.model,
                     if poly.rotation {
                         ""
@@ -91,7 +98,8 @@ pub fn report(case: &Case, ranks: usize) -> String {
                     poly.viscosity,
                     poly.relaxation_time,
                     poly.viscosity / poly.relaxation_time,
-                    sph.viscosity + poly.viscosity,
+                    if fene < 1.0 { " b/(b + D + 2)" } else { "" },
+                    sph.viscosity + poly.viscosity * fene,
                     sph.background_pressure
                 ));
                 if gamma != 0.0 {
