@@ -195,25 +195,35 @@ impl Default for FlowDiagnosticsCfg {
     }
 }
 
+/// The spring law of the keys `spring` and `b` (b validated to exist for FENE).
+pub fn spring_law(spring: SpringKind, b: Option<f64>) -> Spring {
+    match spring {
+        SpringKind::Hookean => Spring::Hookean,
+        SpringKind::Fene => Spring::Fene {
+            b: b.unwrap_or(f64::NAN),
+        },
+    }
+}
+
+/// The scheme of the key `scheme`, with its default: Heun for Hookean, semi-implicit for FENE.
+pub fn scheme_or_default(scheme: Option<SchemeKind>, spring: SpringKind) -> Scheme {
+    match (scheme, spring) {
+        (Some(SchemeKind::EulerMaruyama), _) => Scheme::EulerMaruyama,
+        (Some(SchemeKind::Heun), _) => Scheme::Heun,
+        (Some(SchemeKind::SemiImplicit), _) | (None, SpringKind::Fene) => Scheme::SemiImplicit,
+        (None, SpringKind::Hookean) => Scheme::Heun,
+    }
+}
+
 impl PolymerCfg {
     /// The spring law.
     pub fn spring_law(&self) -> Spring {
-        match self.spring {
-            SpringKind::Hookean => Spring::Hookean,
-            SpringKind::Fene => Spring::Fene {
-                b: self.b.unwrap_or(f64::NAN),
-            },
-        }
+        spring_law(self.spring, self.b)
     }
 
     /// The scheme, with its default.
     pub fn scheme_or_default(&self) -> Scheme {
-        match (self.scheme, self.spring) {
-            (Some(SchemeKind::EulerMaruyama), _) => Scheme::EulerMaruyama,
-            (Some(SchemeKind::Heun), _) => Scheme::Heun,
-            (Some(SchemeKind::SemiImplicit), _) | (None, SpringKind::Fene) => Scheme::SemiImplicit,
-            (None, SpringKind::Hookean) => Scheme::Heun,
-        }
+        scheme_or_default(self.scheme, self.spring)
     }
 
     /// Bytes per particle for the connector vectors (and the control copy).

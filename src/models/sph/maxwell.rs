@@ -73,22 +73,15 @@ impl PolymerCfg {
 
     /// The ensembles' spring law (Hookean unless `spring = "fene"`).
     pub fn spring_law(&self) -> Spring {
-        match self.spring.unwrap_or(SpringKind::Hookean) {
-            SpringKind::Hookean => Spring::Hookean,
-            SpringKind::Fene => Spring::Fene {
-                b: self.b.unwrap_or(f64::NAN),
-            },
-        }
+        crate::config::flow::spring_law(self.spring.unwrap_or(SpringKind::Hookean), self.b)
     }
 
     /// The ensembles' scheme, with its default (Heun for Hookean, semi-implicit for FENE).
     pub fn scheme_or_default(&self) -> Scheme {
-        match (self.scheme, self.spring.unwrap_or(SpringKind::Hookean)) {
-            (Some(SchemeKind::EulerMaruyama), _) => Scheme::EulerMaruyama,
-            (Some(SchemeKind::Heun), _) => Scheme::Heun,
-            (Some(SchemeKind::SemiImplicit), _) | (None, SpringKind::Fene) => Scheme::SemiImplicit,
-            (None, SpringKind::Hookean) => Scheme::Heun,
-        }
+        crate::config::flow::scheme_or_default(
+            self.scheme,
+            self.spring.unwrap_or(SpringKind::Hookean),
+        )
     }
 
     /// The ensembles' parameters at time step `dt`.
