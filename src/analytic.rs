@@ -81,6 +81,65 @@ pub fn poiseuille(y: f64, t: f64, l: f64, force: f64, nu: f64) -> f64 {
         })
 }
 
+/// Start-up Poiseuille velocity u(y, t) of an Oldroyd-B fluid (solvent viscosity η_s, polymer
+/// viscosity η_p, relaxation time λ; the upper-convected Maxwell fluid when η_s = 0) of
+/// density ρ driven by the body force F per unit mass from rest, τ = 0 at t = 0 (spec
+/// `msph-dumbbells.md` §3 T2). In unidirectional flow τ_yy stays 0, so the shear stress obeys
+/// a linear equation and each odd sine mode k_n = nπ/L decays independently:
+///
+/// ```text
+/// u(y, t) = F y (L − y)/(2ν₀) − Σ_{n odd} a_n(t) sin(k_n y),   ν₀ = (η_s + η_p)/ρ, ν_s = η_s/ρ
+/// λ a″ + (1 + λν_s k²) a′ + ν₀ k² a = 0,  a(0) = A_n = 4FL²/(ν₀ n³π³),  a′(0) = −ν₀ k² A_n
+/// a_n = C₊ e^{s₊t} + C₋ e^{s₋t},  s_± = (−b ± √(b² − 4λν₀k²))/(2λ),  b = 1 + λν_s k²
+/// C₊ = A_n (−ν₀k² − s₋)/(s₊ − s₋),  C₋ = A_n (s₊ + ν₀k²)/(s₊ − s₋)   (complex roots: real part)
+/// ```
+///
+/// a′(0) follows from u_t(0⁺) = F with τ(0) = 0. The sum runs over 20 000 odd modes (the
+/// λ = 1000 wave front needs ~2000). Hookean dumbbells obey it in the N_d → ∞ limit.
+pub fn poiseuille_oldroyd_b(
+    y: f64,
+    t: f64,
+    l: f64,
+    force: f64,
+    density: f64,
+    solvent_viscosity: f64,
+    polymer_viscosity: f64,
+    relaxation_time: f64,
+) -> f64 {
+    if t <= 0.0 {
+        return 0.0;
+    }
+    let nu0 = (solvent_viscosity + polymer_viscosity) / density;
+    let nu_s = solvent_viscosity / density;
+    let lambda = relaxation_time;
+    let steady = force / (2.0 * nu0) * y * (l - y);
+    let mut sum = 0.0;
+    for m in 0..20_000u32 {
+        let n = f64::from(2 * m + 1);
+        let k = n * PI / l;
+        let a0 = 4.0 * force * l * l / (nu0 * n * n * n * PI.powi(3));
+        let (b, c) = (1.0 + lambda * nu_s * k * k, nu0 * k * k);
+        let disc = b * b - 4.0 * lambda * c;
+        let amplitude = if disc > 0.0 {
+            let root = disc.sqrt();
+            let (sp, sm) = ((-b + root) / (2.0 * lambda), (-b - root) / (2.0 * lambda));
+            let (cp, cm) = (a0 * (-c - sm) / (sp - sm), a0 * (sp + c) / (sp - sm));
+            cp * (sp * t).exp() + cm * (sm * t).exp()
+        } else if disc < 0.0 {
+            // s_± = μ ± iω: a = A e^{μt} (cos ωt + ((−c − μ)/ω) sin ωt), the real solution
+            // with a(0) = A and a′(0) = −cA.
+            let (mu, omega) = (-b / (2.0 * lambda), (-disc).sqrt() / (2.0 * lambda));
+            a0 * (mu * t).exp() * ((omega * t).cos() + (-c - mu) / omega * (omega * t).sin())
+        } else {
+            // The double root s = −b/(2λ): a = A e^{st} (1 + (−c − s) t).
+            let s = -b / (2.0 * lambda);
+            a0 * (s * t).exp() * (1.0 + (-c - s) * t)
+        };
+        sum += amplitude * (k * y).sin();
+    }
+    steady - sum
+}
+
 /// The amplitude a(t) of u_x = a(t) sin(ky), k = π/L, relaxing from a(0) = A with zero stress,
 /// in the linearised Jeffreys fluid (no advection, no rotation terms: the linear corotational
 /// variant, or any Maxwell model at small amplitude) of density ρ, solvent viscosity η_s, and
@@ -179,6 +238,94 @@ mod tests {
         }
         let got = relaxation(0.5, 1.0, 1.0, 1.0, eta_s, Some((eta_p, lambda)));
         assert!((got - a).abs() < 1e-7, "overdamped {got} vs {a}");
+    }
+
+    /// Spec `msph-dumbbells.md` §3 T1 and T2 (H = 24, F = 10⁻³, ρ = 1, η₀ = 1), to their
+    /// printed 5 decimals: the Newtonian table (λ → 0), the UCM tables λ = 10 and 1000 (η_s = 0)
+    /// and the Oldroyd-B table η_s = 0.1 (η_p = 0.9).
+    #[test]
+    fn oldroyd_b_poiseuille_reproduces_the_spec_tables() {
+        let ys = [0.5, 1.5, 3.5, 6.5, 9.5, 12.0];
+        let ucm: [(f64, f64, [f64; 6]); 6] = [
+            (
+                10.0,
+                50.0,
+                [0.00407, 0.01150, 0.02373, 0.03652, 0.04370, 0.04545],
+            ),
+            (
+                10.0,
+                100.0,
+                [0.00528, 0.01511, 0.03189, 0.05011, 0.06039, 0.06305],
+            ),
+            (
+                10.0,
+                150.0,
+                [0.00568, 0.01629, 0.03455, 0.05462, 0.06604, 0.06900],
+            ),
+            (
+                1000.0,
+                50.0,
+                [0.01608, 0.04749, 0.05000, 0.05000, 0.05000, 0.05000],
+            ),
+            (
+                1000.0,
+                100.0,
+                [0.01647, 0.04866, 0.10000, 0.10000, 0.10000, 0.10000],
+            ),
+            (
+                1000.0,
+                150.0,
+                [0.01685, 0.04981, 0.11279, 0.15000, 0.15000, 0.15000],
+            ),
+        ];
+        for (lambda, t, row) in ucm {
+            for (y, want) in ys.iter().zip(row) {
+                let got = poiseuille_oldroyd_b(*y, t, 24.0, 1e-3, 1.0, 0.0, 1.0, lambda);
+                assert!(
+                    (got - want).abs() <= 6e-6,
+                    "λ {lambda} t {t} y {y}: {got} vs {want}"
+                );
+            }
+        }
+        let newtonian = [
+            (50.0, [0.00381, 0.01072, 0.02192, 0.03316, 0.03900, 0.04045]),
+            (
+                150.0,
+                [0.00550, 0.01577, 0.03336, 0.05260, 0.06349, 0.06631],
+            ),
+        ];
+        for (t, row) in newtonian {
+            for (y, want) in ys.iter().zip(row) {
+                let series = poiseuille(*y, t, 24.0, 1e-3, 1.0);
+                // λ → 0 with η_s + η_p = 1 is the Newtonian fluid.
+                let limit = poiseuille_oldroyd_b(*y, t, 24.0, 1e-3, 1.0, 0.5, 0.5, 1e-9);
+                assert!(
+                    (series - want).abs() <= 6e-6,
+                    "t {t} y {y}: {series} vs {want}"
+                );
+                // The Newtonian series stops after ~2000 terms, whose tail Σ 4FL²/(νπ³n³)
+                // is ~10⁻⁸; this one sums 20 000 odd modes.
+                assert!(
+                    (limit - series).abs() <= 5e-8,
+                    "t {t} y {y}: {limit} vs {series}"
+                );
+            }
+        }
+        let beta = [
+            (10.0, 50.0, [0.00405, 0.02360, 0.03621, 0.04489]),
+            (10.0, 150.0, [0.00566, 0.03444, 0.05443, 0.06875]),
+            (1000.0, 100.0, [0.01327, 0.06935, 0.09232, 0.09954]),
+            (1000.0, 150.0, [0.01494, 0.08636, 0.12611, 0.14590]),
+        ];
+        for (lambda, t, row) in beta {
+            for (y, want) in [0.5, 3.5, 6.5, 12.0].iter().zip(row) {
+                let got = poiseuille_oldroyd_b(*y, t, 24.0, 1e-3, 1.0, 0.1, 0.9, lambda);
+                assert!(
+                    (got - want).abs() <= 6e-6,
+                    "β λ {lambda} t {t} y {y}: {got} vs {want}"
+                );
+            }
+        }
     }
 
     /// Spec `sph-maxwell.md` §3 T1: Re = 1 (ν = 1), U = L = 1, to the table's 4 decimals.

@@ -118,7 +118,7 @@ fn check_startup(
     r: &crate::config::StartupProfileReference,
     series: Option<ProfileSeries<'_>>,
 ) -> Vec<Validation> {
-    use crate::analytic::{StartupFlow, couette, poiseuille, relaxation};
+    use crate::analytic::{StartupFlow, couette, poiseuille, poiseuille_oldroyd_b, relaxation};
     let (crate::config::FluidCfg::Sph(s), Some(w)) = (&case.fluid, &case.walls) else {
         return Vec::new();
     };
@@ -132,10 +132,23 @@ fn check_startup(
         }
         StartupFlow::Poiseuille => {
             let f = first(&s.body_force);
-            (
-                Box::new(move |y, t| poiseuille(y, t, l, f, nu)),
-                (f * l * l / (8.0 * nu)).abs(),
-            )
+            match s.polymer.as_ref() {
+                // Oldroyd-B (UCM, Hookean dumbbells): the scale is the steady centre velocity
+                // or, while a slow fluid's plug overshoots it, the largest velocity reached.
+                Some(poly) => {
+                    let (rho, eta_s) = (s.rest_density, s.viscosity);
+                    let (eta_p, lambda) = (poly.viscosity, poly.relaxation_time);
+                    let nu0 = (eta_s + eta_p) / rho;
+                    let u = move |y, t| poiseuille_oldroyd_b(y, t, l, f, rho, eta_s, eta_p, lambda);
+                    let t_max = r.times.iter().copied().fold(0.0, f64::max);
+                    let peak = u(0.5 * l, t_max).abs();
+                    (Box::new(u), (f * l * l / (8.0 * nu0)).abs().max(peak))
+                }
+                None => (
+                    Box::new(move |y, t| poiseuille(y, t, l, f, nu)),
+                    (f * l * l / (8.0 * nu)).abs(),
+                ),
+            }
         }
         StartupFlow::ViscoelasticRelaxation => {
             let a = case.particles.velocity_amplitude;

@@ -218,6 +218,18 @@ pub const KEYS: &[KeyDoc] = &[
         "The velocity-gradient estimate G_i (sph): \"sph\" is Σ_j (m_j/ρ_j)(v_j − v_i) ⊗ ∇W_ij (Ellero Eq. 3.7), exact for a linear field only on an undisturbed lattice; \"corrected\" is G_i M_i⁻¹ with M_i = Σ_j (m_j/ρ_j)(x_j − x_i) ⊗ ∇W_ij, exact on any arrangement (a particle with det M_i < 10⁻³ keeps G_i). Use \"corrected\" where noise disorders the particles (dumbbell ensembles): there the plain estimate reads the shear rate ~1 % low.",
     ),
     key(
+        "fluid.derivatives",
+        "\"sph\" | \"msph\"",
+        "\"sph\"",
+        "The derivative operator of ∇v and ∇·σ (sph). \"sph\": pairwise (the gradient of velocity_gradient, the momentum equation in antisymmetric pair form, momentum conserved pair by pair). \"msph\": Zhang–Batra moment-matrix derivatives (Murashima–Taniguchi), exact for quadratic fields: per particle a 6×6 (2D) or 10×10 (3D) system, factored once per step and reused for v and σ = −pI + σ̄ + τ; a system whose h-scaled condition number exceeds 10⁴ is solved to first order (counted in the summary). Needs kernel = \"truncated_gaussian\", summation density, walls treatment \"mirror\" (or \"layers\", the paper's literal, ill-posed walls), and a Morris viscosity for damping (morris_share, or viscous_term = \"morris\").",
+    ),
+    key(
+        "fluid.morris_share",
+        "float in [0, 1)",
+        "0.0",
+        "With viscous_term = \"nested_summation\" (sph): the share s of η applied by Morris's pairwise term, (1 − s)η by the nested summation. MSPH's two-pass Newtonian stress leaves particle-scale velocity modes undamped; s = 0.1 damps them (spec msph-dumbbells.md §5.1).",
+    ),
+    key(
         "fluid.polymer.model",
         "\"corotational_maxwell\" | \"upper_convected_maxwell\" | \"dumbbells\"",
         "required ([fluid.polymer])",
@@ -321,9 +333,9 @@ pub const KEYS: &[KeyDoc] = &[
     ),
     key(
         "walls.treatment",
-        "\"layers\" | \"morris\"",
+        "\"layers\" | \"morris\" | \"mirror\"",
         "\"layers\"",
-        "Velocity a fluid particle sees for a boundary particle: the wall's (thesis method B; slips by ~1 % of U), or Morris's image U − (d_j/d_i)(v_i − U) (exact for linear profiles).",
+        "Velocity a fluid particle sees for a boundary particle: the wall's (thesis method B; slips by ~1 % of U), or Morris's image U − (d_j/d_i)(v_i − U) (exact for linear profiles). \"mirror\" (fluid.derivatives = \"msph\" only): each boundary particle carries the fluid's values fitted (first-order least squares) at its mirror point m: velocity 2U − v̂(m), density ρ̂(m), stress extrapolated linearly from m; it forms no derivative and carries no dumbbells (spec msph-dumbbells.md §5.1). The decomposition axis must differ from the wall axis.",
     ),
     key(
         "walls.morris_cap",

@@ -698,6 +698,59 @@ fn validate_sph(
             ),
         ));
     }
+    if !(s.morris_share.is_finite() && (0.0..1.0).contains(&s.morris_share)) {
+        return Err(ix.error(
+            &fl("morris_share"),
+            format!(
+                "found {}; the share of η given to Morris's term must be in [0, 1) (0.1 damps \
+                 MSPH's particle-scale modes)",
+                s.morris_share
+            ),
+        ));
+    }
+    if s.morris_share != 0.0 && s.viscous_term != crate::models::sph::ViscousTerm::NestedSummation {
+        return Err(ix.error(
+            &fl("morris_share"),
+            "morris_share splits the nested summation's viscosity; with viscous_term = \
+             \"morris\" all of η is Morris's already (remove morris_share)"
+                .to_string(),
+        ));
+    }
+    if s.derivatives == crate::models::sph::Derivatives::Msph {
+        if s.kernel != crate::models::sph::kernels::KernelKind::TruncatedGaussian {
+            return Err(ix.error(
+                &fl("kernel"),
+                format!(
+                    "found \"{}\"; MSPH derivatives use the paper's kernel: kernel = \
+                     \"truncated_gaussian\" (h = 2Δ in the paper)",
+                    s.kernel.name()
+                ),
+            ));
+        }
+        if s.density != crate::models::sph::DensityMethod::Summation {
+            return Err(ix.error(
+                &fl("density"),
+                "MSPH derivatives use the summation density (spec msph-dumbbells.md §1.1); \
+                 remove density or set it to \"summation\""
+                    .to_string(),
+            ));
+        }
+        if s.velocity_gradient != crate::models::sph::GradientEstimate::Sph {
+            return Err(ix.error(
+                &fl("velocity_gradient"),
+                "velocity_gradient chooses among the pairwise SPH estimates; with derivatives \
+                 = \"msph\" the MSPH gradient is used (remove velocity_gradient)"
+                    .to_string(),
+            ));
+        }
+        if case.inclusions.is_some() {
+            return Err(ix.error(
+                &fl("derivatives"),
+                "MSPH derivatives do not support [inclusions] yet; use derivatives = \"sph\""
+                    .to_string(),
+            ));
+        }
+    }
     if !s.background_pressure.is_finite() {
         return Err(ix.error(
             &fl("background_pressure"),
@@ -852,16 +905,53 @@ fn validate_sph(
             ));
         }
     }
+    // A fluid particle sits at least Δ/2 from the plane; the layer at depth (k + ½)Δ is in
+    // reach of it only when (k + 1)Δ < support, and W = 0 at the support: one support less
+    // one spacing of layers gives it a complete neighbourhood (3 layers of the paper's
+    // h = 2Δ truncated Gaussian).
+    let spacing = case.lattice_spacing();
+    let needed = s.support() - spacing;
     if let Some(t) = w.thickness
-        && !(t.is_finite() && t >= s.support())
+        && !(t.is_finite() && t >= needed * (1.0 - 1e-9))
     {
         return Err(ix.error(
             &wk("thickness"),
             format!(
-                "found {t}; a wall must be at least one kernel support ({}) thick",
+                "found {t}; a wall must be at least one kernel support less one lattice \
+                 spacing ({} − {spacing} = {needed}) thick, so that a fluid particle next to \
+                 it sees every layer within its support",
                 s.support()
             ),
         ));
+    }
+    let msph = s.derivatives == crate::models::sph::Derivatives::Msph;
+    match w.treatment {
+        crate::models::sph::WallTreatment::Mirror if !msph => {
+            return Err(ix.error(
+                &wk("treatment"),
+                "treatment = \"mirror\" is the MSPH wall (spec msph-dumbbells.md §5.1); it \
+                 needs fluid.derivatives = \"msph\" (with SPH use \"layers\" or \"morris\")"
+                    .to_string(),
+            ));
+        }
+        crate::models::sph::WallTreatment::Morris if msph => {
+            return Err(ix.error(
+                &wk("treatment"),
+                "with fluid.derivatives = \"msph\" use treatment = \"mirror\" (the working \
+                 scheme of spec msph-dumbbells.md §5.1) or \"layers\" (the paper's literal \
+                 walls, ill-posed); Morris's pairwise images give no single wall value"
+                    .to_string(),
+            ));
+        }
+        crate::models::sph::WallTreatment::Mirror if case.decomposition.axis == w.axis => {
+            return Err(ix.error(
+                &[k("decomposition"), k("axis")],
+                "mirror walls fit the fluid beside each boundary particle, so the slabs must be \
+                 cut across the channel: choose a decomposition axis other than the wall axis"
+                    .to_string(),
+            ));
+        }
+        _ => {}
     }
     if !(w.morris_cap.is_finite() && w.morris_cap >= 1.0) {
         return Err(ix.error(
@@ -930,8 +1020,32 @@ fn validate_startup_reference(
                 .into(),
         );
     }
-    let relaxation = sp.solution == crate::analytic::StartupFlow::ViscoelasticRelaxation;
-    if s.viscosity <= 0.0 && !(relaxation && s.polymer.is_some()) {
+    if sp.solution == crate::analytic::StartupFlow::Poiseuille
+        && let Some(poly) = &s.polymer
+    {
+        use crate::models::sph::maxwell::PolymerModel;
+        let oldroyd_b = match poly.model {
+            PolymerModel::UpperConvectedMaxwell => true,
+            PolymerModel::Dumbbells => {
+                poly.spring
+                    .unwrap_or(crate::config::flow::SpringKind::Hookean)
+                    == crate::config::flow::SpringKind::Hookean
+            }
+            PolymerModel::CorotationalMaxwell => false,
+        };
+        if !oldroyd_b {
+            return fail(
+                "solution",
+                "the start-up Poiseuille series of a polymer fluid is the Oldroyd-B one: it \
+                 needs fluid.polymer.model = \"upper_convected_maxwell\" or Hookean \
+                 \"dumbbells\""
+                    .into(),
+            );
+        }
+    }
+    if s.viscosity <= 0.0
+        && !(s.polymer.is_some() && sp.solution != crate::analytic::StartupFlow::Couette)
+    {
         return fail(
             "solution",
             "the analytic start-up needs fluid.viscosity > 0".into(),

@@ -61,6 +61,7 @@
 
 pub mod kernels;
 pub mod maxwell;
+pub mod mirror;
 pub mod msph;
 
 use crate::fixed_sum::Scale;
@@ -77,6 +78,8 @@ use crate::species::{Motion, Species};
 use crate::with_kernel;
 use kernels::{Kernel, KernelKind};
 use maxwell::{Maxwell, PolymerCfg, packed_index, packed_width};
+use mirror::{FitFallbacks, MirrorWalls};
+use msph::{Local, MomentKernel, unknowns};
 use serde::{Deserialize, Serialize};
 
 /// `[fluid] kind = "sph"`
@@ -132,10 +135,36 @@ pub struct SphCfg {
     /// particle arrangement).
     #[serde(default)]
     pub velocity_gradient: GradientEstimate,
+    /// The derivative operator of the velocity gradient and of the stress divergence: `sph`
+    /// (default; pairwise, antisymmetric momentum) or `msph` (Zhang–Batra moment-matrix
+    /// derivatives, [`msph`]; needs the truncated Gaussian kernel).
+    #[serde(default)]
+    pub derivatives: Derivatives,
+    /// With `viscous_term = "nested_summation"`: the share s ∈ [0, 1) of η applied by Morris's
+    /// pairwise operator, (1 − s) η by the nested summation (default 0). MSPH's two-pass
+    /// Newtonian stress does not damp particle-scale velocity modes (spec `msph-dumbbells.md`
+    /// §5.1); s = 0.1 does.
+    #[serde(default)]
+    pub morris_share: f64,
     /// A polymer stress carried by every particle and advanced by its constitutive equation
     /// ([`maxwell`]); default none (a Newtonian fluid).
     #[serde(default)]
     pub polymer: Option<PolymerCfg>,
+}
+
+/// `[fluid] derivatives`
+#[derive(Clone, Copy, Debug, Default, Serialize, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum Derivatives {
+    /// Pairwise SPH: the velocity gradient of `velocity_gradient`, the momentum equation in
+    /// its antisymmetric pair form (momentum conserved pair by pair).
+    #[default]
+    Sph,
+    /// Modified SPH (Zhang & Batra 2004; Murashima & Taniguchi): ∇v and ∇·σ, σ = −pI + σ̄ + τ,
+    /// from each particle's 6 × 6 (2D) or 10 × 10 (3D) moment system, exact for quadratic
+    /// fields on any arrangement ([`msph`]). Not pairwise: momentum is conserved only as far
+    /// as the derivatives are exact.
+    Msph,
 }
 
 fn one() -> f64 {
@@ -283,6 +312,11 @@ pub enum WallTreatment {
     Layers,
     /// Morris's extrapolated image velocity, v_j = U − (d_j/d_i)(v_i − U), capped.
     Morris,
+    /// The working MSPH wall of spec `msph-dumbbells.md` §5.1 (needs `derivatives = "msph"`):
+    /// a boundary particle w carries values fitted (first-order moving least squares over
+    /// the fluid) at its mirror point m_w: the velocity 2U − v̂(m_w), the density ρ̂(m_w), and
+    /// the stress extrapolated linearly from m_w to x_w; it forms no derivative of its own.
+    Mirror,
 }
 
 impl SphCfg {
@@ -330,6 +364,9 @@ pub const XSPH_CORRECTION: &str = "xsph_correction";
 /// The velocity gradient G_i^{ab} = ∂v^a/∂x^b (D × D, row-major) of the last evaluation, kept
 /// for the dumbbell ensembles (`model = "dumbbells"`), which step with it.
 pub const VELOCITY_GRADIENT: &str = "velocity_gradient";
+/// A boundary particle's velocity under `[walls] treatment = "mirror"`: 2U − v̂(m_w), the
+/// fluid's velocity fitted at its mirror point (D per particle; [`mirror`]).
+pub const MIRROR_VELOCITY: &str = "mirror_velocity";
 /// An inclusion particle's offset x_j − c from its inclusion's centre (0 for every other
 /// particle): constant, since inclusions are fixed.
 pub const INCLUSION_OFFSET: &str = "inclusion_offset";
@@ -411,6 +448,8 @@ struct WallGeometry<const D: usize> {
     /// Velocities of the lower and upper walls.
     velocity: [[f64; D]; 2],
     morris: bool,
+    /// Index of the [`MIRROR_VELOCITY`] field with mirror walls (else `usize::MAX`).
+    mirror_velocity: usize,
     beta_max: f64,
     /// Floor of a fluid particle's distance to the wall (Δ/2).
     min_distance: f64,
@@ -510,6 +549,10 @@ impl<const D: usize> WallGeometry<D> {
     /// The velocity fluid particle i sees for boundary particle j (species `sj`).
     #[inline(always)]
     fn seen_velocity(&self, p: &Particles<D>, i: usize, j: usize, sj: u8) -> [f64; D] {
+        if self.mirror_velocity != usize::MAX {
+            let v = &p.extra[self.mirror_velocity].data[j * D..(j + 1) * D];
+            return std::array::from_fn(|d| v[d]);
+        }
         if !self.morris {
             return p.vel[j];
         }
@@ -607,7 +650,7 @@ impl<K: Kernel, const D: usize> GatherKernel<D> for GradientKernel<'_, K, D> {
 
 /// Smallest det M_i with which the corrected gradient G_i M_i⁻¹ is formed (M_i ≈ I inside a
 /// complete neighbourhood; a particle that sees few neighbours keeps its uncorrected G_i).
-const MIN_CORRECTION_DETERMINANT: f64 = 1e-3;
+pub(crate) const MIN_CORRECTION_DETERMINANT: f64 = 1e-3;
 
 /// Replaces each particle's G_i (the first D² numbers of every `width`-wide row of `sums`) by
 /// G_i M_i⁻¹, with M_i the next D² numbers; returns how many rows kept G_i because M_i was
@@ -633,7 +676,7 @@ fn apply_gradient_correction<const D: usize>(sums: &mut [f64], width: usize) -> 
 }
 
 /// det m and m⁻¹ (by cofactors) of a 1 × 1, 2 × 2 or 3 × 3 matrix.
-fn determinant_and_inverse<const D: usize>(m: &[[f64; D]; D]) -> (f64, [[f64; D]; D]) {
+pub(crate) fn determinant_and_inverse<const D: usize>(m: &[[f64; D]; D]) -> (f64, [[f64; D]; D]) {
     let mut inv = [[0.0; D]; D];
     let det = match D {
         1 => {
@@ -685,6 +728,9 @@ struct MomentumKernel<'a, K, const D: usize> {
     continuity: bool,
     /// ε m (XSPH), or 0.
     xsph_eps_mass: f64,
+    /// Whether the pressure and the stresses enter in pair form (not with MSPH derivatives,
+    /// whose divergence pass adds them).
+    pairwise_stress: bool,
     boundaries: Boundaries<D>,
     scales: Vec<Scale>,
     parities: Vec<Parity>,
@@ -704,6 +750,7 @@ impl<K: Kernel, const D: usize> SymmetricKernel<D> for MomentumKernel<'_, K, D> 
             || self.polymer.is_some()
             || p.species.is_some()
             || self.xsph_eps_mass != 0.0
+            || !self.pairwise_stress
         {
             pair_by_pair(self, p, batch, out);
             return;
@@ -836,12 +883,16 @@ impl<K: Kernel, const D: usize> GatherKernel<D> for MomentumKernel<'_, K, D> {
         } else {
             self.p_over_rho2[i] + self.p_over_rho2[j]
         };
-        let pressure = -p_sum * gw;
+        let pressure = if self.pairwise_stress {
+            -p_sum * gw
+        } else {
+            0.0
+        };
         let mut f = [0.0; D];
         for a in 0..D {
             f[a] = pressure * x[a];
         }
-        if self.stress.is_some() || self.polymer.is_some() {
+        if self.pairwise_stress && (self.stress.is_some() || self.polymer.is_some()) {
             // Morris's images (walls or inclusions) carry the fluid end's stress (zero normal
             // gradient, spec §2.3): σ̄_j := σ̄_i, τ_j := τ_i. Method-B walls carry their own.
             let mirror = inclusion_pair
@@ -944,6 +995,14 @@ enum Pass {
     Density,
     Gradient,
     Momentum,
+    /// Mirror walls: the boundary particles' density and velocity from their mirror points.
+    WallMirror,
+    /// MSPH: every system assembled and factored, the velocity gradient solved.
+    MsphGradient,
+    /// Mirror walls: the boundary particles' stresses extrapolated from their mirror points.
+    WallStress,
+    /// MSPH: ∇·σ, σ = −pI + σ̄ + τ, into the forces.
+    MsphDivergence,
 }
 
 /// The SPH fluid: parameters, its passes and its field indices.
@@ -969,6 +1028,18 @@ pub struct SphModel<const D: usize> {
     velocity_gradient: Option<usize>,
     /// Velocity-gradient estimates left uncorrected (det M_i too small) on this rank.
     uncorrected_gradients: u64,
+    /// Mirror walls (`[walls] treatment = "mirror"`).
+    mirror: Option<MirrorWalls<D>>,
+    /// The MSPH systems of the owned particles, from the last gradient pass.
+    local: Vec<Local<D>>,
+    /// MSPH systems solved to first order / left undetermined on this rank (particle ×
+    /// evaluation).
+    msph_first_order: u64,
+    msph_undetermined: u64,
+    /// Mirror fits that fell back (on this rank).
+    mirror_fallbacks: FitFallbacks,
+    /// Per-particle values of the fields an MSPH pass differentiates (scratch).
+    values: Vec<f64>,
     p_over_rho2: Vec<f64>,
     inv_density: Vec<f64>,
     sums: Vec<f64>,
@@ -991,10 +1062,30 @@ impl<const D: usize> SphModel<D> {
         if cfg.density == DensityMethod::Summation {
             passes.push(Pass::Density);
         }
-        if Self::forms_viscous_stress(cfg, inclusions.is_some()) || cfg.polymer.is_some() {
+        let mirror_walls = walls.is_some_and(|w| w.treatment == WallTreatment::Mirror);
+        if cfg.derivatives == Derivatives::Msph {
+            if mirror_walls {
+                passes.push(Pass::WallMirror);
+            }
+            passes.push(Pass::MsphGradient);
+            let stressed =
+                cfg.viscous_term == ViscousTerm::NestedSummation || cfg.polymer.is_some();
+            if mirror_walls && stressed {
+                passes.push(Pass::WallStress);
+            }
+            passes.push(Pass::MsphDivergence);
+        } else if Self::forms_viscous_stress(cfg, inclusions.is_some()) || cfg.polymer.is_some() {
             passes.push(Pass::Gradient);
         }
         passes.push(Pass::Momentum);
+        let mirror = walls.filter(|_| mirror_walls).map(|w| {
+            let axis = w.axis.index();
+            MirrorWalls {
+                axis,
+                planes: [0.0, lengths[axis]],
+                thickness: w.thickness.unwrap_or(2.0 * cfg.support()) + spacing,
+            }
+        });
         let walls = walls.map(|w| {
             let axis = w.axis.index();
             let vel = |u: &[f64]| std::array::from_fn(|d| u.get(d).copied().unwrap_or(0.0));
@@ -1003,6 +1094,7 @@ impl<const D: usize> SphModel<D> {
                 planes: [0.0, lengths[axis]],
                 velocity: [vel(&w.lower_velocity), vel(&w.upper_velocity)],
                 morris: w.treatment == WallTreatment::Morris,
+                mirror_velocity: usize::MAX,
                 beta_max: w.morris_cap,
                 min_distance: 0.5 * spacing,
                 strength: w
@@ -1039,6 +1131,12 @@ impl<const D: usize> SphModel<D> {
             polymer_rate: None,
             velocity_gradient: None,
             uncorrected_gradients: 0,
+            mirror,
+            local: Vec::new(),
+            msph_first_order: 0,
+            msph_undetermined: 0,
+            mirror_fallbacks: FitFallbacks::default(),
+            values: Vec::new(),
             p_over_rho2: Vec::new(),
             inv_density: Vec::new(),
             sums: Vec::new(),
@@ -1054,6 +1152,19 @@ impl<const D: usize> SphModel<D> {
             g.traction_moments = measure;
         }
         self
+    }
+
+    /// The stress fields the momentum equation reads (the nested summation's σ̄, the polymer
+    /// τ): their ghost copies must be fresh before it.
+    fn stress_fields(&self) -> Vec<&'static str> {
+        let mut out = Vec::new();
+        if self.cfg.viscous_term == ViscousTerm::NestedSummation {
+            out.push(VISCOUS_STRESS);
+        }
+        if self.cfg.polymer.is_some() {
+            out.push(POLYMER_STRESS);
+        }
+        out
     }
 
     fn measures_traction(&self) -> bool {
@@ -1082,6 +1193,311 @@ impl<const D: usize> SphModel<D> {
         let gradient = self.mass / rho0 * c0 * dw;
         let momentum = self.mass * self.mass * (c0 * c0 / rho0) * dw;
         (self.mass * w0, gradient, momentum)
+    }
+
+    /// What follows the velocity gradient G_i (`sums`: D² per owned particle, row-major
+    /// ∂v^a/∂x^b): the nested summation's Newtonian stress (1 − s) η (G + Gᵀ − (2/d) tr G I),
+    /// the dumbbells' κ, the constitutive polymer rate.
+    fn finish_gradient(&mut self, p: &mut Particles<D>, sums: &[f64]) {
+        if let Some(stress) = self.stress {
+            let eta = self.cfg.viscosity * (1.0 - self.cfg.morris_share);
+            let out = &mut p.extra[stress].data;
+            for (i, g) in sums.chunks_exact(D * D).enumerate() {
+                let trace: f64 = (0..D).map(|a| g[a * D + a]).sum();
+                for a in 0..D {
+                    for b in 0..D {
+                        let mut s = g[a * D + b] + g[b * D + a];
+                        if a == b {
+                            s -= 2.0 / D as f64 * trace;
+                        }
+                        out[i * D * D + a * D + b] = eta * s;
+                    }
+                }
+            }
+        }
+        if let Some(g) = self.velocity_gradient {
+            // The dumbbells' κ for their next step (row-major ∂v^a/∂x^b).
+            p.extra[g].data[..sums.len()].copy_from_slice(sums);
+        }
+        if let (Some(model), Some(tau), Some(rate)) =
+            (self.polymer, self.polymer_stress, self.polymer_rate)
+        {
+            let w = packed_width(D);
+            let mut row = [0.0; 6];
+            let mut out = [0.0; 6];
+            for (i, g) in sums.chunks_exact(D * D).enumerate() {
+                row[..w].copy_from_slice(&p.extra[tau].data[i * w..(i + 1) * w]);
+                let g: [[f64; D]; D] =
+                    std::array::from_fn(|a| std::array::from_fn(|b| g[a * D + b]));
+                model.rate::<D>(&row[..w], &g, &mut out[..w]);
+                p.extra[rate].data[i * w..(i + 1) * w].copy_from_slice(&out[..w]);
+            }
+        }
+    }
+
+    /// The MSPH and mirror-wall passes (`[fluid] derivatives = "msph"`, spec
+    /// `msph-dumbbells.md` §1.3, §1.6, §5.1), with the truncated Gaussian kernel.
+    fn run_msph(
+        &mut self,
+        pass: Pass,
+        p: &mut Particles<D>,
+        full: &FullList,
+    ) -> Result<(), crate::models::gather::PairError> {
+        const HEADROOM: f64 = 1e8;
+        let h = self.cfg.smoothing_length;
+        let kernel = kernels::TruncatedGaussian::new(h, D);
+        let nu = unknowns(D);
+        let n = p.n_owned;
+        let omega = self.mass / self.cfg.rest_density;
+        let (matrix_bound, rhs_bound) = MomentKernel::<D>::term_bounds(&kernel, omega);
+        let fluid_only = self.boundaries.walls.is_none_or(|_| self.mirror.is_some());
+        let c0 = self.cfg.sound_speed;
+        match pass {
+            Pass::WallMirror => {
+                let Some(mirror) = self.mirror else {
+                    return Ok(());
+                };
+                let (density, velocity) = (
+                    self.density,
+                    self.boundaries
+                        .walls
+                        .map_or(usize::MAX, |w| w.mirror_velocity),
+                );
+                let wall_velocity = self.boundaries.walls.map_or([[0.0; D]; 2], |w| w.velocity);
+                let mut fitted: Vec<(usize, [f64; D], f64)> = Vec::new();
+                let fallbacks = {
+                    let pr = &*p;
+                    mirror.fit(
+                        &kernel,
+                        pr,
+                        D + 1,
+                        |f, out| {
+                            out[0] = pr.extra[density].data[f];
+                            out[1..].copy_from_slice(&pr.vel[f]);
+                        },
+                        |fit| {
+                            let u = wall_velocity[fit.side];
+                            fitted.push((
+                                fit.particle,
+                                std::array::from_fn(|d| 2.0 * u[d] - fit.value[1 + d]),
+                                fit.value[0],
+                            ));
+                        },
+                    )
+                };
+                self.mirror_fallbacks.shepard += fallbacks.shepard;
+                self.mirror_fallbacks.empty += fallbacks.empty;
+                // Boundary particles without a fit keep ρ₀ and their wall's velocity.
+                for w in 0..n {
+                    let s = p.species_of(w);
+                    if s == LOWER_WALL || s == UPPER_WALL {
+                        let u = wall_velocity[usize::from(s == UPPER_WALL)];
+                        p.extra[density].data[w] = self.cfg.rest_density;
+                        p.extra[velocity].data[w * D..(w + 1) * D].copy_from_slice(&u);
+                    }
+                }
+                for (w, v, rho) in fitted {
+                    p.extra[density].data[w] = rho;
+                    p.extra[velocity].data[w * D..(w + 1) * D].copy_from_slice(&v);
+                }
+                Ok(())
+            }
+            Pass::MsphGradient => {
+                // The velocity each particle contributes: a mirror wall's fitted one.
+                let mirror_velocity = self
+                    .boundaries
+                    .walls
+                    .map_or(usize::MAX, |w| w.mirror_velocity);
+                let mut values = std::mem::take(&mut self.values);
+                values.clear();
+                for j in 0..p.len() {
+                    let s = p.species_of(j);
+                    if mirror_velocity != usize::MAX && (s == LOWER_WALL || s == UPPER_WALL) {
+                        values
+                            .extend_from_slice(&p.extra[mirror_velocity].data[j * D..(j + 1) * D]);
+                    } else {
+                        values.extend_from_slice(&p.vel[j]);
+                    }
+                }
+                let mut scales = vec![Scale::covering(HEADROOM * matrix_bound); nu * nu];
+                scales.extend(vec![Scale::covering(HEADROOM * rhs_bound * c0); nu * D]);
+                let k = MomentKernel {
+                    kernel,
+                    mass: self.mass,
+                    density: &p.extra[self.density].data,
+                    values: &values,
+                    fields: D,
+                    matrix: true,
+                    fluid_only,
+                    scales,
+                };
+                let mut sums = std::mem::take(&mut self.sums);
+                let r = gather(&k, p, full, &mut sums);
+                let width = nu * nu + nu * D;
+                let result = r.map(|()| {
+                    self.local.clear();
+                    let mut gradient = vec![0.0; n * D * D];
+                    for (i, row) in sums.chunks_exact(width).enumerate() {
+                        if !(k.active(p, i)) {
+                            self.local.push(Local::Undetermined);
+                            continue;
+                        }
+                        let local = Local::<D>::new(&row[..nu * nu], h);
+                        match local {
+                            Local::Second { .. } => {}
+                            Local::First { .. } => self.msph_first_order += 1,
+                            Local::Undetermined => self.msph_undetermined += 1,
+                        }
+                        for a in 0..D {
+                            let b = &row[nu * nu + a * nu..nu * nu + (a + 1) * nu];
+                            let g = local.gradient(b, values[i * D + a]);
+                            gradient[i * D * D + a * D..i * D * D + (a + 1) * D]
+                                .copy_from_slice(&g);
+                        }
+                        self.local.push(local);
+                    }
+                    gradient
+                });
+                self.sums = sums;
+                self.values = values;
+                let gradient = result?;
+                self.finish_gradient(p, &gradient);
+                Ok(())
+            }
+            Pass::WallStress => {
+                let Some(mirror) = self.mirror else {
+                    return Ok(());
+                };
+                let pw = packed_width(D);
+                let polymer = self.polymer_stress;
+                let viscous = self
+                    .stress
+                    .filter(|_| self.cfg.viscous_term == ViscousTerm::NestedSummation);
+                let count = polymer.map_or(0, |_| pw) + viscous.map_or(0, |_| D * D);
+                let mut fitted: Vec<(usize, Vec<f64>)> = Vec::new();
+                let fallbacks = {
+                    let pr = &*p;
+                    mirror.fit(
+                        &kernel,
+                        pr,
+                        count,
+                        |f, out| {
+                            let mut k = 0;
+                            if let Some(t) = polymer {
+                                out[..pw].copy_from_slice(&pr.extra[t].data[f * pw..(f + 1) * pw]);
+                                k = pw;
+                            }
+                            if let Some(v) = viscous {
+                                out[k..]
+                                    .copy_from_slice(&pr.extra[v].data[f * D * D..(f + 1) * D * D]);
+                            }
+                        },
+                        |fit| {
+                            let extrapolated = (0..count)
+                                .map(|q| {
+                                    fit.value[q]
+                                        + (0..D)
+                                            .map(|d| fit.slope[q * D + d] * fit.offset[d])
+                                            .sum::<f64>()
+                                })
+                                .collect();
+                            fitted.push((fit.particle, extrapolated));
+                        },
+                    )
+                };
+                self.mirror_fallbacks.shepard += fallbacks.shepard;
+                self.mirror_fallbacks.empty += fallbacks.empty;
+                for w in 0..n {
+                    let s = p.species_of(w);
+                    if s == LOWER_WALL || s == UPPER_WALL {
+                        if let Some(t) = polymer {
+                            p.extra[t].data[w * pw..(w + 1) * pw].fill(0.0);
+                        }
+                        if let Some(v) = viscous {
+                            p.extra[v].data[w * D * D..(w + 1) * D * D].fill(0.0);
+                        }
+                    }
+                }
+                for (w, values) in fitted {
+                    if let Some(t) = polymer {
+                        p.extra[t].data[w * pw..(w + 1) * pw].copy_from_slice(&values[..pw]);
+                    }
+                    if let Some(v) = viscous {
+                        let k = polymer.map_or(0, |_| pw);
+                        p.extra[v].data[w * D * D..(w + 1) * D * D].copy_from_slice(&values[k..]);
+                    }
+                }
+                Ok(())
+            }
+            Pass::MsphDivergence => {
+                // σ = −pI + σ̄ + τ of every particle, packed symmetric.
+                let pw = packed_width(D);
+                let polymer = self.polymer_stress;
+                let viscous = self
+                    .stress
+                    .filter(|_| self.cfg.viscous_term == ViscousTerm::NestedSummation);
+                let mut values = std::mem::take(&mut self.values);
+                values.clear();
+                for j in 0..p.len() {
+                    let pressure = self.cfg.pressure(p.extra[self.density].data[j]);
+                    for a in 0..D {
+                        for b in a..D {
+                            let mut s = if a == b { -pressure } else { 0.0 };
+                            if let Some(t) = polymer {
+                                s += p.extra[t].data[j * pw + packed_index::<D>(a, b)];
+                            }
+                            if let Some(v) = viscous {
+                                s += p.extra[v].data[j * D * D + a * D + b];
+                            }
+                            values.push(s);
+                        }
+                    }
+                }
+                // The packed order of (a, b), a ≤ b, as pushed above.
+                let order: Vec<(usize, usize)> =
+                    (0..D).flat_map(|a| (a..D).map(move |b| (a, b))).collect();
+                let stress_bound = c0 * c0 * self.cfg.rest_density
+                    + self.cfg.background_pressure.abs()
+                    + self.cfg.polymer.as_ref().map_or(0.0, |poly| poly.modulus());
+                let scales = vec![Scale::covering(HEADROOM * rhs_bound * stress_bound); nu * pw];
+                let k = MomentKernel {
+                    kernel,
+                    mass: self.mass,
+                    density: &p.extra[self.density].data,
+                    values: &values,
+                    fields: pw,
+                    matrix: false,
+                    fluid_only,
+                    scales,
+                };
+                let mut sums = std::mem::take(&mut self.sums);
+                let r = gather(&k, p, full, &mut sums);
+                let result = r.map(|()| {
+                    for (i, row) in sums.chunks_exact(nu * pw).enumerate() {
+                        let Some(local) = self.local.get(i) else {
+                            continue;
+                        };
+                        let mut div = [0.0; D];
+                        for (q, &(a, b)) in order.iter().enumerate() {
+                            let g = local.gradient(&row[q * nu..(q + 1) * nu], values[i * pw + q]);
+                            // ∂_b σ_ab into component a, and ∂_a σ_ba into b.
+                            div[a] += g[b];
+                            if a != b {
+                                div[b] += g[a];
+                            }
+                        }
+                        let m_over_rho = self.mass / p.extra[self.density].data[i];
+                        for d in 0..D {
+                            p.force[i][d] += m_over_rho * div[d];
+                        }
+                    }
+                });
+                self.sums = sums;
+                self.values = values;
+                result
+            }
+            _ => unreachable!("not an MSPH pass"),
+        }
     }
 
     fn run<K: Kernel>(
@@ -1140,40 +1556,7 @@ impl<const D: usize> SphModel<D> {
                         }
                         sums.truncate(w);
                     }
-                    if let Some(stress) = self.stress {
-                        let eta = self.cfg.viscosity;
-                        let out = &mut p.extra[stress].data;
-                        for (i, g) in sums.chunks_exact(D * D).enumerate() {
-                            let trace: f64 = (0..D).map(|a| g[a * D + a]).sum();
-                            for a in 0..D {
-                                for b in 0..D {
-                                    let mut s = g[a * D + b] + g[b * D + a];
-                                    if a == b {
-                                        s -= 2.0 / D as f64 * trace;
-                                    }
-                                    out[i * D * D + a * D + b] = eta * s;
-                                }
-                            }
-                        }
-                    }
-                    if let Some(g) = self.velocity_gradient {
-                        // The dumbbells' κ for their next step (row-major ∂v^a/∂x^b).
-                        p.extra[g].data[..sums.len()].copy_from_slice(&sums);
-                    }
-                    if let (Some(model), Some(tau), Some(rate)) =
-                        (self.polymer, self.polymer_stress, self.polymer_rate)
-                    {
-                        let w = packed_width(D);
-                        let mut row = [0.0; 6];
-                        let mut out = [0.0; 6];
-                        for (i, g) in sums.chunks_exact(D * D).enumerate() {
-                            row[..w].copy_from_slice(&p.extra[tau].data[i * w..(i + 1) * w]);
-                            let g: [[f64; D]; D] =
-                                std::array::from_fn(|a| std::array::from_fn(|b| g[a * D + b]));
-                            model.rate::<D>(&row[..w], &g, &mut out[..w]);
-                            p.extra[rate].data[i * w..(i + 1) * w].copy_from_slice(&out[..w]);
-                        }
-                    }
+                    self.finish_gradient(p, &sums);
                 })
             }
             Pass::Momentum => {
@@ -1233,16 +1616,18 @@ impl<const D: usize> SphModel<D> {
                         .filter(|_| self.cfg.viscous_term == ViscousTerm::NestedSummation)
                         .map(|s| p.extra[s].data.as_slice()),
                     polymer: self.polymer_stress.map(|s| p.extra[s].data.as_slice()),
-                    two_eta_morris: if self.cfg.viscous_term == ViscousTerm::Morris {
-                        2.0 * self.cfg.viscosity
-                    } else {
-                        0.0
+                    two_eta_morris: match self.cfg.viscous_term {
+                        ViscousTerm::Morris => 2.0 * self.cfg.viscosity,
+                        ViscousTerm::NestedSummation => {
+                            2.0 * self.cfg.viscosity * self.cfg.morris_share
+                        }
                     },
                     regulariser: self.cfg.morris_regularisation
                         * self.cfg.smoothing_length
                         * self.cfg.smoothing_length,
                     continuity,
                     xsph_eps_mass: self.cfg.xsph * self.mass,
+                    pairwise_stress: self.cfg.derivatives == Derivatives::Sph,
                     boundaries: self.boundaries,
                     scales,
                     parities,
@@ -1281,6 +1666,9 @@ impl<const D: usize> SphModel<D> {
                     }
                 })
             }
+            Pass::WallMirror | Pass::MsphGradient | Pass::WallStress | Pass::MsphDivergence => {
+                unreachable!("MSPH passes run in run_msph")
+            }
         };
         self.sums = sums;
         result
@@ -1293,7 +1681,12 @@ impl<const D: usize> ParticleModel<D> for SphModel<D> {
     }
 
     fn cutoff(&self) -> f64 {
-        self.cfg.support()
+        if self.cfg.derivatives == Derivatives::Msph {
+            // MSPH counts the neighbours at exactly r = 2h (W'(2h) ≠ 0).
+            self.cfg.support() * (1.0 + 1e-9)
+        } else {
+            self.cfg.support()
+        }
     }
 
     fn fields(&self) -> Vec<FieldSpec> {
@@ -1351,6 +1744,13 @@ impl<const D: usize> ParticleModel<D> for SphModel<D> {
                 }
             }
             None => {}
+        }
+        if self.mirror.is_some() {
+            f.push(FieldSpec {
+                name: MIRROR_VELOCITY,
+                kind: FieldKind::Vector,
+                flags: FieldFlags::DERIVED,
+            });
         }
         if self.inclusions.is_some() {
             f.push(FieldSpec {
@@ -1414,25 +1814,45 @@ impl<const D: usize> ParticleModel<D> for SphModel<D> {
                     if !offsets_refreshed {
                         ghost_fields.push(INCLUSION_OFFSET);
                     }
-                    if self.cfg.viscous_term == ViscousTerm::NestedSummation {
-                        ghost_fields.push(VISCOUS_STRESS);
-                    }
-                    if self.cfg.polymer.is_some() {
-                        ghost_fields.push(POLYMER_STRESS);
+                    if self.cfg.derivatives == Derivatives::Sph {
+                        ghost_fields.extend(self.stress_fields());
                     }
                     PassSpec {
                         name: "momentum",
                         ghost_fields,
                     }
                 }
+                Pass::WallMirror => PassSpec {
+                    name: "mirror walls: density and velocity",
+                    ghost_fields: vec![DENSITY],
+                },
+                Pass::MsphGradient => {
+                    density_refreshed = true;
+                    let mut ghost_fields = vec![DENSITY];
+                    if self.mirror.is_some() {
+                        ghost_fields.push(MIRROR_VELOCITY);
+                    }
+                    PassSpec {
+                        name: "MSPH velocity gradient",
+                        ghost_fields,
+                    }
+                }
+                Pass::WallStress => PassSpec {
+                    name: "mirror walls: stress",
+                    ghost_fields: self.stress_fields(),
+                },
+                Pass::MsphDivergence => PassSpec {
+                    name: "MSPH stress divergence",
+                    ghost_fields: self.stress_fields(),
+                },
             })
             .collect()
     }
 
     fn uses_full_list(&self) -> bool {
-        // Only the velocity-gradient pass gathers (its terms carry 1/ρ_j, not symmetric); the
-        // density and momentum passes scatter from the half list.
-        self.passes.contains(&Pass::Gradient)
+        // Only the velocity-gradient passes gather (their terms carry 1/ρ_j, not symmetric);
+        // the density and momentum passes scatter from the half list.
+        self.passes.contains(&Pass::Gradient) || self.passes.contains(&Pass::MsphGradient)
     }
 
     fn integrated_fields(&self) -> Vec<Integrated> {
@@ -1475,6 +1895,13 @@ impl<const D: usize> ParticleModel<D> for SphModel<D> {
             self.polymer_rate = Some(rate);
         }
         self.velocity_gradient = p.extra_index(VELOCITY_GRADIENT);
+        if self.mirror.is_some()
+            && let Some(w) = &mut self.boundaries.walls
+        {
+            w.mirror_velocity = p
+                .extra_index(MIRROR_VELOCITY)
+                .ok_or("the mirror velocity field is not registered")?;
+        }
         if !restarted && self.rate.is_some() {
             // Continuity density starts at ρ₀ (the lattice is uniform).
             p.extra[self.density].data.fill(self.cfg.rest_density);
@@ -1498,20 +1925,48 @@ impl<const D: usize> ParticleModel<D> for SphModel<D> {
     }
 
     fn counted_warnings(&self) -> Vec<(u64, &'static str)> {
-        vec![(
-            self.uncorrected_gradients,
-            "{n} velocity-gradient estimates (particle × evaluation) kept the plain SPH form: \
+        vec![
+            (
+                self.msph_first_order,
+                "{n} MSPH systems (particle × evaluation) were solved to first order only: \
+                 their h-scaled moment matrix had a 1-norm condition number above 10⁴ (a \
+                 sparse or one-sided neighbourhood)",
+            ),
+            (
+                self.msph_undetermined,
+                "{n} MSPH systems (particle × evaluation) determined no derivative at all \
+                 (an isolated particle): its gradients were set to zero",
+            ),
+            (
+                self.mirror_fallbacks.shepard,
+                "{n} mirror-wall fits (boundary particle × pass) had too few fluid particles \
+                 for a linear fit and took their weighted mean",
+            ),
+            (
+                self.mirror_fallbacks.empty,
+                "{n} mirror-wall fits (boundary particle × pass) found no fluid particle within \
+                 2h of the mirror point and kept ρ₀, the wall velocity and zero stress",
+            ),
+            (
+                self.uncorrected_gradients,
+                "{n} velocity-gradient estimates (particle × evaluation) kept the plain SPH form: \
              their moment matrix M_i had det M_i < 10⁻³ (too few neighbours); check the \
              neighbour count or the support",
-        )]
+            ),
+        ]
     }
 
     fn pass(&mut self, pass: usize, ctx: PassContext<'_, D>) -> Result<PassOutput, String> {
         let kind = self.passes[pass];
         let (kernel, h) = (self.cfg.kernel, self.cfg.smoothing_length);
         let (p, list, full) = (ctx.particles, ctx.list, ctx.full);
-        with_kernel!(kernel, h, D, |k| self.run(k, kind, p, list, full))
-            .map_err(|e| format!("{e} (SPH pass {kind:?} at step {})", ctx.step))?;
+        match kind {
+            Pass::WallMirror | Pass::MsphGradient | Pass::WallStress | Pass::MsphDivergence => {
+                self.run_msph(kind, p, full)
+            }
+            _ => with_kernel!(kernel, h, D, |k| self.run(k, kind, p, list, full)),
+        }
+        .map_err(|e| format!("{e} (SPH pass {kind:?} at step {})", ctx.step))?;
         Ok(PassOutput::default())
     }
 }
@@ -1539,6 +1994,8 @@ mod tests {
             xsph: 0.0,
             background_pressure: 0.0,
             velocity_gradient: GradientEstimate::Sph,
+            derivatives: Derivatives::Sph,
+            morris_share: 0.0,
             polymer: None,
         }
     }
@@ -1684,6 +2141,7 @@ mod tests {
                     regulariser,
                     continuity,
                     xsph_eps_mass: 0.0,
+                    pairwise_stress: true,
                     boundaries: Boundaries::default(),
                     scales: vec![Scale::covering(1e6); 3 + usize::from(continuity)],
                     parities: {

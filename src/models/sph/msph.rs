@@ -1,6 +1,7 @@
 //! Modified SPH (MSPH) derivatives: Zhang & Batra (2004) as used by Murashima & Taniguchi
-//! (eqs. 3–9), spec `msph-dumbbells.md` §1.3. The building block — the per-particle moment
-//! system and its solution — for the MSPH passes of issue #16 (not yet wired into a pass).
+//! (eqs. 3–9), spec `msph-dumbbells.md` §1.3: the per-particle moment system, its gather
+//! pass ([`MomentKernel`]) and its solution ([`Local`]), used by the SPH model's velocity-
+//! gradient and stress-divergence passes when `[fluid] derivatives = "msph"`.
 //!
 //! A second-order Taylor expansion of f about ξ = x_i, substituted into the kernel average and
 //! its first and second derivatives, gives per particle the linear system (2D: 6 × 6; 3D:
@@ -20,6 +21,9 @@
 //! yz) — the spec prints 2D as (…, xx, xy, yy); only the order differs.
 
 use super::kernels::{Kernel, TruncatedGaussian};
+use crate::fixed_sum::Scale;
+use crate::models::gather::GatherKernel;
+use crate::particles::Particles;
 
 /// Unknowns per particle: 1 + D + D(D + 1)/2 (6 in 2D, 10 in 3D).
 pub const fn unknowns(dimension: usize) -> usize {
@@ -133,6 +137,23 @@ impl<const D: usize> MomentSystem<D> {
 }
 
 impl<const D: usize> Factored<D> {
+    /// The 1-norm condition number ‖M‖₁ ‖M⁻¹‖₁ of the factored `m` (M⁻¹ column by column).
+    pub fn condition_1(&self, m: &MomentSystem<D>) -> f64 {
+        let n = unknowns(D);
+        let norm = |col: &dyn Fn(usize) -> f64| -> f64 { (0..n).map(|r| col(r).abs()).sum() };
+        let mut m_norm = 0.0f64;
+        let mut inv_norm = 0.0f64;
+        for c in 0..n {
+            m_norm = m_norm.max(norm(&|r| m.m[r][c]));
+            let mut e = [0.0; 10];
+            e[c] = 1.0;
+            let x = self.solve(&e);
+            inv_norm = inv_norm.max(norm(&|r| x[r]));
+        }
+        let cond = m_norm * inv_norm;
+        if cond.is_nan() { f64::INFINITY } else { cond }
+    }
+
     /// u with M u = b.
     pub fn solve(&self, b: &[f64; 10]) -> [f64; 10] {
         let n = unknowns(D);
@@ -152,6 +173,171 @@ impl<const D: usize> Factored<D> {
             x[r] /= self.lu[r][r];
         }
         x
+    }
+}
+
+/// Polynomial degree of unknown `c` (0 for f̂, 1 for the first derivatives, 2 beyond).
+fn degree<const D: usize>(c: usize) -> i32 {
+    match c {
+        0 => 0,
+        c if c <= D => 1,
+        _ => 2,
+    }
+}
+
+/// Largest 1-norm condition number of the h-scaled moment matrix S = D_r M D_c
+/// (D_r = diag(h^deg), D_c = diag(h^−deg), entries O(1) whatever the units) with which the
+/// second-order system is solved. The bulk of the paper's lattice has 5.3 (2-norm 3.63); a
+/// wall's outermost row, seeing one side only, ~10²; beyond 10⁴ the second derivatives are
+/// not determined by the neighbourhood and the first-order correction is used instead.
+pub const MAX_CONDITION: f64 = 1e4;
+
+/// How one particle's derivatives are formed from its right-hand sides.
+#[derive(Clone, Debug)]
+pub enum Local<const D: usize> {
+    /// The full second-order system, h-scaled and factored: u = D_c S⁻¹ D_r b.
+    Second { scaled: Factored<D>, h: f64 },
+    /// The first-order correction (Randles & Libersky): ∇f = A⁻¹ (b_∂ − f_i c) with
+    /// A_αβ = Σ_j ω_j ∂_αW R_β and c_α = Σ_j ω_j ∂_αW (rows ∂_α, columns R_β and 1 of M):
+    /// exact for linear fields.
+    First { inverse: [[f64; D]; D], c: [f64; D] },
+    /// Nothing determinable (an isolated particle): zero derivatives.
+    Undetermined,
+}
+
+impl<const D: usize> Local<D> {
+    /// The derivative form of a particle whose moment matrix M has entries `m` (row-major,
+    /// unknowns(D)² numbers, as [`MomentKernel`] sums them), for smoothing length `h`.
+    pub fn new(m: &[f64], h: f64) -> Self {
+        let n = unknowns(D);
+        let mut scaled = MomentSystem::<D>::default();
+        for r in 0..n {
+            for c in 0..n {
+                scaled.m[r][c] = m[r * n + c] * h.powi(degree::<D>(r) - degree::<D>(c));
+            }
+        }
+        if let Some(f) = scaled.factor()
+            && f.condition_1(&scaled) <= MAX_CONDITION
+        {
+            return Local::Second { scaled: f, h };
+        }
+        let a: [[f64; D]; D] =
+            std::array::from_fn(|x| std::array::from_fn(|y| m[(1 + x) * n + 1 + y]));
+        let (det, inverse) = super::determinant_and_inverse(&a);
+        // det A ≈ 1 in a complete neighbourhood (A → I); a sparse one falls towards 0.
+        if det.is_finite() && det > super::MIN_CORRECTION_DETERMINANT {
+            let c = std::array::from_fn(|x| m[(1 + x) * n]);
+            return Local::First { inverse, c };
+        }
+        Local::Undetermined
+    }
+
+    /// Whether the second-order system is used.
+    pub fn is_second_order(&self) -> bool {
+        matches!(self, Local::Second { .. })
+    }
+
+    /// ∂_α f (α < D) of the field whose right-hand side is `b` (unknowns(D) numbers) and whose
+    /// value at the particle is `f_i`.
+    pub fn gradient(&self, b: &[f64], f_i: f64) -> [f64; D] {
+        match self {
+            Local::Second { scaled, h } => {
+                let n = unknowns(D);
+                let mut rhs = [0.0; 10];
+                for r in 0..n {
+                    rhs[r] = b[r] * h.powi(degree::<D>(r));
+                }
+                let y = scaled.solve(&rhs);
+                std::array::from_fn(|a| y[1 + a] / h)
+            }
+            Local::First { inverse, c } => {
+                let rhs: [f64; D] = std::array::from_fn(|a| b[1 + a] - f_i * c[a]);
+                std::array::from_fn(|a| (0..D).map(|x| inverse[a][x] * rhs[x]).sum())
+            }
+            Local::Undetermined => [0.0; D],
+        }
+    }
+}
+
+/// Gather pass of the moment systems: per active particle i, M_i (unknowns² sums, when
+/// `matrix`) followed by the right-hand sides b_i of `fields` per-particle values (`values`,
+/// `fields` numbers per particle, owned and ghosts alike), ω_j = m/ρ_j, the self term j = i
+/// included, and neighbours at exactly r = 2h included (the gather's cutoff is 2h(1 + 10⁻⁹)).
+pub struct MomentKernel<'a, const D: usize> {
+    /// The kernel.
+    pub kernel: TruncatedGaussian,
+    /// Particle mass m.
+    pub mass: f64,
+    /// ρ of every particle.
+    pub density: &'a [f64],
+    /// The fields' values, `fields` per particle.
+    pub values: &'a [f64],
+    /// Number of fields.
+    pub fields: usize,
+    /// Whether M is summed too (the gradient pass) or only b (the divergence pass, which
+    /// reuses the factors).
+    pub matrix: bool,
+    /// Only fluid particles form a system (otherwise every particle).
+    pub fluid_only: bool,
+    /// The scales: unknowns² of M (if summed), then unknowns per field.
+    pub scales: Vec<Scale>,
+}
+
+impl<const D: usize> MomentKernel<'_, D> {
+    /// Bounds of a matrix term and of a right-hand-side term per unit |f|, for weight
+    /// bound `omega`: max |ψ_r| max |φ_c| over r ≤ 2h.
+    pub fn term_bounds(kernel: &TruncatedGaussian, omega: f64) -> (f64, f64) {
+        let h = kernel.support() / 2.0;
+        let psi = kernel.prefactor() * (1.0 + 4.0 / h + 18.0 / (h * h));
+        let phi = 1.0 + 2.0 * h + 4.0 * h * h;
+        (omega * psi * phi, omega * psi)
+    }
+
+    #[inline(always)]
+    fn terms(&self, r: &[f64; D], j: usize, out: &mut [f64]) {
+        let n = unknowns(D);
+        let omega = self.mass / self.density[j];
+        let psi = rows(&self.kernel, r);
+        let mut k = 0;
+        if self.matrix {
+            let phi = columns(r);
+            for p in psi.iter().take(n) {
+                let wp = omega * p;
+                for f in phi.iter().take(n) {
+                    out[k] = wp * f;
+                    k += 1;
+                }
+            }
+        }
+        for q in 0..self.fields {
+            let f = omega * self.values[j * self.fields + q];
+            for p in psi.iter().take(n) {
+                out[k] = f * p;
+                k += 1;
+            }
+        }
+    }
+}
+
+impl<const D: usize> GatherKernel<D> for MomentKernel<'_, D> {
+    fn scales(&self) -> &[Scale] {
+        &self.scales
+    }
+    fn cutoff(&self) -> f64 {
+        self.kernel.support() * (1.0 + 1e-9)
+    }
+    #[inline(always)]
+    fn pair(&self, _: &Particles<D>, _: usize, j: usize, x: &[f64; D], _: f64, out: &mut [f64]) {
+        // R = x_j − x_i = −x_ij.
+        let r: [f64; D] = std::array::from_fn(|d| -x[d]);
+        self.terms(&r, j, out);
+    }
+    fn active(&self, p: &Particles<D>, i: usize) -> bool {
+        !self.fluid_only || p.species_of(i) == super::FLUID
+    }
+    fn self_term(&self, _: &Particles<D>, i: usize, out: &mut [f64]) -> bool {
+        self.terms(&[0.0; D], i, out);
+        true
     }
 }
 
