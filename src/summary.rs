@@ -175,8 +175,15 @@ fn check_startup(
             let value = match profile {
                 Some(p) if !p.is_empty() => {
                     let bins = p.len();
+                    let wanted = |b: usize| {
+                        r.positions.is_empty()
+                            || r.positions.iter().any(|&y| {
+                                ((y / l * bins as f64).floor().max(0.0) as usize).min(bins - 1) == b
+                            })
+                    };
                     p.iter()
                         .enumerate()
+                        .filter(|(b, _)| wanted(*b))
                         .map(|(b, &u)| {
                             let y = (b as f64 + 0.5) * l / bins as f64;
                             (u - u_at(y, t)).abs() / scale

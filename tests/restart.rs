@@ -712,3 +712,22 @@ fn connffessit_restart_is_bitwise() {
     assert!(text.contains("steps = 120\n") && text.contains("per_particle = 8\n"));
     assert_restart_at_60_is_bitwise(&text, "CONNFFESSIT shear");
 }
+
+/// The CONNFFESSIT channel with MSPH derivatives and mirror walls (the moment systems and the
+/// mirror fits are re-formed at every evaluation; the connectors and the velocity gradient
+/// they step with are checkpointed): N steps ≡ N/2 + checkpoint + restart on another rank
+/// count + N/2, bitwise.
+#[test]
+fn msph_connffessit_channel_restart_is_bitwise() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("cases/connffessit_channel_2d.toml");
+    let text = std::fs::read_to_string(path).expect("stock case");
+    let text = text
+        .split("[[reference]]")
+        .next()
+        .expect("case")
+        .replace("steps = 15000", "steps = 120")
+        .replace("sample_every = 500", "sample_every = 10")
+        .replace("per_particle = 1000", "per_particle = 8");
+    assert!(text.contains("steps = 120\n") && text.contains("per_particle = 8\n"));
+    assert_restart_at_60_is_bitwise(&text, "CONNFFESSIT channel (MSPH)");
+}

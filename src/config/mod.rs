@@ -496,6 +496,10 @@ pub struct StartupProfileReference {
     pub times: Vec<f64>,
     /// Largest acceptable max_b |u_b − u(y_b, t)| / scale at every time.
     pub tolerance: f64,
+    /// Wall-normal coordinates whose bins alone are compared (default: every bin), e.g. the
+    /// centre line.
+    #[serde(default)]
+    pub positions: Vec<f64>,
     /// Where the solution comes from.
     #[serde(default)]
     pub source: String,

@@ -575,13 +575,19 @@ pub const KEYS: &[KeyDoc] = &[
         "reference[].tolerance",
         "float > 0",
         "required",
-        "Largest acceptable metric; for linear_shear_profile, max over bins of |u_x − γ̇(y − L_y/2)| / (γ̇ L_y); for startup_profile, max over bins of |u_x − u(y, t)| / scale at each time (scale: the plate velocity, or the steady centre velocity F L²/(8ν)).",
+        "Largest acceptable metric; for linear_shear_profile, max over bins of |u_x − γ̇(y − L_y/2)| / (γ̇ L_y); for startup_profile, max over bins of |u_x − u(y, t)| / scale at each time (scale: the plate velocity, or the steady centre velocity F L²/(8ν₀), or with a polymer the centre velocity at the last listed time if larger).",
     ),
     key(
         "reference[].solution",
-        "\"couette\" | \"poiseuille\"",
+        "\"couette\" | \"poiseuille\" | \"viscoelastic_relaxation\"",
         "required (startup_profile)",
-        "The series solution (src/analytic.rs) of the case's channel, with its wall velocity, body force, η/ρ₀ and width.",
+        "The series solution (src/analytic.rs) of the case's channel, with its wall velocity, body force, η/ρ₀ and width. \"poiseuille\" of a polymer fluid (upper-convected Maxwell or Hookean dumbbells) is the Oldroyd-B start-up series with η_s = fluid.viscosity, η_p and λ.",
+    ),
+    key(
+        "reference[].positions",
+        "array of floats",
+        "every bin",
+        "startup_profile: the wall-normal coordinates whose bins alone are compared (e.g. the two centre rows); default every bin.",
     ),
     key(
         "reference[].times",

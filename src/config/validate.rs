@@ -1057,6 +1057,17 @@ fn validate_startup_reference(
     if sp.times.is_empty() {
         return fail("times", "give at least one time".into());
     }
+    let width = case.domain.lengths[w.axis.index()];
+    if let Some(y) = sp
+        .positions
+        .iter()
+        .find(|y| !(y.is_finite() && (0.0..=width).contains(*y)))
+    {
+        return fail(
+            "positions",
+            format!("found {y}; positions lie across the channel, in [0, {width}]"),
+        );
+    }
     let dt = case.integrator.dt();
     let every = case.run.sample_every;
     for &t in &sp.times {

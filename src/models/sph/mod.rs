@@ -1242,16 +1242,12 @@ impl<const D: usize> SphModel<D> {
         pass: Pass,
         p: &mut Particles<D>,
         full: &FullList,
-    ) -> Result<(), crate::models::gather::PairError> {
-        const HEADROOM: f64 = 1e8;
+    ) -> Result<(), msph::NotFinite> {
         let h = self.cfg.smoothing_length;
         let kernel = kernels::TruncatedGaussian::new(h, D);
         let nu = unknowns(D);
         let n = p.n_owned;
-        let omega = self.mass / self.cfg.rest_density;
-        let (matrix_bound, rhs_bound) = MomentKernel::<D>::term_bounds(&kernel, omega);
         let fluid_only = self.boundaries.walls.is_none_or(|_| self.mirror.is_some());
-        let c0 = self.cfg.sound_speed;
         match pass {
             Pass::WallMirror => {
                 let Some(mirror) = self.mirror else {
@@ -1319,8 +1315,6 @@ impl<const D: usize> SphModel<D> {
                         values.extend_from_slice(&p.vel[j]);
                     }
                 }
-                let mut scales = vec![Scale::covering(HEADROOM * matrix_bound); nu * nu];
-                scales.extend(vec![Scale::covering(HEADROOM * rhs_bound * c0); nu * D]);
                 let k = MomentKernel {
                     kernel,
                     mass: self.mass,
@@ -1329,10 +1323,9 @@ impl<const D: usize> SphModel<D> {
                     fields: D,
                     matrix: true,
                     fluid_only,
-                    scales,
                 };
                 let mut sums = std::mem::take(&mut self.sums);
-                let r = gather(&k, p, full, &mut sums);
+                let r = k.gather(p, full, &mut sums);
                 let width = nu * nu + nu * D;
                 let result = r.map(|()| {
                     self.local.clear();
@@ -1456,10 +1449,6 @@ impl<const D: usize> SphModel<D> {
                 // The packed order of (a, b), a ≤ b, as pushed above.
                 let order: Vec<(usize, usize)> =
                     (0..D).flat_map(|a| (a..D).map(move |b| (a, b))).collect();
-                let stress_bound = c0 * c0 * self.cfg.rest_density
-                    + self.cfg.background_pressure.abs()
-                    + self.cfg.polymer.as_ref().map_or(0.0, |poly| poly.modulus());
-                let scales = vec![Scale::covering(HEADROOM * rhs_bound * stress_bound); nu * pw];
                 let k = MomentKernel {
                     kernel,
                     mass: self.mass,
@@ -1468,10 +1457,9 @@ impl<const D: usize> SphModel<D> {
                     fields: pw,
                     matrix: false,
                     fluid_only,
-                    scales,
                 };
                 let mut sums = std::mem::take(&mut self.sums);
-                let r = gather(&k, p, full, &mut sums);
+                let r = k.gather(p, full, &mut sums);
                 let result = r.map(|()| {
                     for (i, row) in sums.chunks_exact(nu * pw).enumerate() {
                         let Some(local) = self.local.get(i) else {
@@ -1962,9 +1950,10 @@ impl<const D: usize> ParticleModel<D> for SphModel<D> {
         let (p, list, full) = (ctx.particles, ctx.list, ctx.full);
         match kind {
             Pass::WallMirror | Pass::MsphGradient | Pass::WallStress | Pass::MsphDivergence => {
-                self.run_msph(kind, p, full)
+                self.run_msph(kind, p, full).map_err(|e| e.to_string())
             }
-            _ => with_kernel!(kernel, h, D, |k| self.run(k, kind, p, list, full)),
+            _ => with_kernel!(kernel, h, D, |k| self.run(k, kind, p, list, full))
+                .map_err(|e| e.to_string()),
         }
         .map_err(|e| format!("{e} (SPH pass {kind:?} at step {})", ctx.step))?;
         Ok(PassOutput::default())
