@@ -61,6 +61,33 @@ pub fn report(case: &Case, ranks: usize) -> String {
                 sph.density,
                 sph.viscous_term
             ));
+            if sph.derivatives == crate::models::sph::Derivatives::Msph {
+                let morris = match sph.viscous_term {
+                    crate::models::sph::ViscousTerm::Morris => sph.viscosity,
+                    crate::models::sph::ViscousTerm::NestedSummation => {
+                        sph.viscosity * sph.morris_share
+                    }
+                };
+                line(format!(
+                    "derivatives: MSPH (Zhang–Batra {0}×{0} moment systems, exact for quadratic \
+                     fields); Morris (damping) viscosity {morris}",
+                    crate::models::sph::msph::unknowns(case.dimension)
+                ));
+                if morris == 0.0 {
+                    line(
+                        "note: MSPH derivatives do not damp particle-scale velocity modes (spec \
+                         msph-dumbbells.md §5.1); give a Morris viscosity (morris_share ≈ 0.1, \
+                         or viscous_term = \"morris\" for the solvent)"
+                            .to_string(),
+                    );
+                }
+            } else if sph.morris_share > 0.0 {
+                line(format!(
+                    "viscosity split: {} by the nested summation, {} by Morris's term",
+                    sph.viscosity * (1.0 - sph.morris_share),
+                    sph.viscosity * sph.morris_share
+                ));
+            }
             if let Some(poly) = &sph.polymer {
                 let gamma = case.domain.shear_rate;
                 let de = if gamma != 0.0 {

@@ -241,6 +241,49 @@ tolerance = 0.1
 source = "s"
 "#;
 
+/// The MSPH keys: a shortened msph_channel_2d with a centre-line reference.
+const EVERY_MSPH_KEY: &str = r#"
+dimension = 2
+[box]
+lengths = [20.0, 24.0]
+boundaries = ["periodic", "wall"]
+[decomposition]
+axis = "x"
+[particles]
+lattice = "cubic"
+density = 1.0
+mass = 1.0
+temperature = 0.0
+[fluid]
+kind = "sph"
+kernel = "truncated_gaussian"
+smoothing_length = 2.0
+sound_speed = 1.0
+derivatives = "msph"
+viscosity = 1.0
+viscous_term = "nested_summation"
+morris_share = 0.1
+body_force = [1e-3, 0.0]
+[walls]
+treatment = "mirror"
+thickness = 3.0
+[integrator]
+kind = "kick_drift_kick"
+dt = 0.01
+[run]
+steps = 100
+sample_every = 10
+[diagnostics]
+observables = ["velocity_profile"]
+[[reference]]
+kind = "startup_profile"
+name = "p"
+solution = "poiseuille"
+times = [1.0]
+positions = [11.5, 12.5]
+tolerance = 0.03
+"#;
+
 #[test]
 fn documented_keys_are_exactly_the_parsed_keys() {
     let loaded = case_from_str(EVERY_KEY, "every_key.toml");
@@ -267,6 +310,7 @@ fn documented_keys_are_exactly_the_parsed_keys() {
     for (text, name) in [
         (EVERY_SPH_KEY, "sph.toml"),
         (EVERY_DUMBBELL_KEY, "dumbbells.toml"),
+        (EVERY_MSPH_KEY, "msph.toml"),
     ] {
         let sph = case_from_str(text, name);
         let text = toml::to_string(&sph.case).expect("serialise");
@@ -291,6 +335,7 @@ fn documented_keys_are_exactly_the_parsed_keys() {
         &every_gas_key,
         EVERY_SPH_KEY,
         EVERY_DUMBBELL_KEY,
+        EVERY_MSPH_KEY,
     ] {
         paths(
             "",
