@@ -18,6 +18,9 @@ pub struct Validation {
     pub tolerance: f64,
     /// Whether value ≤ tolerance.
     pub pass: bool,
+    /// A start-up profile check's bins at its time: [y, u_x, u_exact] each (empty otherwise).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub profile: Vec<[f64; 3]>,
 }
 
 /// A point of the velocity profile.
@@ -198,12 +201,22 @@ fn check_startup(
                 }
                 _ => f64::NAN,
             };
+            let bins = profile.map_or(0, Vec::len);
             Validation {
                 name: format!("{} at t = {t}", r.name),
                 metric: "max_bin |u_x − u_exact(y, t)| / scale".into(),
                 value,
                 tolerance: r.tolerance,
                 pass: value <= r.tolerance,
+                profile: profile
+                    .into_iter()
+                    .flatten()
+                    .enumerate()
+                    .map(|(b, &u)| {
+                        let y = (b as f64 + 0.5) * l / bins as f64;
+                        [y, u, u_at(y, t)]
+                    })
+                    .collect(),
             }
         })
         .collect()
@@ -256,6 +269,7 @@ fn check_one(
                     value,
                     tolerance: p.tolerance,
                     pass: value <= p.tolerance,
+                    profile: Vec::new(),
                 }
             }
         }
@@ -281,6 +295,7 @@ pub fn check_value(v: &ValueReference, observables: &BTreeMap<String, Estimate>)
         value,
         tolerance: v.tolerance,
         pass: value <= v.tolerance,
+        profile: Vec::new(),
     }
 }
 

@@ -9,21 +9,13 @@
 //! - Wall particles carry no dumbbells; fluid particles carry N_d each.
 
 mod common;
-use common::{assert_all_equal, assert_references_pass, case_from_str, digests_on_1_to_4_ranks};
+use common::{
+    assert_all_equal, assert_references_pass, case_from_str, digests_on_1_to_4_ranks, stock_text,
+};
 use mesorheo::comm::SerialComm;
 use mesorheo::models::dumbbell_ensemble::CONNECTORS;
 use mesorheo::models::sph::FLUID;
 use mesorheo::sim::Simulation;
-use std::path::Path;
-
-fn stock(name: &str) -> String {
-    std::fs::read_to_string(
-        Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("cases")
-            .join(name),
-    )
-    .expect("stock case")
-}
 
 #[test]
 fn stock_shear_scene_meets_the_oldroyd_b_references() {
@@ -33,7 +25,7 @@ fn stock_shear_scene_meets_the_oldroyd_b_references() {
 
 #[test]
 fn coupled_run_is_bitwise_on_1_to_4_ranks_and_1_2_threads() {
-    let text = stock("connffessit_shear_2d.toml")
+    let text = stock_text("connffessit_shear_2d.toml")
         .replace("steps = 12000", "steps = 80")
         .replace("equilibration = 6000", "equilibration = 0")
         .replace("per_particle = 100", "per_particle = 8");
@@ -43,7 +35,7 @@ fn coupled_run_is_bitwise_on_1_to_4_ranks_and_1_2_threads() {
 
 #[test]
 fn wall_particles_carry_no_dumbbells() {
-    let text = stock("sph_couette_2d.toml")
+    let text = stock_text("sph_couette_2d.toml")
         + "\n[fluid.polymer]\nmodel = \"dumbbells\"\nviscosity = 1.0\nrelaxation_time = 1.0\nper_particle = 7\n";
     // [fluid.polymer] appended after [[reference]] tables would belong to them: move it up.
     let (head, refs) = text.split_at(text.find("[[reference]]").expect("references"));
@@ -80,7 +72,7 @@ fn wall_particles_carry_no_dumbbells() {
 /// DPD default, whose pressure needs a pair virial): the viscometric functions when sheared.
 #[test]
 fn an_sph_case_without_observables_gets_the_viscometric_ones() {
-    let text = stock("connffessit_shear_2d.toml");
+    let text = stock_text("connffessit_shear_2d.toml");
     let text = &text[..text.find("[diagnostics]").expect("diagnostics")];
     let loaded = case_from_str(text, "no diagnostics");
     use mesorheo::config::Observable;
@@ -99,7 +91,7 @@ fn an_sph_case_without_observables_gets_the_viscometric_ones() {
 /// (400 particles × 22 evaluations: the initial ones and one per step).
 #[test]
 fn uncorrected_gradient_estimates_are_counted_in_the_summary() {
-    let text = stock("connffessit_shear_2d.toml");
+    let text = stock_text("connffessit_shear_2d.toml");
     let text = text[..text.find("[[reference]]").expect("references")]
         .replace("smoothing_length = 0.15", "smoothing_length = 0.0505")
         .replace("steps = 12000", "steps = 20")

@@ -1,7 +1,8 @@
 //! MSPH derivatives with mirror walls in the paper's channel (spec `msph-dumbbells.md` §3, §5):
 //!
-//! - a linear Couette profile passes through the mirror walls exactly: every fluid particle's
-//!   MSPH velocity gradient is the imposed shear rate and its acceleration vanishes;
+//! - a linear Couette profile passes through the mirror walls exactly, in 2D and 3D: every
+//!   fluid particle's MSPH velocity gradient is the imposed shear rate and its acceleration
+//!   vanishes;
 //! - the stock Newtonian channel follows the start-up Poiseuille series (all of it), the
 //!   Oldroyd-B (UCM) and CONNFFESSIT channels the Oldroyd-B series (to t = 50 here; to t = 150
 //!   under `./run validate`);
@@ -13,20 +14,11 @@
 mod common;
 use common::{
     assert_all_equal, assert_references_pass, case_from_str, digests_on_1_to_4_ranks, stock_case,
+    stock_text,
 };
 use mesorheo::comm::SerialComm;
 use mesorheo::models::sph::{FLUID, VISCOUS_STRESS};
 use mesorheo::sim::Simulation;
-use std::path::Path;
-
-fn stock(name: &str) -> String {
-    std::fs::read_to_string(
-        Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("cases")
-            .join(name),
-    )
-    .expect("stock case")
-}
 
 /// `text` with `old` replaced by `new` (which must occur).
 fn with(text: &str, old: &str, new: &str) -> String {
@@ -40,20 +32,51 @@ fn to_t50(text: &str) -> String {
     with(&t, "times = [50.0, 100.0, 150.0]", "times = [50.0]")
 }
 
+/// Runs one force evaluation of `text` (an MSPH channel with mirror walls, the upper wall at
+/// U = γ̇L) with v_x = γ̇ y imposed on every fluid particle; returns (fluid particles,
+/// max |κ_xy − γ̇|/γ̇, max |a|), κ_xy read from the nested summation's σ̄_xy = (1 − s)η(κ_xy +
+/// κ_yx) with (1 − s)η = 0.9.
+fn couette_through_mirror_walls<const D: usize>(text: &str, rate: f64) -> (usize, f64, f64) {
+    let loaded = case_from_str(text, "couette.toml");
+    let comm = SerialComm::new();
+    let mut sim = Simulation::<D>::new(&loaded.case, &comm, 1).expect("set up");
+    for i in 0..sim.particles.n_owned {
+        if sim.particles.species_of(i) == FLUID {
+            let y = sim.particles.pos[i][1];
+            sim.particles.vel[i] = std::array::from_fn(|d| if d == 0 { rate * y } else { 0.0 });
+        }
+    }
+    sim.jump_to_step(0).expect("forces");
+    let p = &sim.particles;
+    let stress = p.extra_index(VISCOUS_STRESS).expect("viscous stress");
+    let (mut fluid, mut worst_rate, mut worst_force) = (0, 0.0f64, 0.0f64);
+    for i in (0..p.n_owned).filter(|&i| p.species_of(i) == FLUID) {
+        fluid += 1;
+        let kappa = p.extra[stress].data[i * D * D + 1] / 0.9;
+        worst_rate = worst_rate.max((kappa - rate).abs() / rate);
+        worst_force = p.force[i].iter().fold(worst_force, |m, f| m.max(f.abs()));
+    }
+    eprintln!("{D}D: max |κ_xy − γ̇|/γ̇ = {worst_rate:.2e}, max |a| = {worst_force:.2e}");
+    (fluid, worst_rate, worst_force)
+}
+
 /// v_x = γ̇ y between the lower wall at rest and the upper wall at U = γ̇ L: the mirror
 /// velocities 2U − v̂(m) continue the line exactly, MSPH differentiates it exactly (first-order
 /// least squares and the moment system both reproduce linear fields), the mirrored density
 /// is the bulk's, and the stress γ̇(1 − s)η, uniform, is extrapolated to itself — so κ_xy = γ̇
 /// at every fluid particle, the walls' rows included, to round-off, and no fluid particle
-/// accelerates. Measured: |κ_xy − γ̇| ≤ 5·10⁻¹⁵ relative; |a| ≤ 2·10⁻¹⁶ against ηγ̇/h =
-/// 5·10⁻⁴. Fails with the mirror velocity +v̂(m) (κ_xy off by ~100 % next to the walls), with
-/// the wall stress left at 0 instead of extrapolated (a ~10⁻⁴ near-wall force), or with the raw
-/// one-sided wall density.
+/// accelerates; in 2D (the stock channel) and 3D (10a × 12a × 10a of fluid, periodic in x
+/// and z: the 10 × 10 systems). Measured: |κ_xy − γ̇| ≤ 5·10⁻¹⁵ relative (2D and 3D);
+/// |a| ≤ 7·10⁻¹⁶ against ηγ̇/h = 5·10⁻⁴. Fails with the mirror velocity +v̂(m) (κ_xy off by
+/// ~100 % next to the walls), with the wall stress left at 0 instead of extrapolated (a
+/// ~10⁻⁴ near-wall force), or with the raw one-sided wall density.
 #[test]
 fn linear_couette_profile_passes_the_mirror_walls_exactly() {
     let rate = 1e-3;
+    let channel = stock_text("msph_channel_2d.toml");
+    let channel = channel.split("[[reference]]").next().expect("case");
     let text = with(
-        &stock("msph_channel_2d.toml"),
+        channel,
         "body_force = [1e-3, 0.0]",
         "body_force = [0.0, 0.0]",
     );
@@ -62,42 +85,47 @@ fn linear_couette_profile_passes_the_mirror_walls_exactly() {
         "thickness = 3.0",
         &format!("thickness = 3.0\nupper_velocity = [{}, 0.0]", rate * 24.0),
     );
-    let text = with(&text, "solution = \"poiseuille\"", "solution = \"couette\"");
-    let loaded = case_from_str(&text, "couette.toml");
-    let comm = SerialComm::new();
-    let mut sim = Simulation::<2>::new(&loaded.case, &comm, 1).expect("set up");
-    for i in 0..sim.particles.n_owned {
-        if sim.particles.species_of(i) == FLUID {
-            let y = sim.particles.pos[i][1];
-            sim.particles.vel[i] = [rate * y, 0.0];
-        }
-    }
-    sim.jump_to_step(0).expect("forces");
-    let p = &sim.particles;
-    let stress = p.extra_index(VISCOUS_STRESS).expect("viscous stress");
-    let eta = 0.9; // (1 − s) η with s = 0.1
-    let mut worst_rate = 0.0f64;
-    let mut worst_force = 0.0f64;
-    let mut fluid = 0;
-    for i in 0..p.n_owned {
-        if p.species_of(i) != FLUID {
-            continue;
-        }
-        fluid += 1;
-        // σ̄_xy = (1 − s) η (κ_xy + κ_yx).
-        let kappa = p.extra[stress].data[i * 4 + 1] / eta;
-        worst_rate = worst_rate.max((kappa - rate).abs() / rate);
-        worst_force = worst_force.max(p.force[i][0].abs().max(p.force[i][1].abs()));
-    }
+    let (fluid, worst_rate, worst_force) = couette_through_mirror_walls::<2>(&text, rate);
     assert_eq!(fluid, 480);
-    eprintln!("max |κ_xy − γ̇|/γ̇ = {worst_rate:.2e}, max |a| = {worst_force:.2e}");
-    // Round-off of ~50-term sums of O(1) terms: 10⁻¹² relative is four decades of margin
-    // while a wrong wall value errs by O(1).
+    // Round-off of ~50-term sums of O(1) terms: 10⁻¹² relative is two to three decades of
+    // margin while a wrong wall value errs by O(1); a wrong wall stress or density gives
+    // forces ≥ 10⁻⁵.
     assert!(worst_rate < 1e-12, "κ_xy off by {worst_rate:e}");
-    // ηγ̇/h = 4.5·10⁻⁴: a wrong wall stress or density gives ≥ 10⁻⁵.
     assert!(
         worst_force < 1e-12,
         "a fluid particle accelerates at {worst_force:e}"
+    );
+    let text = with(channel, "dimension = 2", "dimension = 3");
+    let text = with(
+        &text,
+        "lengths = [20.0, 24.0]",
+        "lengths = [10.0, 12.0, 10.0]",
+    );
+    let text = with(
+        &text,
+        "boundaries = [\"periodic\", \"wall\"]",
+        "boundaries = [\"periodic\", \"wall\", \"periodic\"]",
+    );
+    let text = with(
+        &text,
+        "body_force = [1e-3, 0.0]",
+        "body_force = [0.0, 0.0, 0.0]",
+    );
+    let text = with(
+        &text,
+        "thickness = 3.0",
+        &format!(
+            "thickness = 3.0\nupper_velocity = [{}, 0.0, 0.0]",
+            rate * 12.0
+        ),
+    );
+    let text = with(&text, "profile_bins = 24", "profile_bins = 12");
+    let (fluid, worst_rate, worst_force) = couette_through_mirror_walls::<3>(&text, rate);
+    assert_eq!(fluid, 1200);
+    assert!(worst_rate < 1e-12, "3D: κ_xy off by {worst_rate:e}");
+    assert!(
+        worst_force < 1e-12,
+        "3D: a fluid particle accelerates at {worst_force:e}"
     );
 }
 
@@ -112,7 +140,7 @@ fn stock_msph_channel_follows_the_poiseuille_series() {
 /// Oldroyd-B series (measured 2.4 %).
 #[test]
 fn stock_ucm_channel_follows_the_oldroyd_b_series_at_t50() {
-    let text = to_t50(&stock("maxwell_ucm_channel_2d.toml"));
+    let text = to_t50(&stock_text("maxwell_ucm_channel_2d.toml"));
     assert_references_pass(
         "maxwell_ucm_channel_2d to t = 50",
         &case_from_str(&text, "ucm50.toml"),
@@ -123,7 +151,7 @@ fn stock_ucm_channel_follows_the_oldroyd_b_series_at_t50() {
 /// the Oldroyd-B series with the stock tolerance (its case file states the seed spread).
 #[test]
 fn stock_connffessit_channel_follows_the_oldroyd_b_series_at_t50() {
-    let text = to_t50(&stock("connffessit_channel_2d.toml"));
+    let text = to_t50(&stock_text("connffessit_channel_2d.toml"));
     assert_references_pass(
         "connffessit_channel_2d to t = 50",
         &case_from_str(&text, "cf50.toml"),
@@ -137,7 +165,7 @@ fn stock_connffessit_channel_follows_the_oldroyd_b_series_at_t50() {
 /// working scheme gets 0.0055. The bound, 5× the series, fails with the mirror walls.
 #[test]
 fn literal_paper_walls_give_a_wrong_near_wall_flow() {
-    let text = to_t50(&stock("msph_channel_2d.toml"));
+    let text = to_t50(&stock_text("msph_channel_2d.toml"));
     let text = with(&text, "treatment = \"mirror\"", "treatment = \"layers\"");
     let text = with(&text, "morris_share = 0.1\n", "");
     let text = with(
@@ -160,7 +188,7 @@ fn literal_paper_walls_give_a_wrong_near_wall_flow() {
 /// threads (slabs across the channel: 20a on 4 ranks leaves 5a ≥ the 4.5a cutoff + skin).
 #[test]
 fn coupled_msph_channel_is_bitwise_on_1_to_4_ranks_and_1_2_threads() {
-    let text = stock("connffessit_channel_2d.toml")
+    let text = stock_text("connffessit_channel_2d.toml")
         .split("[[reference]]")
         .next()
         .expect("case")

@@ -29,6 +29,10 @@ and writes plots to docs/ when matplotlib is available.
                  Wi = 0.5, 1, 3 against Oldroyd-B beside the UCM SPH fluid; the error and cost
                  against N_d and the gradient estimate; FENE (b = 50) against the homogeneous-flow
                  ensembles at the same Wi (~15 min)
+  msph_channel   the paper's channel (Murashima–Taniguchi): MSPH with mirror walls, pairwise SPH
+                 and the paper's literal walls against the start-up series (Newtonian, UCM
+                 λ = 10 and 1000), the UCM error against Δt, and CONNFFESSIT at N_d = 250, 1000,
+                 4000, 10⁴ against the UCM run, with costs (~30 min on 2 cores)
 """
 import json, math, os, subprocess, sys, tempfile
 
@@ -665,14 +669,121 @@ def plot_connffessit(rows):
     print("![CONNFFESSIT error against cost](connffessit_shear.png)\n")
 
 
+def channel_profiles(summary):
+    """{t: [(y, u, u_exact)]} from the startup_profile checks of a summary."""
+    return {float(v["name"].split(" at t = ")[1]): v.get("profile", [])
+            for v in summary["validation"] if " at t = " in v["name"]}
+
+
+def msph_channel():
+    u_max = 0.072  # the steady centre velocity fH²/(8η₀), H = 24
+
+    def stock_text(name):
+        with open(os.path.join(ROOT, "cases", name)) as f:
+            return f.read()
+
+    def centre(profile):
+        """(u, u_exact) at the centre: the mean of the two middle rows."""
+        mid = [row for row in profile if abs(row[0] - 12.0) < 1.0]
+        return sum(r[1] for r in mid) / len(mid), sum(r[2] for r in mid) / len(mid)
+
+    newtonian, ucm = stock_text("msph_channel_2d.toml"), stock_text("maxwell_ucm_channel_2d.toml")
+    sph_newtonian = (newtonian.replace('derivatives = "msph"', 'derivatives = "sph"')
+                     .replace('treatment = "mirror"', 'treatment = "morris"')
+                     .replace('viscous_term = "nested_summation"', 'viscous_term = "morris"')
+                     .replace("morris_share = 0.1\n", "")
+                     .replace('kernel = "truncated_gaussian"', 'kernel = "quintic_spline"')
+                     .replace("smoothing_length = 2.0", "smoothing_length = 1.2")
+                     .replace("sound_speed = 1.0", "sound_speed = 10.0")
+                     .replace("thickness = 3.0", "thickness = 3.6"))
+    sph_ucm = (ucm.replace('derivatives = "msph"', 'derivatives = "sph"')
+               .replace('treatment = "mirror"', 'treatment = "morris"')
+               .replace('kernel = "truncated_gaussian"', 'kernel = "quintic_spline"')
+               .replace("smoothing_length = 2.0", "smoothing_length = 1.2")
+               .replace("sound_speed = 1.0", "sound_speed = 10.0")
+               .replace("thickness = 3.0", "thickness = 3.6"))
+    literal = (newtonian.replace('treatment = "mirror"', 'treatment = "layers"')
+               .replace("morris_share = 0.1\n", "").replace("tolerance = 0.03", "tolerance = 100.0"))
+    print("### The paper's channel (cases/msph_channel_2d.toml, maxwell_ucm_channel_2d.toml)\n")
+    print("Start-up Poiseuille flow in Murashima & Taniguchi's channel: 20a × 24a of fluid (480 particles) "
+          "between walls three rows thick, f = 10⁻³, Δt = 0.01, η₀ = 1, c = 1, truncated Gaussian "
+          "h = 2a; the polymer fluids carry η_s = 0.1 by Morris's term and η_p = 0.9 (Oldroyd-B β = 0.1, "
+          "spec §3 T2). Errors: the largest over the 24 rows of |ū − u_series| and the centre rows' "
+          "error, both in % of the scale (0.072, or the λ = 1000 plug's centre velocity at t = 150, "
+          "0.1459). Pairwise SPH: quintic spline h = 1.2a (support 3.6a, four wall rows), c = 10, Morris "
+          "wall images.\n")
+    print("| fluid | scheme | Δt | profile error t = 50 / 100 / 150 | centre error t = 50 / 100 / 150 | wall s |")
+    print("|---|---|---|---|---|---|")
+    rows = [("Newtonian", "MSPH, mirror walls", newtonian, []),
+            ("Newtonian", "MSPH, the paper's literal walls, η_s = 0", literal, []),
+            ("Newtonian", "pairwise SPH", sph_newtonian, []),
+            ("UCM λ = 10", "MSPH, mirror walls", ucm, []),
+            ("UCM λ = 10", "MSPH, mirror walls", ucm, ["integrator.dt=0.02", "run.steps=7500", "run.sample_every=250"]),
+            ("UCM λ = 10", "MSPH, mirror walls", ucm, ["integrator.dt=0.005", "run.steps=30000", "run.sample_every=1000"]),
+            ("UCM λ = 10", "pairwise SPH", sph_ucm, []),
+            ("UCM λ = 1000", "MSPH, mirror walls", ucm, ["fluid.polymer.relaxation_time=1000"])]
+    ucm_profiles = None
+    for fluid, scheme, text, sets in rows:
+        s, cmd, err = launch_text(text, sets)
+        dt = next((x.split("=")[1] for x in sets if x.startswith("integrator.dt")), "0.01")
+        if s is None:
+            print(f"| {fluid} | {scheme} | {dt} | failed: {err.strip().splitlines()[-1][:80] if err.strip() else '?'} | | |")
+            continue
+        errs = startup_errors(s)
+        profiles = channel_profiles(s)
+        scale = u_max if "1000" not in fluid else 0.1459
+        cents = []
+        for t in sorted(profiles):
+            u, ue = centre(profiles[t])
+            cents.append(f"{100 * (u - ue) / scale:+.2f}")
+        print(f"| {fluid} | {scheme} | {dt} | {' / '.join(f'{100 * errs[t]:.2f}' for t in sorted(errs))} % "
+              f"| {' / '.join(cents)} % | {s['wall_seconds']:.0f} |")
+        if fluid == "UCM λ = 10" and scheme.startswith("MSPH") and not sets:
+            ucm_profiles = profiles
+    print()
+    print("CONNFFESSIT (cases/connffessit_channel_2d.toml: the UCM λ = 10 case with N_d Hookean dumbbells "
+          "per fluid particle instead of the constitutive equation, seed 1): the row-mean velocity "
+          "against the UCM run on the same particles (same MSPH error, so the difference is the "
+          "dumbbells' noise and bias) and against the series; max and rms over the 24 rows, in % of "
+          "0.072, at t = 50 / 100 / 150.\n")
+    print("| N_d | max abs(ū − ū_UCM) | rms(ū − ū_UCM) | max abs(ū − u_series) | dumbbell-steps | wall s | ensembles s |")
+    print("|---|---|---|---|---|---|---|")
+    cf = stock_text("connffessit_channel_2d.toml").replace("tolerance = 0.075", "tolerance = 100.0")
+    for n_d in (250, 1000, 4000, 10000):
+        s = run_text(cf, [f"fluid.polymer.per_particle={n_d}"])
+        profiles = channel_profiles(s)
+        errs = startup_errors(s)
+        maxd, rmsd = [], []
+        for t in sorted(profiles):
+            d = [(a[1] - b[1]) / u_max for a, b in zip(profiles[t], ucm_profiles[t])]
+            maxd.append(f"{100 * max(abs(x) for x in d):.2f}")
+            rmsd.append(f"{100 * math.sqrt(sum(x * x for x in d) / len(d)):.2f}")
+        work = 480 * n_d * s["steps"]
+        print(f"| {n_d} | {' / '.join(maxd)} | {' / '.join(rmsd)} | "
+              f"{' / '.join(f'{100 * errs[t]:.2f}' for t in sorted(errs))} | {work:.2e} | "
+              f"{s['wall_seconds']:.0f} | {s['phase_seconds']['particle_state']:.0f} |")
+    print()
+
+
+def launch_text(text, sets=(), ranks=1, threads=2):
+    """launch() on a case given as text."""
+    with tempfile.NamedTemporaryFile("w", suffix=".toml", delete=False) as f:
+        f.write(text)
+    try:
+        return launch(f.name, sets, ranks, threads)
+    finally:
+        os.unlink(f.name)
+
+
 if __name__ == "__main__":
     todo = sys.argv[1:] or ["stock", "kt_vs_dt", "viscosity", "viscometric", "sph", "sph_convergence", "maxwell",
-                            "inclusion", "maxwell_convergence", "maxwell_stability", "connffessit_shear"]
+                            "inclusion", "maxwell_convergence", "maxwell_stability", "connffessit_shear",
+                            "msph_channel"]
     targets = {"kt_vs_dt": kt_vs_dt, "viscosity": viscosity, "stock": stock,
                "viscometric": viscometric, "sph": sph, "sph_convergence": sph_convergence,
                "maxwell": maxwell, "inclusion": inclusion,
                "maxwell_convergence": maxwell_convergence, "maxwell_stability": maxwell_stability,
-               "connffessit_shear": connffessit_shear}
+               "connffessit_shear": connffessit_shear, "msph_channel": msph_channel}
     for name in todo:
         if name not in targets:
             sys.exit(f"unknown validation '{name}'; valid: {', '.join(targets)}")

@@ -23,6 +23,16 @@ pub fn stock_case(name: &str) -> LoadedCase {
     config::load(&path).unwrap_or_else(|e| panic!("{e}"))
 }
 
+/// The text of a stock case from `cases/`.
+pub fn stock_text(name: &str) -> String {
+    std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("cases")
+            .join(name),
+    )
+    .unwrap_or_else(|e| panic!("cases/{name}: {e}"))
+}
+
 /// An SPH fluid (Tait, η = 1, kick–drift–kick, Δt = 10⁻⁴) in a periodic box of side 1 with a
 /// square lattice of spacing 0.02 and Lucy support `support`; `extra_fluid` is appended to
 /// `[fluid]` (it may open a sub-table such as `[fluid.polymer]`).

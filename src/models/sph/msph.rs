@@ -523,4 +523,59 @@ mod tests {
         lonely.add(&g2, 1.0, &[0.0, 0.0]);
         assert!(lonely.factor().is_none());
     }
+
+    /// The entries of M (row-major) of a neighbourhood, for [`Local::new`].
+    fn entries(points: &[[f64; 2]], g: &TruncatedGaussian) -> (Vec<f64>, Vec<[f64; 10]>) {
+        let mut m = MomentSystem::<2>::default();
+        let mut psi = Vec::new();
+        for r in points {
+            m.add(g, 1.0, r);
+            psi.push(rows(g, r));
+        }
+        let n = unknowns(2);
+        let e = (0..n * n).map(|k| m.entry(k / n, k % n)).collect();
+        (e, psi)
+    }
+
+    /// The condition monitor: the bulk lattice is solved to second order (h-scaled 1-norm
+    /// condition ~5, far below 10⁴); two rows of neighbours cannot fix ∂yy f, so the system
+    /// falls back to the first-order correction, which still differentiates a linear field
+    /// exactly; a lone particle determines nothing. Fails if the h-scaling is dropped (the
+    /// unscaled bulk matrix of h = 0.01 has a condition number of ~10⁸), or without the
+    /// first-order fallback (the strip's system is singular: ½R_y² = (a/2) R_y on its points).
+    #[test]
+    fn condition_monitor_falls_back_to_first_order() {
+        for h in [2.0, 0.01] {
+            let g = TruncatedGaussian::new(h, 2);
+            let a = h / 2.0;
+            let lattice: Vec<[f64; 2]> = (-4i32..=4)
+                .flat_map(|i| (-4i32..=4).map(move |j| [a * f64::from(i), a * f64::from(j)]))
+                .filter(|r| r[0].hypot(r[1]) <= 2.0 * h)
+                .collect();
+            let (m, _) = entries(&lattice, &g);
+            let local = Local::<2>::new(&m, h);
+            assert!(local.is_second_order(), "bulk at h = {h}");
+            let strip: Vec<[f64; 2]> = (-4i32..=4)
+                .flat_map(|i| (0..2).map(move |j| [a * f64::from(i), a * f64::from(j)]))
+                .collect();
+            let (m, psi) = entries(&strip, &g);
+            let local = Local::<2>::new(&m, h);
+            assert!(matches!(local, Local::First { .. }), "two rows at h = {h}");
+            // f = 2 + 3x − 5y: b from the same neighbours, f_i = 2 at R = 0.
+            let mut b = [0.0; 10];
+            for (r, p) in strip.iter().zip(&psi) {
+                let f = 2.0 + 3.0 * r[0] - 5.0 * r[1];
+                for (x, q) in b.iter_mut().zip(p) {
+                    *x += q * f;
+                }
+            }
+            let grad = local.gradient(&b, 2.0);
+            assert!(
+                (grad[0] - 3.0).abs() < 1e-9 && (grad[1] + 5.0).abs() < 1e-9,
+                "{grad:?}"
+            );
+            let (m, _) = entries(&[[0.0, 0.0]], &g);
+            assert!(matches!(Local::<2>::new(&m, h), Local::Undetermined));
+        }
+    }
 }
