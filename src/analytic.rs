@@ -81,6 +81,19 @@ pub fn poiseuille(y: f64, t: f64, l: f64, force: f64, nu: f64) -> f64 {
         })
 }
 
+/// An Oldroyd-B fluid: density ρ, solvent and polymer viscosities, relaxation time λ.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct OldroydB {
+    /// ρ.
+    pub density: f64,
+    /// η_s.
+    pub solvent_viscosity: f64,
+    /// η_p.
+    pub polymer_viscosity: f64,
+    /// λ.
+    pub relaxation_time: f64,
+}
+
 /// Start-up Poiseuille velocity u(y, t) of an Oldroyd-B fluid (solvent viscosity η_s, polymer
 /// viscosity η_p, relaxation time λ; the upper-convected Maxwell fluid when η_s = 0) of
 /// density ρ driven by the body force F per unit mass from rest, τ = 0 at t = 0 (spec
@@ -96,22 +109,13 @@ pub fn poiseuille(y: f64, t: f64, l: f64, force: f64, nu: f64) -> f64 {
 ///
 /// a′(0) follows from u_t(0⁺) = F with τ(0) = 0. The sum runs over 20 000 odd modes (the
 /// λ = 1000 wave front needs ~2000). Hookean dumbbells obey it in the N_d → ∞ limit.
-pub fn poiseuille_oldroyd_b(
-    y: f64,
-    t: f64,
-    l: f64,
-    force: f64,
-    density: f64,
-    solvent_viscosity: f64,
-    polymer_viscosity: f64,
-    relaxation_time: f64,
-) -> f64 {
+pub fn poiseuille_oldroyd_b(y: f64, t: f64, l: f64, force: f64, fluid: &OldroydB) -> f64 {
     if t <= 0.0 {
         return 0.0;
     }
-    let nu0 = (solvent_viscosity + polymer_viscosity) / density;
-    let nu_s = solvent_viscosity / density;
-    let lambda = relaxation_time;
+    let nu0 = (fluid.solvent_viscosity + fluid.polymer_viscosity) / fluid.density;
+    let nu_s = fluid.solvent_viscosity / fluid.density;
+    let lambda = fluid.relaxation_time;
     let steady = force / (2.0 * nu0) * y * (l - y);
     let mut sum = 0.0;
     for m in 0..20_000u32 {
@@ -280,7 +284,18 @@ mod tests {
         ];
         for (lambda, t, row) in ucm {
             for (y, want) in ys.iter().zip(row) {
-                let got = poiseuille_oldroyd_b(*y, t, 24.0, 1e-3, 1.0, 0.0, 1.0, lambda);
+                let got = poiseuille_oldroyd_b(
+                    *y,
+                    t,
+                    24.0,
+                    1e-3,
+                    &OldroydB {
+                        density: 1.0,
+                        solvent_viscosity: 0.0,
+                        polymer_viscosity: 1.0,
+                        relaxation_time: lambda,
+                    },
+                );
                 assert!(
                     (got - want).abs() <= 6e-6,
                     "λ {lambda} t {t} y {y}: {got} vs {want}"
@@ -298,7 +313,18 @@ mod tests {
             for (y, want) in ys.iter().zip(row) {
                 let series = poiseuille(*y, t, 24.0, 1e-3, 1.0);
                 // λ → 0 with η_s + η_p = 1 is the Newtonian fluid.
-                let limit = poiseuille_oldroyd_b(*y, t, 24.0, 1e-3, 1.0, 0.5, 0.5, 1e-9);
+                let limit = poiseuille_oldroyd_b(
+                    *y,
+                    t,
+                    24.0,
+                    1e-3,
+                    &OldroydB {
+                        density: 1.0,
+                        solvent_viscosity: 0.5,
+                        polymer_viscosity: 0.5,
+                        relaxation_time: 1e-9,
+                    },
+                );
                 assert!(
                     (series - want).abs() <= 6e-6,
                     "t {t} y {y}: {series} vs {want}"
@@ -319,7 +345,18 @@ mod tests {
         ];
         for (lambda, t, row) in beta {
             for (y, want) in [0.5, 3.5, 6.5, 12.0].iter().zip(row) {
-                let got = poiseuille_oldroyd_b(*y, t, 24.0, 1e-3, 1.0, 0.1, 0.9, lambda);
+                let got = poiseuille_oldroyd_b(
+                    *y,
+                    t,
+                    24.0,
+                    1e-3,
+                    &OldroydB {
+                        density: 1.0,
+                        solvent_viscosity: 0.1,
+                        polymer_viscosity: 0.9,
+                        relaxation_time: lambda,
+                    },
+                );
                 assert!(
                     (got - want).abs() <= 6e-6,
                     "β λ {lambda} t {t} y {y}: {got} vs {want}"

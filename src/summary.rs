@@ -121,7 +121,9 @@ fn check_startup(
     r: &crate::config::StartupProfileReference,
     series: Option<ProfileSeries<'_>>,
 ) -> Vec<Validation> {
-    use crate::analytic::{StartupFlow, couette, poiseuille, poiseuille_oldroyd_b, relaxation};
+    use crate::analytic::{
+        OldroydB, StartupFlow, couette, poiseuille, poiseuille_oldroyd_b, relaxation,
+    };
     let (crate::config::FluidCfg::Sph(s), Some(w)) = (&case.fluid, &case.walls) else {
         return Vec::new();
     };
@@ -139,10 +141,14 @@ fn check_startup(
                 // Oldroyd-B (UCM, Hookean dumbbells): the scale is the steady centre velocity
                 // or, while a slow fluid's plug overshoots it, the largest velocity reached.
                 Some(poly) => {
-                    let (rho, eta_s) = (s.rest_density, s.viscosity);
-                    let (eta_p, lambda) = (poly.viscosity, poly.relaxation_time);
-                    let nu0 = (eta_s + eta_p) / rho;
-                    let u = move |y, t| poiseuille_oldroyd_b(y, t, l, f, rho, eta_s, eta_p, lambda);
+                    let fluid = OldroydB {
+                        density: s.rest_density,
+                        solvent_viscosity: s.viscosity,
+                        polymer_viscosity: poly.viscosity,
+                        relaxation_time: poly.relaxation_time,
+                    };
+                    let nu0 = (fluid.solvent_viscosity + fluid.polymer_viscosity) / fluid.density;
+                    let u = move |y, t| poiseuille_oldroyd_b(y, t, l, f, &fluid);
                     let t_max = r.times.iter().copied().fold(0.0, f64::max);
                     let peak = u(0.5 * l, t_max).abs();
                     (Box::new(u), (f * l * l / (8.0 * nu0)).abs().max(peak))

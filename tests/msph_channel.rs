@@ -67,9 +67,9 @@ fn couette_through_mirror_walls<const D: usize>(text: &str, rate: f64) -> (usize
 /// at every fluid particle, the walls' rows included, to round-off, and no fluid particle
 /// accelerates; in 2D (the stock channel) and 3D (10a × 12a × 10a of fluid, periodic in x
 /// and z: the 10 × 10 systems). Measured: |κ_xy − γ̇| ≤ 5·10⁻¹⁵ relative (2D and 3D);
-/// |a| ≤ 7·10⁻¹⁶ against ηγ̇/h = 5·10⁻⁴. Fails with the mirror velocity +v̂(m) (κ_xy off by
-/// ~100 % next to the walls), with the wall stress left at 0 instead of extrapolated (a
-/// ~10⁻⁴ near-wall force), or with the raw one-sided wall density.
+/// |a| ≤ 7·10⁻¹⁶ against ηγ̇/h = 5·10⁻⁴. Fails with the mirror velocity +v̂(m) instead of
+/// 2U − v̂(m) (κ_xy off by 72 % next to the walls), or with the wall stress left at 0 instead
+/// of extrapolated (|a| = 2.6·10⁻⁴ next to the walls).
 #[test]
 fn linear_couette_profile_passes_the_mirror_walls_exactly() {
     let rate = 1e-3;
@@ -88,8 +88,7 @@ fn linear_couette_profile_passes_the_mirror_walls_exactly() {
     let (fluid, worst_rate, worst_force) = couette_through_mirror_walls::<2>(&text, rate);
     assert_eq!(fluid, 480);
     // Round-off of ~50-term sums of O(1) terms: 10⁻¹² relative is two to three decades of
-    // margin while a wrong wall value errs by O(1); a wrong wall stress or density gives
-    // forces ≥ 10⁻⁵.
+    // margin while a wrong wall value errs by O(1); a wrong wall stress gives forces ~10⁻⁴.
     assert!(worst_rate < 1e-12, "κ_xy off by {worst_rate:e}");
     assert!(
         worst_force < 1e-12,

@@ -80,6 +80,7 @@ use kernels::{Kernel, KernelKind};
 use maxwell::{Maxwell, PolymerCfg, packed_index, packed_width};
 use mirror::{FitFallbacks, MirrorWalls};
 use msph::{Local, MomentKernel, unknowns};
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 /// `[fluid] kind = "sph"`
@@ -1328,25 +1329,36 @@ impl<const D: usize> SphModel<D> {
                 let r = k.gather(p, full, &mut sums);
                 let width = nu * nu + nu * D;
                 let result = r.map(|()| {
+                    // Per particle: its derivative form and its D² gradient, on the pool.
+                    let solved: Vec<(Local<D>, [f64; 9])> = sums
+                        .par_chunks_exact(width)
+                        .enumerate()
+                        .with_min_len(16)
+                        .map(|(i, row)| {
+                            let mut g = [0.0; 9];
+                            if !k.active(p, i) {
+                                return (Local::Undetermined, g);
+                            }
+                            let local = Local::<D>::new(&row[..nu * nu], h);
+                            for a in 0..D {
+                                let b = &row[nu * nu + a * nu..nu * nu + (a + 1) * nu];
+                                let ga = local.gradient(b, values[i * D + a]);
+                                g[a * D..(a + 1) * D].copy_from_slice(&ga);
+                            }
+                            (local, g)
+                        })
+                        .collect();
                     self.local.clear();
                     let mut gradient = vec![0.0; n * D * D];
-                    for (i, row) in sums.chunks_exact(width).enumerate() {
-                        if !(k.active(p, i)) {
-                            self.local.push(Local::Undetermined);
-                            continue;
+                    for (i, (local, g)) in solved.into_iter().enumerate() {
+                        if k.active(p, i) {
+                            match local {
+                                Local::Second { .. } => {}
+                                Local::First { .. } => self.msph_first_order += 1,
+                                Local::Undetermined => self.msph_undetermined += 1,
+                            }
                         }
-                        let local = Local::<D>::new(&row[..nu * nu], h);
-                        match local {
-                            Local::Second { .. } => {}
-                            Local::First { .. } => self.msph_first_order += 1,
-                            Local::Undetermined => self.msph_undetermined += 1,
-                        }
-                        for a in 0..D {
-                            let b = &row[nu * nu + a * nu..nu * nu + (a + 1) * nu];
-                            let g = local.gradient(b, values[i * D + a]);
-                            gradient[i * D * D + a * D..i * D * D + (a + 1) * D]
-                                .copy_from_slice(&g);
-                        }
+                        gradient[i * D * D..(i + 1) * D * D].copy_from_slice(&g[..D * D]);
                         self.local.push(local);
                     }
                     gradient
@@ -1461,19 +1473,29 @@ impl<const D: usize> SphModel<D> {
                 let mut sums = std::mem::take(&mut self.sums);
                 let r = k.gather(p, full, &mut sums);
                 let result = r.map(|()| {
-                    for (i, row) in sums.chunks_exact(nu * pw).enumerate() {
-                        let Some(local) = self.local.get(i) else {
-                            continue;
-                        };
-                        let mut div = [0.0; D];
-                        for (q, &(a, b)) in order.iter().enumerate() {
-                            let g = local.gradient(&row[q * nu..(q + 1) * nu], values[i * pw + q]);
-                            // ∂_b σ_ab into component a, and ∂_a σ_ba into b.
-                            div[a] += g[b];
-                            if a != b {
-                                div[b] += g[a];
+                    let local = &self.local;
+                    let divergence: Vec<[f64; D]> = sums
+                        .par_chunks_exact(nu * pw)
+                        .enumerate()
+                        .with_min_len(16)
+                        .map(|(i, row)| {
+                            let mut div = [0.0; D];
+                            let Some(local) = local.get(i) else {
+                                return div;
+                            };
+                            for (q, &(a, b)) in order.iter().enumerate() {
+                                let g =
+                                    local.gradient(&row[q * nu..(q + 1) * nu], values[i * pw + q]);
+                                // ∂_b σ_ab into component a, and ∂_a σ_ba into b.
+                                div[a] += g[b];
+                                if a != b {
+                                    div[b] += g[a];
+                                }
                             }
-                        }
+                            div
+                        })
+                        .collect();
+                    for (i, div) in divergence.iter().enumerate() {
                         let m_over_rho = self.mass / p.extra[self.density].data[i];
                         for d in 0..D {
                             p.force[i][d] += m_over_rho * div[d];

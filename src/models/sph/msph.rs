@@ -198,6 +198,9 @@ fn degree<const D: usize>(c: usize) -> i32 {
 pub const MAX_CONDITION: f64 = 1e4;
 
 /// How one particle's derivatives are formed from its right-hand sides.
+// Nearly every particle holds the large variant (the factored system); boxing it would cost
+// an allocation per particle per evaluation to save space on the rare fallbacks.
+#[allow(clippy::large_enum_variant)]
 #[derive(Clone, Debug)]
 pub enum Local<const D: usize> {
     /// The full second-order system, h-scaled and factored: u = D_c S⁻¹ D_r b.
@@ -291,6 +294,10 @@ pub struct MomentKernel<'a, const D: usize> {
     pub fluid_only: bool,
 }
 
+/// A neighbour in summation order: its global id, its position's bits (two periodic images
+/// of one particle differ there), its local index.
+type Neighbour<const D: usize> = (u64, [u64; D], usize);
+
 /// A moment-system sum that is not finite: the run has blown up.
 #[derive(Clone, Debug, PartialEq)]
 pub struct NotFinite {
@@ -342,7 +349,7 @@ impl<const D: usize> MomentKernel<'_, D> {
             .with_min_len(16)
             .try_for_each_init(
                 || (Vec::new(), vec![0.0; width]),
-                |(order, term): &mut (Vec<(u64, [u64; D], usize)>, Vec<f64>), (i, sums)| {
+                |(order, term): &mut (Vec<Neighbour<D>>, Vec<f64>), (i, sums)| {
                     if !self.active(p, i) {
                         return Ok(());
                     }
