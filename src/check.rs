@@ -81,7 +81,15 @@ pub fn report(case: &Case, ranks: usize) -> String {
                             .to_string(),
                     );
                 }
-            } else if sph.morris_share > 0.0 {
+            } else if sph.kernel == crate::models::sph::kernels::KernelKind::TruncatedGaussian {
+                line(
+                    "note: the truncated Gaussian has W′(2h) ≠ 0, so pairwise SPH forces jump as \
+                     neighbours cross the support (the paper's channel came out 7–99 % off, \
+                     docs/validation.md); it is MSPH's kernel: derivatives = \"msph\""
+                        .to_string(),
+                );
+            }
+            if sph.derivatives == crate::models::sph::Derivatives::Sph && sph.morris_share > 0.0 {
                 line(format!(
                     "viscosity split: {} by the nested summation, {} by Morris's term",
                     sph.viscosity * (1.0 - sph.morris_share),
