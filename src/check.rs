@@ -83,9 +83,9 @@ pub fn report(case: &Case, ranks: usize) -> String {
                 }
             } else if sph.kernel == crate::models::sph::kernels::KernelKind::TruncatedGaussian {
                 line(
-                    "note: the truncated Gaussian has W′(2h) ≠ 0, so pairwise SPH forces jump as \
-                     neighbours cross the support (the paper's channel came out 7–99 % off, \
-                     docs/validation.md); it is MSPH's kernel: derivatives = \"msph\""
+                    "note: the truncated Gaussian has W′(2h) ≠ 0 (pair forces jump as neighbours \
+                     cross the support); with pairwise SPH the paper's channel came out 7–99 % \
+                     off (docs/validation.md); it is MSPH's kernel: derivatives = \"msph\""
                         .to_string(),
                 );
             }
