@@ -274,8 +274,8 @@ impl<const D: usize> Local<D> {
 ///
 /// The sums are plain floating-point sums taken in a fixed order — the self term, then the
 /// neighbours by global id — so they are the same bits on any decomposition without the
-/// exact (fixed-point) sums of the pair passes, which would cost several times more for the
-/// 48 (2D) to 130 (3D) quantities per pair.
+/// exact (fixed-point) sums of the pair passes, which for the 48 (2D) to 130 (3D) quantities
+/// per pair made the 2D channel's whole loop a third slower (62 s against 46 s).
 pub struct MomentKernel<'a, const D: usize> {
     /// The kernel.
     pub kernel: TruncatedGaussian,
