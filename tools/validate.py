@@ -689,20 +689,20 @@ def msph_channel():
         return sum(r[1] for r in mid) / len(mid), sum(r[2] for r in mid) / len(mid)
 
     newtonian, ucm = stock_text("msph_channel_2d.toml"), stock_text("maxwell_ucm_channel_2d.toml")
-    sph_newtonian = (newtonian.replace('derivatives = "msph"', 'derivatives = "sph"')
-                     .replace('treatment = "mirror"', 'treatment = "morris"')
-                     .replace('viscous_term = "nested_summation"', 'viscous_term = "morris"')
-                     .replace("morris_share = 0.1\n", "")
-                     .replace('kernel = "truncated_gaussian"', 'kernel = "quintic_spline"')
-                     .replace("smoothing_length = 2.0", "smoothing_length = 1.2")
-                     .replace("sound_speed = 1.0", "sound_speed = 10.0")
-                     .replace("thickness = 3.0", "thickness = 3.6"))
-    sph_ucm = (ucm.replace('derivatives = "msph"', 'derivatives = "sph"')
-               .replace('treatment = "mirror"', 'treatment = "morris"')
-               .replace('kernel = "truncated_gaussian"', 'kernel = "quintic_spline"')
-               .replace("smoothing_length = 2.0", "smoothing_length = 1.2")
-               .replace("sound_speed = 1.0", "sound_speed = 10.0")
-               .replace("thickness = 3.0", "thickness = 3.6"))
+    def pairwise(text):
+        """The same channel with pairwise SPH: quintic spline h = 1.2a, c = 10, Morris walls."""
+        for a, b in (('derivatives = "msph"', 'derivatives = "sph"'),
+                     ('treatment = "mirror"', 'treatment = "morris"'),
+                     ('viscous_term = "nested_summation"', 'viscous_term = "morris"'),
+                     ("morris_share = 0.1\n", ""),
+                     ('kernel = "truncated_gaussian"', 'kernel = "quintic_spline"'),
+                     ("smoothing_length = 2.0", "smoothing_length = 1.2"),
+                     ("sound_speed = 1.0", "sound_speed = 10.0"),
+                     ("thickness = 3.0", "thickness = 3.6")):
+            text = text.replace(a, b)
+        return text
+
+    sph_newtonian, sph_ucm = pairwise(newtonian), pairwise(ucm)
     literal = (newtonian.replace('treatment = "mirror"', 'treatment = "layers"')
                .replace("morris_share = 0.1\n", "").replace("tolerance = 0.03", "tolerance = 100.0"))
     print("### The paper's channel (cases/msph_channel_2d.toml, maxwell_ucm_channel_2d.toml)\n")

@@ -27,7 +27,7 @@
 //! defaults (ρ₀, U, zero stress); both are counted.
 
 use super::kernels::{Kernel, TruncatedGaussian};
-use super::{FLUID, LOWER_WALL, UPPER_WALL};
+use super::{FLUID, UPPER_WALL, is_wall};
 use crate::particles::Particles;
 
 /// The walls as the mirror fits see them.
@@ -107,7 +107,7 @@ impl<const D: usize> MirrorWalls<D> {
         let mut slope = vec![0.0; count * D];
         for w in 0..p.n_owned {
             let species = p.species_of(w);
-            if species != LOWER_WALL && species != UPPER_WALL {
+            if !is_wall(species) {
                 continue;
             }
             let side = usize::from(species == UPPER_WALL);

@@ -385,6 +385,11 @@ pub const UPPER_WALL: u8 = 2;
 /// The boundary particles filling the inclusions.
 pub const INCLUSION: u8 = 3;
 
+/// Whether species `s` is one of the two walls.
+pub fn is_wall(s: u8) -> bool {
+    s == LOWER_WALL || s == UPPER_WALL
+}
+
 /// The species of a scene with boundary particles (fluid, lower wall, upper wall, and with
 /// inclusions the inclusion particles), every particle of mass `mass`; a wall at rest and
 /// the inclusions are frozen (never integrated). Without walls the wall species have no
@@ -1287,7 +1292,7 @@ impl<const D: usize> SphModel<D> {
                 // Boundary particles without a fit keep ρ₀ and their wall's velocity.
                 for w in 0..n {
                     let s = p.species_of(w);
-                    if s == LOWER_WALL || s == UPPER_WALL {
+                    if is_wall(s) {
                         let u = wall_velocity[usize::from(s == UPPER_WALL)];
                         p.extra[density].data[w] = self.cfg.rest_density;
                         p.extra[velocity].data[w * D..(w + 1) * D].copy_from_slice(&u);
@@ -1309,7 +1314,7 @@ impl<const D: usize> SphModel<D> {
                 values.clear();
                 for j in 0..p.len() {
                     let s = p.species_of(j);
-                    if mirror_velocity != usize::MAX && (s == LOWER_WALL || s == UPPER_WALL) {
+                    if mirror_velocity != usize::MAX && is_wall(s) {
                         values
                             .extend_from_slice(&p.extra[mirror_velocity].data[j * D..(j + 1) * D]);
                     } else {
@@ -1414,7 +1419,7 @@ impl<const D: usize> SphModel<D> {
                 self.mirror_fallbacks.empty += fallbacks.empty;
                 for w in 0..n {
                     let s = p.species_of(w);
-                    if s == LOWER_WALL || s == UPPER_WALL {
+                    if is_wall(s) {
                         if let Some(t) = polymer {
                             p.extra[t].data[w * pw..(w + 1) * pw].fill(0.0);
                         }
