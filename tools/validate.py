@@ -689,20 +689,11 @@ def msph_channel():
         return sum(r[1] for r in mid) / len(mid), sum(r[2] for r in mid) / len(mid)
 
     newtonian, ucm = stock_text("msph_channel_2d.toml"), stock_text("maxwell_ucm_channel_2d.toml")
-    def pairwise(text):
-        """The same channel with pairwise SPH: quintic spline h = 1.2a, c = 10, Morris walls."""
-        for a, b in (('derivatives = "msph"', 'derivatives = "sph"'),
-                     ('treatment = "mirror"', 'treatment = "morris"'),
-                     ('viscous_term = "nested_summation"', 'viscous_term = "morris"'),
-                     ("morris_share = 0.1\n", ""),
-                     ('kernel = "truncated_gaussian"', 'kernel = "quintic_spline"'),
-                     ("smoothing_length = 2.0", "smoothing_length = 1.2"),
-                     ("sound_speed = 1.0", "sound_speed = 10.0"),
-                     ("thickness = 3.0", "thickness = 3.6")):
-            text = text.replace(a, b)
-        return text
-
-    sph_newtonian, sph_ucm = pairwise(newtonian), pairwise(ucm)
+    # Pairwise SPH: the stock Oldroyd-B case, and its Newtonian twin (η = 1 by Morris's term).
+    sph_ucm = stock_text("sph_ucm_channel_2d.toml")
+    polymer = sph_ucm[sph_ucm.index("[fluid.polymer]"):sph_ucm.index("[walls]")]
+    sph_newtonian = sph_ucm.replace(polymer, "").replace("viscosity = 0.1\n", "viscosity = 1.0\n")
+    assert "[fluid.polymer]" not in sph_newtonian and "viscosity = 1.0\n" in sph_newtonian
     literal = (newtonian.replace('treatment = "mirror"', 'treatment = "layers"')
                .replace("morris_share = 0.1\n", "").replace("tolerance = 0.03", "tolerance = 100.0"))
     print("### The paper's channel (cases/msph_channel_2d.toml, maxwell_ucm_channel_2d.toml)\n")
@@ -711,17 +702,20 @@ def msph_channel():
           "h = 2a; the polymer fluids carry η_s = 0.1 by Morris's term and η_p = 0.9 (Oldroyd-B β = 0.1, "
           "spec §3 T2). Errors: the largest over the 24 rows of |ū − u_series| and the centre rows' "
           "error, both in % of the scale (0.072, or the λ = 1000 plug's centre velocity at t = 150, "
-          "0.1459). Pairwise SPH: quintic spline h = 1.2a (support 3.6a, four wall rows), c = 10, Morris "
-          "wall images.\n")
+          "0.1459). Pairwise SPH (cases/sph_ucm_channel_2d.toml): quintic spline h = 1.2a (support 3.6a, "
+          "four wall rows), c = 10, Morris wall images with the cap on β = 1 + d_j/d_i at 6 (and at the "
+          "usual 1.5).\n")
     print("| fluid | scheme | Δt | profile error t = 50 / 100 / 150 | centre error t = 50 / 100 / 150 | wall s |")
     print("|---|---|---|---|---|---|")
     rows = [("Newtonian", "MSPH, mirror walls", newtonian, []),
             ("Newtonian", "MSPH, the paper's literal walls, η_s = 0", literal, []),
             ("Newtonian", "pairwise SPH", sph_newtonian, []),
+            ("Newtonian", "pairwise SPH, cap 1.5", sph_newtonian, ["walls.morris_cap=1.5"]),
             ("UCM λ = 10", "MSPH, mirror walls", ucm, []),
             ("UCM λ = 10", "MSPH, mirror walls", ucm, ["integrator.dt=0.02", "run.steps=7500", "run.sample_every=250"]),
             ("UCM λ = 10", "MSPH, mirror walls", ucm, ["integrator.dt=0.005", "run.steps=30000", "run.sample_every=1000"]),
             ("UCM λ = 10", "pairwise SPH", sph_ucm, []),
+            ("UCM λ = 10", "pairwise SPH, cap 1.5", sph_ucm, ["walls.morris_cap=1.5"]),
             ("UCM λ = 1000", "MSPH, mirror walls", ucm, ["fluid.polymer.relaxation_time=1000"])]
     ucm_profiles = None
     for fluid, scheme, text, sets in rows:

@@ -341,7 +341,7 @@ pub const KEYS: &[KeyDoc] = &[
         "walls.morris_cap",
         "float ≥ 1",
         "1.5",
-        "Cap β_max of Morris's factor β = 1 + d_j/d_i (d_i floored at Δ/2).",
+        "Cap β_max of Morris's factor β = 1 + d_j/d_i (d_i floored at Δ/2). Below 2r_s/Δ − 1 it clips the first fluid row's images, a partial slip (`check` says so); flat walls keep the factor bounded, so cases/sph_ucm_channel_2d.toml raises it to 6.",
     ),
     key(
         "walls.repulsion_strength",
