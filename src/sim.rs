@@ -61,6 +61,20 @@ pub struct PhaseTimes {
     pub checkpoints: f64,
     /// Number of neighbour-list builds.
     pub rebuilds: u64,
+    /// `forces` split by model pass, in evaluation order (each pass's own work, its ghost
+    /// refresh excluded; the wait for the slowest rank's pass included).
+    pub passes: Vec<PassSeconds>,
+}
+
+/// Wall time of one model pass summed over the run (this rank).
+#[derive(Clone, Debug, Default, serde::Serialize)]
+pub struct PassSeconds {
+    /// The model.
+    pub model: &'static str,
+    /// The pass's name.
+    pub pass: &'static str,
+    /// Seconds.
+    pub seconds: f64,
 }
 
 /// A running simulation on one rank.
@@ -780,9 +794,25 @@ impl<'c, const D: usize> Simulation<'c, D> {
                     virial: virial_scope,
                     isa: Isa::current(),
                 };
+                let pass_start = Instant::now();
                 let result = self.pool.install(|| model.pass(k, ctx));
                 let mut failed = [if result.is_err() { 1.0 } else { 0.0 }];
                 self.comm.allreduce_max(&mut failed);
+                let name = self.pass_names[m][k];
+                let seconds = pass_start.elapsed().as_secs_f64();
+                match self
+                    .times
+                    .passes
+                    .iter_mut()
+                    .find(|p| p.pass == name && p.model == model.name())
+                {
+                    Some(entry) => entry.seconds += seconds,
+                    None => self.times.passes.push(PassSeconds {
+                        model: model.name(),
+                        pass: name,
+                        seconds,
+                    }),
+                }
                 match result {
                     Ok(out) => virial = out.virial.or(virial),
                     Err(e) => return Err(e),
