@@ -257,3 +257,95 @@ fn mpirun_flow_scene_same_state_and_restart_across_rank_counts() {
         "the stress time series of the restarted run differs"
     );
 }
+
+/// The long steady-shear run as a batch system ends it: the CONNFFESSIT scene on
+/// `mpirun -n 2`, one rank's process sent SIGTERM mid-run (the ranks agree to stop at the next
+/// step and write a checkpoint), continued on `mpirun -n 1` from that checkpoint to the end ≡
+/// one uninterrupted `mpirun -n 1` run, bitwise. Fails if a rank keeps running alone (mpirun
+/// hangs or aborts), or if the ensembles are not checkpointed with their particles.
+#[test]
+fn mpirun_connffessit_sigterm_on_two_ranks_then_one_rank_restart_equals_one_run() {
+    let text = std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("cases/connffessit_shear_2d.toml"),
+    )
+    .expect("stock case");
+    let text = text
+        .replace("steps = 12000", "steps = 3000")
+        .replace("equilibration = 6000", "equilibration = 0")
+        .replace("per_particle = 100", "per_particle = 8");
+    assert!(text.contains("steps = 3000\n") && text.contains("per_particle = 8\n"));
+    // Without the references (a short run meets none; a failed check is a non-zero exit).
+    let text = &text[..text.find("[[reference]]").expect("references")];
+    let dir = tempfile::tempdir().expect("tempdir");
+    let case = dir.path().join("cf.toml");
+    std::fs::write(&case, text).expect("write case");
+    let whole = dir.path().join("whole");
+    let o = mpirun(1, 1, &case, &whole);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+
+    let parts = dir.path().join("parts");
+    let mut child = Command::new("mpirun")
+        .args(["-n", "2", "--oversubscribe", "--bind-to", "none"])
+        .arg(env!("CARGO_BIN_EXE_mesorheo"))
+        .args([
+            "run",
+            case.to_str().expect("utf-8"),
+            "-q",
+            "-t",
+            "1",
+            "--out",
+        ])
+        .arg(&parts)
+        .env("OMPI_ALLOW_RUN_AS_ROOT", "1")
+        .env("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1")
+        .env("NO_COLOR", "1")
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .expect("mpirun");
+    let log = parts.join("logs").join("rank0000.log");
+    let started = std::time::Instant::now();
+    while !std::fs::read_to_string(&log)
+        .unwrap_or_default()
+        .contains("set up")
+    {
+        assert!(
+            started.elapsed().as_secs() < 60,
+            "the 2-rank run did not start"
+        );
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    std::thread::sleep(std::time::Duration::from_millis(300));
+    // One rank's process only (mpirun's children are the ranks).
+    let ranks = Command::new("pgrep")
+        .args(["-P", &child.id().to_string()])
+        .output()
+        .expect("pgrep");
+    let pids = String::from_utf8_lossy(&ranks.stdout).to_string();
+    let pid = pids.split_whitespace().last().expect("a rank process");
+    let kill = Command::new("kill")
+        .args(["-TERM", pid])
+        .status()
+        .expect("kill");
+    assert!(kill.success());
+    let status = child.wait().expect("wait");
+    assert!(
+        status.success(),
+        "SIGTERM to one rank: mpirun ended with {status}"
+    );
+    let s: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(parts.join("summary.json")).expect("summary"),
+    )
+    .expect("json");
+    assert_eq!(s["completed"], false, "the run finished before the signal");
+    let stopped = s["steps"].as_u64().expect("steps");
+    assert!(stopped > 0 && stopped < 3000, "stopped at {stopped}");
+    let last = s["last_checkpoint"]
+        .as_str()
+        .expect("checkpoint")
+        .to_owned();
+    let o = mpirun_args(1, &["restart", &last, "-q"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    eprintln!("stopped by SIGTERM at step {stopped} on 2 ranks, continued on 1");
+    assert_eq!(digest(&parts), digest(&whole));
+}
