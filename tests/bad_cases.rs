@@ -2,20 +2,51 @@
 //! `mesorheo::config::load_scene` (either kind of scene) with an error that
 //! - contains every `# expect: <substring>` line of the file,
 //! - reports the line given by the file's `# at: <line>` header,
-//! - names the file.
+//! - reports the column of the offending token on that line: by default the value after the
+//!   line's `=` (or column 1 on a line without one: a table header that lacks a key); a
+//!   `# token: <text>` header names the token instead (its last occurrence on the line: an
+//!   array element, a duplicate), `# col: <n>` gives the column outright (a syntax error at the
+//!   end of a line);
+//! - names the file;
+//!
+//! and the corpus holds exactly `CORPUS_SIZE` files, the count the README states.
 //!
 //! All failures are collected and reported together.
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
-/// Fewest files the corpus must hold.
-const MIN_FILES: usize = 30;
+/// Files in the corpus (the README's count: update both when adding one).
+const CORPUS_SIZE: usize = 169;
 
 /// Expectations read from a bad case's header comments.
 struct Expectation {
     substrings: Vec<String>,
     lines: Vec<usize>,
+    /// The offending token, when it is not the line's value.
+    token: Option<String>,
+    /// The column, when no token names it.
+    column: Option<usize>,
+}
+
+impl Expectation {
+    /// 1-based column (in characters) the error must point at on `text`, the `# at:` line.
+    fn column(&self, text: &str) -> usize {
+        let chars_before = |byte: usize| text[..byte].chars().count() + 1;
+        if let Some(c) = self.column {
+            return c;
+        }
+        if let Some(token) = &self.token {
+            return text.rfind(token.as_str()).map_or(0, chars_before);
+        }
+        match text.find('=') {
+            Some(eq) => {
+                let rest = &text[eq + 1..];
+                chars_before(eq + 1 + (rest.len() - rest.trim_start().len()))
+            }
+            None => 1,
+        }
+    }
 }
 
 fn corpus_dir() -> PathBuf {
@@ -39,6 +70,7 @@ fn corpus() -> Vec<PathBuf> {
 fn expectation(source: &str) -> Result<Expectation, String> {
     let mut substrings = Vec::new();
     let mut lines = Vec::new();
+    let (mut token, mut column) = (None, None);
     for line in source.lines() {
         let Some(comment) = line.trim_start().strip_prefix('#') else {
             continue;
@@ -56,6 +88,14 @@ fn expectation(source: &str) -> Result<Expectation, String> {
                 .parse::<usize>()
                 .map_err(|e| format!("`# at:` line is not a line number ({:?}: {e})", s.trim()))?;
             lines.push(n);
+        } else if let Some(s) = comment.strip_prefix("token:") {
+            token = Some(s.trim().to_owned());
+        } else if let Some(s) = comment.strip_prefix("col:") {
+            let n = s
+                .trim()
+                .parse::<usize>()
+                .map_err(|e| format!("`# col:` line is not a column ({:?}: {e})", s.trim()))?;
+            column = Some(n);
         }
     }
     if substrings.is_empty() {
@@ -63,7 +103,12 @@ fn expectation(source: &str) -> Result<Expectation, String> {
     }
     match lines.len() {
         0 => Err("no `# at:` line".into()),
-        1 => Ok(Expectation { substrings, lines }),
+        1 => Ok(Expectation {
+            substrings,
+            lines,
+            token,
+            column,
+        }),
         n => Err(format!("{n} `# at:` lines; give exactly one")),
     }
 }
@@ -106,6 +151,18 @@ fn check(path: &Path) -> Vec<String> {
     }
     if err.line != expected_line {
         problems.push(format!("line {} instead of {expected_line}", err.line));
+    } else {
+        let text = source
+            .lines()
+            .nth(expected_line.wrapping_sub(1))
+            .unwrap_or("");
+        let expected_column = exp.column(text);
+        if err.column != expected_column {
+            problems.push(format!(
+                "column {} instead of {expected_column} (on {text:?})",
+                err.column
+            ));
+        }
     }
     let name = path.file_name().unwrap().to_string_lossy();
     if !shown.contains(name.as_ref()) {
@@ -121,8 +178,9 @@ fn check(path: &Path) -> Vec<String> {
 fn every_bad_case_is_rejected_with_a_located_helpful_error() {
     let files = corpus();
     assert!(
-        files.len() >= MIN_FILES,
-        "tests/bad_cases holds {} case files; the corpus needs at least {MIN_FILES}",
+        files.len() == CORPUS_SIZE,
+        "tests/bad_cases holds {} case files, not {CORPUS_SIZE}: update CORPUS_SIZE and the \
+         README's count",
         files.len()
     );
     let mut report = String::new();
@@ -155,4 +213,13 @@ fn expectation_headers_are_parsed() {
     assert!(expectation("# expect: a\n").is_err());
     assert!(expectation("# expect: a\n# at: x\n").is_err());
     assert!(expectation("# expect: a\n# at: 1\n# at: 2\n").is_err());
+    // Columns: the value, a named token's last occurrence, a header line, an explicit one.
+    let exp = expectation("# expect: a\n# at: 1\n").unwrap();
+    assert_eq!(exp.column("lengths = [8.0, 1.0]"), 11);
+    assert_eq!(exp.column("  a =   2"), 9);
+    assert_eq!(exp.column("[fluid]"), 1);
+    let exp = expectation("# expect: a\n# at: 1\n# token: \"t\"\n").unwrap();
+    assert_eq!(exp.column("o = [\"t\", \"t\"]"), 11);
+    let exp = expectation("# expect: a\n# at: 1\n# col: 18\n").unwrap();
+    assert_eq!(exp.column("lattice = \"random"), 18);
 }
