@@ -14,6 +14,53 @@ pub fn max_ranks(case: &Case) -> usize {
     (case.domain.lengths[axis] / range).floor().max(1.0) as usize
 }
 
+/// Most particles (owned and ghosts) one rank supports: the neighbour list keeps 31-bit
+/// indices (the top bit of each entry marks pairs near at the build).
+pub const MAX_PARTICLES_PER_RANK: f64 = (crate::neighbour::NEAR_AT_BUILD - 1) as f64;
+
+/// Estimated (owned, ghost) particles per rank on `ranks` ranks: n/ranks owned; ghosts the
+/// layers cutoff + skin thick on both slab faces (on one rank, the periodic self-images on
+/// every face).
+pub fn particles_per_rank(case: &Case, ranks: usize) -> (f64, f64) {
+    let (_, n) = case.lattice_counts();
+    let range = case.cutoff() + case.neighbour.skin;
+    let slab = case.domain.lengths[case.decomposition.axis.index()] / ranks as f64;
+    let owned = n as f64 / ranks as f64;
+    let ghosts = if ranks == 1 {
+        // self-images on every periodic face
+        n as f64 * (2.0 * range * case.domain.lengths.iter().map(|l| 1.0 / l).sum::<f64>())
+    } else {
+        owned * 2.0 * range / slab
+    };
+    (owned, ghosts)
+}
+
+/// Refuses a rank count whose ranks would hold more particles than the neighbour list indexes
+/// (before anything is allocated), naming the rank count that fits.
+pub fn check_particles_per_rank(case: &Case, ranks: usize) -> Result<(), String> {
+    let (owned, ghosts) = particles_per_rank(case, ranks);
+    if owned + ghosts < MAX_PARTICLES_PER_RANK {
+        return Ok(());
+    }
+    let fits = (ranks..=max_ranks(case)).find(|&r| {
+        let (o, g) = particles_per_rank(case, r);
+        o + g < MAX_PARTICLES_PER_RANK
+    });
+    Err(format!(
+        "about {:.3e} particles ({owned:.3e} owned + {ghosts:.3e} ghosts) per rank on {ranks} \
+         rank(s): at most 2^31 − 1 = {MAX_PARTICLES_PER_RANK:.0} fit one rank (31-bit neighbour \
+         indices); {}",
+        owned + ghosts,
+        match fits {
+            Some(r) => format!("run on at least {r} ranks"),
+            None => format!(
+                "even the {} ranks the slabs allow are too few: shrink the box or the density",
+                max_ranks(case)
+            ),
+        }
+    ))
+}
+
 /// The report `check` prints.
 pub fn report(case: &Case, ranks: usize) -> String {
     let dim = case.dimension;
@@ -256,13 +303,10 @@ pub fn report(case: &Case, ranks: usize) -> String {
             "TOO MANY RANKS"
         }
     ));
-    let owned = n as f64 / ranks as f64;
-    let ghosts = if ranks == 1 {
-        // self-images on every periodic face
-        n as f64 * (2.0 * range * case.domain.lengths.iter().map(|l| 1.0 / l).sum::<f64>())
-    } else {
-        owned * 2.0 * range / slab
-    };
+    let (owned, ghosts) = particles_per_rank(case, ranks);
+    if let Err(e) = check_particles_per_rank(case, ranks) {
+        line(format!("PARTICLES PER RANK: {e}"));
+    }
     let bytes_entry = 8.0;
     let bytes_pair = 8.0 + (dim as f64 + 4.0) * 8.0;
     let ensembles = match &case.fluid {

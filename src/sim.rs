@@ -413,6 +413,7 @@ impl<'c, const D: usize> Simulation<'c, D> {
                 ["x", "y", "z"][axis]
             ));
         }
+        crate::check::check_particles_per_rank(case, comm.size())?;
         Ok((sim_box, slab))
     }
 

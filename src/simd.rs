@@ -40,6 +40,20 @@ impl Isa {
         })
     }
 
+    /// AVX2 for a test that compares it with the portable version; without it, says on the
+    /// test run's own stderr (not captured, so it shows in every log) that `test` is skipped.
+    pub fn avx2_for_test(test: &str) -> Option<Self> {
+        let isa = Self::avx2();
+        if isa.is_none() {
+            use std::io::Write as _;
+            let _ = writeln!(
+                std::io::stderr(),
+                "SKIPPED {test}: this CPU has no AVX2, so only the portable version is tested"
+            );
+        }
+        isa
+    }
+
     /// Whether the AVX2 versions run (only ever true on a CPU that has AVX2).
     pub fn has_avx2(self) -> bool {
         self.avx2

@@ -180,3 +180,24 @@ fn lists_match_brute_force_in_2d_and_3d_with_lees_edwards_offsets() {
     // The configurations must exercise the LE images two boxes away along x.
     assert!(DOUBLE_SHIFTS.load(std::sync::atomic::Ordering::Relaxed) > 0);
 }
+
+/// A case too large for one rank's 31-bit neighbour indices (3D DPD at ρ = 3 in a 900³ box:
+/// 2.19·10⁹ particles, under the 2³² total that validation accepts) is refused before any
+/// particle is allocated, naming the rank count that fits; `check` prints the same. Fails
+/// with the check removed (the set-up then tries to allocate 2·10⁹ particles, and the
+/// neighbour list would assert).
+#[test]
+fn a_rank_with_too_many_particles_is_refused_before_allocating() {
+    let text = small_dpd(3, 900.0, 0.0, 10, "");
+    let loaded = case_from_str(&text, "huge.toml");
+    let comm = mesorheo::comm::SerialComm::new();
+    let err = Simulation::<3>::new(&loaded.case, &comm, 1)
+        .err()
+        .expect("a 2.2e9-particle rank is refused");
+    eprintln!("{err}");
+    assert!(err.contains("per rank on 1 rank(s)"), "{err}");
+    assert!(err.contains("run on at least 2 ranks"), "{err}");
+    let report = mesorheo::check::report(&loaded.case, 1);
+    assert!(report.contains("PARTICLES PER RANK"), "{report}");
+    assert!(!mesorheo::check::report(&loaded.case, 4).contains("PARTICLES PER RANK"));
+}

@@ -2178,7 +2178,8 @@ mod tests {
                 gather(&momentum, &p, &full, &mut gathered).expect("gather");
                 assert!(gathered.iter().any(|&x| x != 0.0));
                 let bits = |x: &[f64]| x.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
-                for isa in [Some(Isa::PORTABLE), Isa::avx2()].into_iter().flatten() {
+                let avx2 = Isa::avx2_for_test("sph scatter: AVX2 against gather");
+                for isa in [Some(Isa::PORTABLE), avx2].into_iter().flatten() {
                     let mut scattered = Vec::new();
                     let mut work = ScatterBuffers::default();
                     scatter_on(isa, &momentum, &p, &list, &mut work, &mut scattered)
