@@ -1,6 +1,6 @@
 //! Rheology of dumbbell ensembles beyond the start-up checks of `tests/dumbbells.rs` (issue #5):
-//! FENE steady-shear viscometric functions (against the FENE-P closed form and a Δt → 0 Richardson
-//! reference), the equilibrium stress autocorrelation of Hookean dumbbells, and Hookean shear
+//! FENE steady-shear viscometric functions (against the deterministic Fokker–Planck solution of
+//! `tools/fene_fokker_planck.py`, the FENE-P closed form and a Δt → 0 Richardson reference), the equilibrium stress autocorrelation of Hookean dumbbells, and Hookean shear
 //! reversal against the exact moment recursion of the discrete scheme and the UCM solution.
 //!
 //! Units as in `src/models/dumbbells.rs`: Q in √(k_BT/H), time in λ (λ = 1 here), τ/G = ⟨QF⟩ − I,
@@ -581,6 +581,44 @@ fn steady_shear(
     (mean_se(&eta), mean_se(&psi))
 }
 
+/// The FENE steady-shear (η_p/(Gλ), Ψ₁/(2Gλ²)) in 3D from the independent Fokker–Planck solver
+/// `tools/fene_fokker_planck.py` (a Galerkin solution of the dumbbell's configuration-space
+/// equation, converged in the polynomial degree to ~10⁻⁸, written apart from the Brownian
+/// dynamics). `None` (with a note) when no Python is given, unless MESORHEO_REQUIRE_PYTHON is
+/// set (`./run test` sets both).
+fn fokker_planck(b: f64, wi: f64) -> Option<(f64, f64)> {
+    let Ok(python) = std::env::var("MESORHEO_PYTHON") else {
+        assert!(
+            std::env::var("MESORHEO_REQUIRE_PYTHON").is_err(),
+            "MESORHEO_PYTHON is not set"
+        );
+        eprintln!("skipped the Fokker–Planck comparison: set MESORHEO_PYTHON (./run test does)");
+        return None;
+    };
+    let tool = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tools/fene_fokker_planck.py");
+    let o = std::process::Command::new(python)
+        .arg(tool)
+        .args(["--dim", "3", "--b", &b.to_string(), "--wi", &wi.to_string()])
+        .output()
+        .expect("run the Fokker–Planck solver");
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        o.status.success(),
+        "{text}{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let value = |key: &str| -> f64 {
+        let line = text.lines().find(|l| l.starts_with(key)).expect(key);
+        line.split('=')
+            .nth(1)
+            .expect("= value")
+            .trim()
+            .parse()
+            .expect("a number")
+    };
+    Some((value("eta_p/(G lambda)"), value("Psi1/(G lambda^2)") / 2.0))
+}
+
 fn fene_params(b: f64, dt: f64) -> DumbbellParams {
     DumbbellParams {
         spring: Spring::Fene { b },
@@ -640,6 +678,7 @@ fn fene_steady_shear(b: f64) {
             })
             .collect();
         let (fp_eta, fp_psi) = fene_p_shear(b, wi);
+        let exact = fokker_planck(b, wi);
         for (name, pick, fp, gap0) in [
             ("η_p/(Gλ)", 0usize, fp_eta, 1.0 - (b + 3.0) / (b + 5.0)),
             (
@@ -693,6 +732,23 @@ fn fene_steady_shear(b: f64) {
             );
             let err = (x(2).0 - reference.0).abs() / reference.0;
             assert!(err < 0.01, "{what}: Δt = {h} is {:.2} % off", 100.0 * err);
+            // The Fokker–Planck solution (independent of this code): the Richardson value
+            // within 3σ, and 3σ ≤ 1 % so that the agreement means something.
+            if let Some(fp_exact) = exact {
+                let want = if pick == 0 { fp_exact.0 } else { fp_exact.1 };
+                within(
+                    reference.0,
+                    reference.1,
+                    want,
+                    3.0,
+                    &format!("{what}: Richardson vs Fokker–Planck"),
+                );
+                assert!(
+                    3.0 * reference.1 <= 0.01 * want,
+                    "{what}: 3σ_ref = {:.3} % > 1 %",
+                    300.0 * reference.1 / want
+                );
+            }
             // FENE-P, approximate: FENE-P lies above FENE (as the exact Wi → 0 limits do) and
             // 1 − FENE/FENE-P is below a loose bound: 15 % for η_p, 40 % for Ψ₁. The scale of the
             // bounds is set by the exact Wi → 0 gaps (3.6 % / 13.3 % in η_p, 10.4 % / 33.7 % in
