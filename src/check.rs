@@ -366,7 +366,9 @@ fn dpd_report(case: &Case, d: &DpdCfg, density: f64, line: &mut impl FnMut(Strin
             + 2.0 * std::f64::consts::PI * d.gamma * density * density * d.cutoff.powi(5) / 1575.0;
         let c2 = d.kt / m + 2.0 * 0.101 * d.a * density * d.cutoff.powi(4) / m;
         line(format!(
-            "estimates (Groot–Warren kinetic theory, s = 2): η ≈ {eta:.3}, sound speed c ≈ {:.3}",
+            "rough estimates (Groot–Warren kinetic theory, s = 2, no conservative-force or pair \
+             correlations): η ≈ {eta:.3} (the a = 25, γ = 4.5, ρ = 3 fluid measures 0.86, 11 % \
+             lower: LAMMPS and mesorheo), sound speed c ≈ {:.3}",
             c2.sqrt()
         ));
         let shear = case.domain.shear_rate;
