@@ -16,6 +16,25 @@
 use serde::{Deserialize, Serialize};
 use std::f64::consts::PI;
 
+/// The mean over y ∈ [y0, y1] of the steady reverse ("double") Poiseuille flow of a periodic box
+/// of height `ly` driven by +g for y ≥ L_y/2 and −g below (fluid of mass density `rho`,
+/// viscosity `eta`):
+///
+/// ```text
+/// u_x(y) = ρ g s (L_y/2 − |s|) / (2η),   s = y − L_y/2,   u_max = ρ g L_y² / (32 η) at s = ±L_y/4
+/// ∫ s (L_y/2 − |s|) ds = L_y s²/4 − s²|s|/3
+/// ```
+///
+/// (Backer, Lowe, Hoefsloot & Iedema, J. Chem. Phys. 122, 154503 (2005); Nguyen 2021 §3.4,
+/// spec `dpd-physical-parameters.md` §7.)
+pub fn double_poiseuille_mean(y0: f64, y1: f64, ly: f64, rho: f64, g: f64, eta: f64) -> f64 {
+    let h = |y: f64| {
+        let s = y - 0.5 * ly;
+        0.25 * ly * s * s - s * s * s.abs() / 3.0
+    };
+    rho * g / (2.0 * eta) * (h(y1) - h(y0)) / (y1 - y0)
+}
+
 /// A start-up flow with a series solution.
 #[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq, Eq)]
 #[serde(rename_all = "snake_case")]

@@ -349,17 +349,34 @@ fn dpd_report(case: &Case, d: &DpdCfg, density: f64, line: &mut impl FnMut(Strin
     let dt = case.integrator.dt();
     let lim = dpd_limits(d, dim, case.particles.density, case.particles.mass);
     let alpha = d.gamma * d.gamma * d.cutoff / (m * d.a.max(f64::MIN_POSITIVE));
+    if let Some(physical) = &d.physical
+        && let Ok(inputs) = crate::config::dpd_physical::inputs_of(
+            physical,
+            dim,
+            d.kt,
+            d.cutoff,
+            case.particles.density,
+            m,
+        )
+        && let Ok(mapped) = crate::dpd_parameters::map(&inputs)
+    {
+        for l in crate::config::dpd_physical::report(&inputs, &mapped) {
+            line(l);
+        }
+    }
     line(format!(
-        "DPD: a = {}, γ = {}, k_BT = {}, r_c = {}, s = {}, σ = {:.4}, α = γ² r_c/(m a) = {:.3}",
+        "DPD: a = {}, γ = {}, k_BT = {}, r_c = {}, s = {}, s̄ = {}, σ = {:.4}, α = γ² r_c/(m a) = \
+         {:.3}",
         d.a,
         d.gamma,
         d.kt,
         d.cutoff,
         d.weight_exponent,
+        d.conservative_exponent,
         (2.0 * d.gamma * d.kt).sqrt(),
         alpha
     ));
-    if dim == 3 {
+    if dim == 3 && d.weight_exponent == 2.0 && d.conservative_exponent == 1.0 {
         // Kinetic-theory estimate (Groot & Warren 1997, Eq. 33, s = 2) and their EOS for c².
         let rho_m = density * m;
         let eta = 45.0 * d.kt / (4.0 * std::f64::consts::PI * d.gamma * d.cutoff.powi(3))

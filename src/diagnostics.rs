@@ -167,6 +167,8 @@ pub struct Series {
     pub profile: Vec<Vec<f64>>,
     /// Steps of the samples.
     pub steps: Vec<u64>,
+    /// The Green–Kubo correlators, one per block ([`crate::green_kubo`]); empty unless asked.
+    pub green_kubo: Vec<crate::correlator::MultipleTauCorrelator>,
 }
 
 impl Series {

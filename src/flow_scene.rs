@@ -16,6 +16,7 @@
 //! first_normal_stress_coefficient   Ψ₁ = N₁ / γ̇²           (Hookean: 2 G λ²)
 //! second_normal_stress_coefficient  Ψ₂ = N₂ / γ̇²           (Hookean: 0)
 //! extensional_viscosity             η_E = (τ_xx − τ_yy) / ε̇ (elongation)
+//! mean_square_connector_length      ⟨|Q|²⟩ in k_BT/H         (Hookean at rest: D; shear: D + 2Wi²)
 //! max_connector_length              max |Q| over all dumbbells (FENE: < √b)
 //! ```
 
@@ -32,6 +33,9 @@ use crate::summary::check_value;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
+
+/// ⟨|Q|²⟩'s name (the average older checkpoints do not hold).
+const MEAN_SQUARE_LENGTH: &str = "mean_square_connector_length";
 
 /// Suffix of the per-sample standard errors (particle-to-particle spread) in the series.
 const STDERR: &str = "_stderr";
@@ -101,7 +105,7 @@ fn check_memory(case: &FlowCase, comm: &dyn Comm) -> Result<(), String> {
 
 const GIB: f64 = 1024.0 * 1024.0 * 1024.0;
 
-/// A per-particle observable, computed from one particle's τ/G.
+/// A per-particle observable, computed from one particle's τ/G (and its ⟨|Q|²⟩).
 #[derive(Clone, Copy, Debug)]
 enum Quantity {
     /// G τ_ab/G.
@@ -118,11 +122,14 @@ enum Quantity {
     Psi2,
     /// N₁ / κ_xx.
     Extensional,
+    /// ⟨|Q|²⟩ in units of k_BT/H.
+    MeanSquareLength,
 }
 
 impl Quantity {
-    /// The value for one particle's τ/G `s` (D × D row-major), modulus `g`, gradient `kappa`.
-    fn of<const D: usize>(self, s: &[f64; 9], g: f64, kappa: &[[f64; D]; D]) -> f64 {
+    /// The value for one particle's τ/G `s` (D × D row-major) and ⟨|Q|²⟩ `q2`, modulus `g`,
+    /// gradient `kappa`.
+    fn of<const D: usize>(self, s: &[f64; 9], q2: f64, g: f64, kappa: &[[f64; D]; D]) -> f64 {
         let n1 = s[0] - s[D + 1];
         let n2 = if D == 3 { s[4] - s[8] } else { 0.0 };
         let shear = kappa[0][1];
@@ -134,6 +141,7 @@ impl Quantity {
             Quantity::Psi1 => g * n1 / (shear * shear),
             Quantity::Psi2 => g * n2 / (shear * shear),
             Quantity::Extensional => g * n1 / kappa[0][0],
+            Quantity::MeanSquareLength => q2,
         }
     }
 }
@@ -151,6 +159,7 @@ fn quantities(case: &FlowCase) -> Vec<(String, Quantity)> {
                 "first_normal_stress_coefficient" => Quantity::Psi1,
                 "second_normal_stress_coefficient" => Quantity::Psi2,
                 "extensional_viscosity" => Quantity::Extensional,
+                MEAN_SQUARE_LENGTH => Quantity::MeanSquareLength,
                 other => {
                     let c = other.strip_prefix("polymer_stress_")?.as_bytes();
                     let axis = |x: u8| (x - b'x') as usize;
@@ -221,12 +230,15 @@ fn sample<const D: usize>(
         }
         FlowKind::Rest => {}
     }
+    let q2 = e.particle_mean_square_lengths();
+    let (mean, stderr) = e.particle_mean(&q2);
+    put(MEAN_SQUARE_LENGTH, mean, stderr);
     series.push("max_connector_length", e.max_q2().sqrt());
     if e.step > case.run.equilibration {
         let q = quantities(case);
-        for (row, s) in averages.sums.iter_mut().zip(&per) {
+        for ((row, s), &q2) in averages.sums.iter_mut().zip(&per).zip(&q2) {
             for (x, (_, quantity)) in row.iter_mut().zip(&q) {
-                *x += quantity.of::<D>(s, g, &kappa);
+                *x += quantity.of::<D>(s, q2, g, &kappa);
             }
         }
         averages.samples += 1;
@@ -320,7 +332,43 @@ impl<'c, const D: usize> FlowScene<'c, D> {
             r.control,
         )
         .map_err(Restart::Failed)?;
-        Ok(Self::new(e, case, r.series, r.averages, comm))
+        // The averaged observables of another version of mesorheo (collective: a rank without
+        // particles has no row to look at). Checkpoints written before ⟨|Q|²⟩ was averaged
+        // continue with that one average unknown (NaN): the others are unchanged.
+        let names: Vec<String> = quantities(&case).into_iter().map(|(n, _)| n).collect();
+        let mut held = [r.averages.sums.first().map_or(0.0, |row| row.len() as f64)];
+        comm.allreduce_max(&mut held);
+        let mut averages = r.averages;
+        let added = names.iter().position(|n| n == MEAN_SQUARE_LENGTH);
+        if let Some(at) = added
+            && held[0] as usize + 1 == names.len()
+        {
+            for row in &mut averages.sums {
+                row.insert(at, f64::NAN);
+            }
+        } else if held[0] as usize != names.len() {
+            return Err(Restart::Failed(format!(
+                "{}: the checkpoint holds {} averaged observables per particle, this version of \
+                 mesorheo averages {} (the checkpoint was written by another version); start \
+                 the run afresh",
+                path.display(),
+                held[0],
+                names.len()
+            )));
+        }
+        // Its series, likewise, is unknown before the restart.
+        let mut series = r.series;
+        let samples = series.steps.len();
+        for name in [
+            MEAN_SQUARE_LENGTH.to_owned(),
+            format!("{MEAN_SQUARE_LENGTH}{STDERR}"),
+        ] {
+            series
+                .scalars
+                .entry(name)
+                .or_insert_with(|| vec![f64::NAN; samples]);
+        }
+        Ok(Self::new(e, case, series, averages, comm))
     }
 
     /// The step the ensembles have reached.
@@ -489,13 +537,25 @@ impl<const D: usize> Scene for FlowScene<'_, D> {
                 },
             );
         }
+        let warnings: Vec<String> = observables
+            .get(MEAN_SQUARE_LENGTH)
+            .filter(|e| e.mean.is_nan() && averages.samples > 0)
+            .map(|_| {
+                format!(
+                    "{MEAN_SQUARE_LENGTH} is not averaged: the run continued from a checkpoint \
+                     written before that observable existed"
+                )
+            })
+            .into_iter()
+            .collect();
         let validation = if completed {
             case.reference
                 .iter()
                 .filter_map(|r| match r {
                     crate::config::ReferenceCfg::Value(v) => Some(check_value(v, &observables)),
                     crate::config::ReferenceCfg::LinearShearProfile(_)
-                    | crate::config::ReferenceCfg::StartupProfile(_) => None,
+                    | crate::config::ReferenceCfg::StartupProfile(_)
+                    | crate::config::ReferenceCfg::DoublePoiseuilleProfile(_) => None,
                 })
                 .collect()
         } else {
@@ -512,7 +572,7 @@ impl<const D: usize> Scene for FlowScene<'_, D> {
             validation,
             // The error bars come from the spread of independent particles' averages: no
             // blocks.
-            warnings: Vec::new(),
+            warnings,
             state_digest: format!("{:016x}", e.digest()),
         })
     }

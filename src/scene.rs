@@ -166,6 +166,9 @@ impl<const D: usize> Scene for ParticleScene<'_, D> {
         if self.sim.is_sample_step() {
             self.sim.sample();
         }
+        if self.sim.is_correlation_step() {
+            self.sim.correlate();
+        }
         Ok(())
     }
 
@@ -225,10 +228,16 @@ impl<const D: usize> Scene for ParticleScene<'_, D> {
         Ok(())
     }
 
-    fn close_outputs(&mut self, _out: Option<&Path>) -> Result<(), String> {
+    fn close_outputs(&mut self, out: Option<&Path>) -> Result<(), String> {
         #[cfg(feature = "hdf5")]
         if let Some(w) = &mut self.snapshots {
             w.finish(&self.sim)?;
+        }
+        if let (Some(out), Some(gk)) = (out, self.sim.green_kubo())
+            && self.sim.comm().rank() == 0
+        {
+            write_green_kubo_csv(&gk, out)
+                .map_err(|e| format!("cannot write {}/green_kubo.csv: {e}", out.display()))?;
         }
         Ok(())
     }
@@ -238,6 +247,14 @@ impl<const D: usize> Scene for ParticleScene<'_, D> {
         let case = &sim.case;
         let blocks = case.diagnostics.blocks;
         let mut observables = sim.series.estimates(blocks);
+        if let Some(gk) = sim.green_kubo() {
+            observables.insert(
+                crate::config::Observable::GreenKuboViscosity
+                    .name()
+                    .to_owned(),
+                gk.viscosity,
+            );
+        }
         let ly = case.domain.lengths[1];
         let nb = case.diagnostics.profile_bins as f64;
         // The density profile's bins leave the scalar observables for their own list.
@@ -257,15 +274,29 @@ impl<const D: usize> Scene for ParticleScene<'_, D> {
             .collect();
         let mut warnings = crate::diagnostics::block_warnings(&sim.series.scalars, blocks);
         warnings.extend(sim.counted_warnings());
-        let velocity_profile: Vec<ProfilePoint> = (sim.series.profile_estimates(blocks).iter())
+        // The expected profile: the reverse-Poiseuille solution when the case checks one,
+        // else the streaming velocity (0 without shear).
+        let estimates = sim.series.profile_estimates(blocks);
+        let double_poiseuille = case.reference.iter().find_map(|r| match r {
+            crate::config::ReferenceCfg::DoublePoiseuilleProfile(dp) => {
+                let means: Vec<f64> = estimates.iter().map(|e| e.mean).collect();
+                Some(crate::summary::double_poiseuille_expected(case, dp, &means))
+            }
+            _ => None,
+        });
+        let velocity_profile: Vec<ProfilePoint> = (estimates.iter())
             .enumerate()
             .map(|(b, e): (usize, &Estimate)| {
                 let y = (b as f64 + 0.5) * ly / nb;
+                let expected = match &double_poiseuille {
+                    Some(exact) => exact[b],
+                    None => sim.sim_box.streaming_velocity(y),
+                };
                 ProfilePoint {
                     y,
                     mean: e.mean,
                     stderr: e.stderr,
-                    expected: sim.sim_box.streaming_velocity(y),
+                    expected,
                 }
             })
             .collect();
@@ -300,6 +331,21 @@ impl<const D: usize> Scene for ParticleScene<'_, D> {
     fn times(&mut self) -> &mut PhaseTimes {
         &mut self.sim.times
     }
+}
+
+/// `OUT/green_kubo.csv`: t, G(t) = V C(t)/k_BT (the block mean) and its running integral η(t).
+fn write_green_kubo_csv(
+    gk: &crate::green_kubo::GreenKuboEstimate,
+    out: &Path,
+) -> std::io::Result<()> {
+    std::fs::create_dir_all(out)?;
+    let mut text = String::from("time,stress_autocorrelation,running_integral\n");
+    for (t, g, integral) in &gk.table {
+        text.push_str(&format!("{t:.10e},{g:.10e},{integral:.10e}\n"));
+    }
+    let tmp = out.join("green_kubo.csv.tmp");
+    std::fs::write(&tmp, text)?;
+    std::fs::rename(tmp, out.join("green_kubo.csv"))
 }
 
 #[cfg(not(feature = "hdf5"))]

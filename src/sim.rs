@@ -140,7 +140,13 @@ pub const LIST_REFERENCE_FIELD: &str = "list_reference_position";
 /// The fluid model the case names (the registration of every particle model).
 pub fn build_fluid<const D: usize>(case: &Case) -> Box<dyn ParticleModel<D>> {
     match &case.fluid {
-        FluidCfg::Dpd(d) => Box::new(DpdModel::<D>::new(d, case.integrator.dt(), case.seed)),
+        FluidCfg::Dpd(d) => Box::new(
+            DpdModel::<D>::new(d, case.integrator.dt(), case.seed).with_body_force(
+                d,
+                case.particles.mass,
+                case.domain.lengths[1],
+            ),
+        ),
         FluidCfg::SummationGas(g) => Box::new(SummationGas::<D>::new(g, case.particles.mass)),
         FluidCfg::Sph(s) => {
             let lengths = std::array::from_fn(|d| case.domain.lengths[d]);
@@ -375,6 +381,11 @@ impl<'c, const D: usize> Simulation<'c, D> {
             sim.dt,
         );
         sim.series = series;
+        // A checkpoint without correlators (written before the observable was asked for):
+        // the Green–Kubo estimate uses the blocks after the restart.
+        if sim.series.green_kubo.is_empty() {
+            sim.series.green_kubo = fresh_green_kubo(&sim.case);
+        }
         Ok(sim)
     }
 
@@ -461,7 +472,10 @@ impl<'c, const D: usize> Simulation<'c, D> {
             step: 0,
             skin: case.neighbour.skin,
             total_particles: total,
-            series: Series::default(),
+            series: Series {
+                green_kubo: fresh_green_kubo(case),
+                ..Series::default()
+            },
             times: PhaseTimes::default(),
             pool,
             stop_requested_here: false,
@@ -928,7 +942,7 @@ impl<'c, const D: usize> Simulation<'c, D> {
             );
             self.times.halo += t1.elapsed().as_secs_f64();
         }
-        let scope = if last && self.is_sample_step() {
+        let scope = if last && (self.is_sample_step() || self.is_correlation_step()) {
             self.virial_scope
         } else {
             VirialScope::Off
@@ -974,6 +988,71 @@ impl<'c, const D: usize> Simulation<'c, D> {
     pub fn is_sample_step(&self) -> bool {
         let r = &self.case.run;
         self.step > r.equilibration && self.step.is_multiple_of(r.sample_every)
+    }
+
+    /// Whether the current step feeds the Green–Kubo correlators (every step after
+    /// equilibration, when asked).
+    pub fn is_correlation_step(&self) -> bool {
+        !self.series.green_kubo.is_empty() && self.step > self.case.run.equilibration
+    }
+
+    /// Feeds the symmetric traceless part of the current pressure tensor (kinetic +
+    /// conservative + dissipative + random, the random forces the step used) to the block's
+    /// Green–Kubo correlator (collective; exact sums, so the same on every rank).
+    pub fn correlate(&mut self) {
+        let t0 = Instant::now();
+        let virial = self.current_virial();
+        let n = self.particles.n_owned;
+        let dd = D * D;
+        let mut sums = vec![FixedSum::ZERO; 4 * dd];
+        let (particles, species) = (&self.particles, &self.species);
+        for (k, v) in particles.vel[..n].iter().enumerate() {
+            if k % 2048 == 2047 {
+                sums.iter_mut().for_each(FixedSum::normalize);
+            }
+            let s = &species[particles.species_of(k) as usize];
+            if !s.is_fluid() {
+                continue;
+            }
+            for a in 0..D {
+                for b in 0..D {
+                    sums[a * D + b].add(s.mass * v[a] * v[b]);
+                }
+            }
+        }
+        for (k, w) in virial.iter().enumerate() {
+            sums[(k + 1) * dd..(k + 2) * dd].copy_from_slice(w);
+        }
+        FixedSum::allreduce(self.comm, &mut sums);
+        let volume = self.sim_box.volume();
+        let tensor: Vec<f64> = (0..dd)
+            .map(|i| (0..4).map(|k| sums[k * dd + i].value()).sum::<f64>() / volume)
+            .collect();
+        let channels = crate::green_kubo::traceless_symmetric(&tensor, D);
+        let r = &self.case.run;
+        let blocks = self.series.green_kubo.len();
+        let b = crate::green_kubo::block_of(self.step, r.equilibration, r.steps, blocks);
+        self.series.green_kubo[b].add(&channels);
+        self.times.diagnostics += t0.elapsed().as_secs_f64();
+    }
+
+    /// The Green–Kubo viscosity of the correlators so far ([`crate::green_kubo::estimate`]);
+    /// `None` when the case does not ask for it.
+    pub fn green_kubo(&self) -> Option<crate::green_kubo::GreenKuboEstimate> {
+        let crate::config::FluidCfg::Dpd(dpd) = &self.case.fluid else {
+            return None;
+        };
+        if self.series.green_kubo.is_empty() {
+            return None;
+        }
+        Some(crate::green_kubo::estimate(
+            &self.series.green_kubo,
+            self.dt,
+            self.sim_box.volume(),
+            dpd.kt,
+            self.case.diagnostics.green_kubo_time,
+            D,
+        ))
     }
 
     /// The mean SPH density of the fluid particles in each of `diagnostics.profile_bins` bins
@@ -1108,10 +1187,11 @@ impl<'c, const D: usize> Simulation<'c, D> {
         let sheared = self.sim_box.sheared();
         // Binned along y under shear, and in a walled channel whose profile is asked for (the
         // temperature is then profile-unbiased too).
-        let walled_profile = self
+        let walled_profile = (self
             .sim_box
             .boundaries
             .contains(&crate::geometry::Boundary::Wall)
+            || case.body_forced())
             && case.wants(Observable::VelocityProfile);
         let bins = if sheared || walled_profile {
             case.diagnostics.profile_bins
@@ -1264,6 +1344,8 @@ impl<'c, const D: usize> Simulation<'c, D> {
                 Observable::Viscosity => out
                     .scalars
                     .push(("viscosity".into(), -pt(0, 1) / self.sim_box.shear_rate)),
+                // Not a sampled series: the correlators are fed every step ([`Self::correlate`]).
+                Observable::GreenKuboViscosity => {}
                 Observable::FirstNormalStressDifference => out
                     .scalars
                     .push(("first_normal_stress_difference".into(), pt(1, 1) - pt(0, 0))),
@@ -1457,7 +1539,9 @@ pub struct Measurement {
 /// the others.
 fn virial_scope(observables: &[Observable]) -> VirialScope {
     let needs = |o: &Observable| match o {
-        Observable::Stress | Observable::Viscosity => VirialScope::Full,
+        Observable::Stress | Observable::Viscosity | Observable::GreenKuboViscosity => {
+            VirialScope::Full
+        }
         Observable::Pressure
         | Observable::FirstNormalStressDifference
         | Observable::SecondNormalStressDifference => VirialScope::Diagonal,
@@ -1651,4 +1735,18 @@ pub fn wall_layer_count(case: &Case, axis: usize) -> usize {
         .and_then(|w| w.thickness)
         .unwrap_or(2.0 * case.cutoff());
     (thickness / spacing - 1e-9).ceil().max(1.0) as usize
+}
+
+/// Empty Green–Kubo correlators for a case that asks for the viscosity that way (one per block),
+/// none otherwise.
+fn fresh_green_kubo(case: &Case) -> Vec<crate::correlator::MultipleTauCorrelator> {
+    if !case.wants(crate::config::Observable::GreenKuboViscosity) {
+        return Vec::new();
+    }
+    crate::green_kubo::block_correlators(
+        case.diagnostics.blocks,
+        case.diagnostics.green_kubo_time,
+        case.integrator.dt(),
+        case.dimension,
+    )
 }

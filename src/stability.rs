@@ -79,7 +79,8 @@ pub fn dpd_limits(d: &DpdCfg, dimension: usize, n: f64, m: f64) -> DpdLimits {
         n * 4.0 * std::f64::consts::PI * rc.powi(3) * 2.0 / ((s + 1.0) * (s + 2.0) * (s + 3.0))
     };
     let neighbours = n * ball_volume(dim, rc);
-    let omega2 = d.a / rc * neighbours / (dim as f64 * m);
+    // The conservative force a (1 − r/r_c)^s̄ stiffens as a s̄/r_c near contact.
+    let omega2 = d.a * d.conservative_exponent / rc * neighbours / (dim as f64 * m);
     DpdLimits {
         neighbours,
         sum_wd,

@@ -190,20 +190,15 @@ fn check_startup(
                                 ((y / l * bins as f64).floor().max(0.0) as usize).min(bins - 1) == b
                             })
                     };
-                    p.iter()
-                        .enumerate()
-                        .filter(|(b, _)| wanted(*b))
-                        .map(|(b, &u)| {
-                            let y = (b as f64 + 0.5) * l / bins as f64;
-                            (u - u_at(y, t)).abs() / scale
-                        })
-                        .fold(0.0, |m: f64, d| {
-                            if m.is_nan() || d.is_nan() {
-                                f64::NAN
-                            } else {
-                                m.max(d)
-                            }
-                        })
+                    let deviations =
+                        p.iter()
+                            .enumerate()
+                            .filter(|(b, _)| wanted(*b))
+                            .map(|(b, &u)| {
+                                let y = (b as f64 + 0.5) * l / bins as f64;
+                                (u - u_at(y, t)).abs() / scale
+                            });
+                    nan_propagating_max(deviations)
                 }
                 _ => f64::NAN,
             };
@@ -255,20 +250,25 @@ fn check_one(
         match r {
             ReferenceCfg::StartupProfile(_) => unreachable!("handled by the caller"),
             ReferenceCfg::Value(v) => check_value(v, observables),
+            ReferenceCfg::DoublePoiseuilleProfile(dp) => {
+                let (_, u_max) = double_poiseuille_of(case, dp);
+                // The expected bin values (the solution plus the box-mean velocity) are the
+                // report's (see `double_poiseuille_expected`).
+                let value = max_profile_deviation(profile, u_max);
+                Validation {
+                    name: dp.name.clone(),
+                    metric: "max_bin |u_x − ū − u_exact| / u_max (reverse Poiseuille; ū the box \
+                             mean)"
+                        .into(),
+                    value,
+                    tolerance: dp.tolerance,
+                    pass: value <= dp.tolerance,
+                    profile: Vec::new(),
+                }
+            }
             ReferenceCfg::LinearShearProfile(p) => {
                 let scale = (case.domain.shear_rate * case.domain.lengths[1]).abs();
-                // A NaN bin makes the whole deviation NaN, which fails (f64::max would skip it).
-                let value = profile
-                    .iter()
-                    .map(|pt| (pt.mean - pt.expected).abs() / scale)
-                    .fold(0.0, |m: f64, d| {
-                        if m.is_nan() || d.is_nan() {
-                            f64::NAN
-                        } else {
-                            m.max(d)
-                        }
-                    });
-                let value = if profile.is_empty() { f64::NAN } else { value };
+                let value = max_profile_deviation(profile, scale);
                 Validation {
                     name: p.name.clone(),
                     metric: "max_bin |u_x − γ̇(y − L_y/2)| / (γ̇ L_y)".into(),
@@ -280,6 +280,30 @@ fn check_one(
             }
         }
     }
+}
+
+/// max_b |u_b − expected_b| / scale over the profile's bins; NaN for an empty profile or when
+/// any bin is NaN, so that such a profile fails (f64::max would skip a NaN bin).
+fn max_profile_deviation(profile: &[ProfilePoint], scale: f64) -> f64 {
+    if profile.is_empty() {
+        return f64::NAN;
+    }
+    nan_propagating_max(
+        profile
+            .iter()
+            .map(|pt| (pt.mean - pt.expected).abs() / scale),
+    )
+}
+
+/// The largest of non-negative deviations (0 for none), NaN as soon as one is NaN.
+fn nan_propagating_max(deviations: impl Iterator<Item = f64>) -> f64 {
+    deviations.fold(0.0, |m: f64, d| {
+        if m.is_nan() || d.is_nan() {
+            f64::NAN
+        } else {
+            m.max(d)
+        }
+    })
 }
 
 /// Compares one observable's time average with its reference value.
@@ -354,6 +378,48 @@ pub fn render(summary: &Summary) -> String {
     }
     s.push_str(&format!("  state digest {}\n", summary.state_digest));
     s
+}
+
+/// The expected bins of a reverse-Poiseuille profile with bin means `means` (`bins` equal bins
+/// across L_y): the solution's bin mean plus the box-mean velocity ū = mean of the bins. In a
+/// periodic box the centre-of-mass velocity is not pinned: the net force m g (N_upper −
+/// N_lower) fluctuates with the particle counts of the two halves, so the mean velocity
+/// random-walks, and the solution holds in the frame moving with it.
+pub fn double_poiseuille_expected(
+    case: &Case,
+    r: &crate::config::DoublePoiseuilleReference,
+    means: &[f64],
+) -> Vec<f64> {
+    let (exact, _) = double_poiseuille_of(case, r);
+    let bins = means.len().max(1) as f64;
+    let offset = means.iter().sum::<f64>() / bins;
+    let width = case.domain.lengths[1] / bins;
+    (0..means.len())
+        .map(|b| exact(b as f64 * width, (b + 1) as f64 * width) + offset)
+        .collect()
+}
+
+/// The steady reverse-Poiseuille solution of a case with a `double_poiseuille_profile`
+/// reference: the mean of u_x over [y0, y1], and u_max = ρ g L_y²/(32η).
+pub fn double_poiseuille_of(
+    case: &Case,
+    r: &crate::config::DoublePoiseuilleReference,
+) -> (impl Fn(f64, f64) -> f64, f64) {
+    let (g, physical) = match &case.fluid {
+        crate::config::FluidCfg::Dpd(d) => (
+            d.body_force.first().copied().unwrap_or(0.0),
+            d.physical.as_ref().map(|p| p.viscosity),
+        ),
+        _ => (0.0, None),
+    };
+    let eta = r.viscosity.or(physical).unwrap_or(f64::NAN);
+    let rho = case.particles.density * case.particles.mass;
+    let ly = case.domain.lengths[1];
+    let u_max = (rho * g * ly * ly / (32.0 * eta)).abs();
+    (
+        move |y0: f64, y1: f64| crate::analytic::double_poiseuille_mean(y0, y1, ly, rho, g, eta),
+        u_max,
+    )
 }
 
 #[cfg(test)]

@@ -31,6 +31,7 @@ gamma = 4.5
 kt = 1.0
 cutoff = 1.0
 weight_exponent = 2.0
+conservative_exponent = 1.0
 noise = "uniform"
 [integrator]
 kind = "groot_warren"
@@ -54,6 +55,7 @@ snapshot_fields = ["position", "force"]
 observables = ["temperature", "velocity_profile"]
 profile_bins = 4
 blocks = 4
+green_kubo_time = 1.5
 [[reference]]
 kind = "value"
 name = "t"
@@ -284,8 +286,53 @@ positions = [11.5, 12.5]
 tolerance = 0.03
 "#;
 
+/// `[fluid.physical]` with a Schmidt number and a time-scale ratio, and with a particle
+/// diffusion time and the compressibility (the two constraints exclude each other).
+const EVERY_PHYSICAL_KEY_SC: &str = r#"
+dimension = 3
+[box]
+lengths = [9.0, 9.0, 9.0]
+[particles]
+lattice = "random"
+density = 4.0
+temperature = 1.0
+[fluid]
+kind = "dpd"
+kt = 1.0
+cutoff = 1.5
+body_force = [1.0, 0.0, 0.0]
+body_force_profile = "reverse"
+[fluid.physical]
+viscosity = 30.0
+schmidt_number = 500.0
+time_scale_ratio = 20.0
+[integrator]
+kind = "groot_warren"
+dt = 0.001
+[run]
+steps = 100
+sample_every = 1
+[diagnostics]
+observables = ["temperature", "velocity_profile"]
+[[reference]]
+kind = "double_poiseuille_profile"
+name = "p"
+viscosity = 30.0
+tolerance = 0.1
+source = "s"
+"#;
+/// [`EVERY_PHYSICAL_KEY_SC`] with the other constraint: a particle diffusion time, and the
+/// compressibility.
+fn every_physical_key_tau() -> String {
+    EVERY_PHYSICAL_KEY_SC.replace(
+        "schmidt_number = 500.0\ntime_scale_ratio = 20.0",
+        "particle_diffusion_time = 0.9266\ninverse_compressibility = 15.9835",
+    )
+}
+
 #[test]
 fn documented_keys_are_exactly_the_parsed_keys() {
+    let physical_tau = every_physical_key_tau();
     let loaded = case_from_str(EVERY_KEY, "every_key.toml");
     let text = toml::to_string(&loaded.case).expect("serialise");
     let value: toml::Value = toml::from_str(&text).expect("re-parse");
@@ -311,6 +358,8 @@ fn documented_keys_are_exactly_the_parsed_keys() {
         (EVERY_SPH_KEY, "sph.toml"),
         (EVERY_DUMBBELL_KEY, "dumbbells.toml"),
         (EVERY_MSPH_KEY, "msph.toml"),
+        (EVERY_PHYSICAL_KEY_SC, "physical_sc.toml"),
+        (physical_tau.as_str(), "physical_tau.toml"),
     ] {
         let sph = case_from_str(text, name);
         let text = toml::to_string(&sph.case).expect("serialise");
@@ -336,6 +385,8 @@ fn documented_keys_are_exactly_the_parsed_keys() {
         EVERY_SPH_KEY,
         EVERY_DUMBBELL_KEY,
         EVERY_MSPH_KEY,
+        EVERY_PHYSICAL_KEY_SC,
+        physical_tau.as_str(),
     ] {
         paths(
             "",

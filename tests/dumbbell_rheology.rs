@@ -536,7 +536,7 @@ fn steady_shear(
     t_avg: f64,
     seed: u64,
     cv: bool,
-) -> ((f64, f64), (f64, f64)) {
+) -> ((f64, f64), (f64, f64), (f64, f64)) {
     let comm = SerialComm::new();
     let mut e = HomogeneousEnsembles::<3>::new(
         &comm,
@@ -559,9 +559,14 @@ fn steady_shear(
     }
     let np = particles as usize;
     let (mut xy, mut n1, mut k) = (vec![0.0; np], vec![0.0; np], 0.0);
+    let mut q2 = vec![0.0; np];
     for i in 1..=avg {
         e.advance();
         if i % every == 0 {
+            // ⟨|Q|²⟩ as the scene reports it (with control variates when they are on).
+            for (j, x) in e.particle_mean_square_lengths().iter().enumerate() {
+                q2[j] += x;
+            }
             for j in 0..np {
                 let mut s = kramers_stress::<3>(&e.q[j], p.spring);
                 if let Some(c) = &e.control {
@@ -578,15 +583,16 @@ fn steady_shear(
     }
     let eta: Vec<f64> = xy.iter().map(|x| x / k / wi).collect();
     let psi: Vec<f64> = n1.iter().map(|x| x / k / (2.0 * wi * wi)).collect();
-    (mean_se(&eta), mean_se(&psi))
+    let q2: Vec<f64> = q2.iter().map(|x| x / k).collect();
+    (mean_se(&eta), mean_se(&psi), mean_se(&q2))
 }
 
-/// The FENE steady-shear (η_p/(Gλ), Ψ₁/(2Gλ²)) in 3D from the independent Fokker–Planck solver
+/// The FENE steady-shear (η_p/(Gλ), Ψ₁/(2Gλ²), ⟨|Q|²⟩/(k_BT/H)) in 3D from the independent Fokker–Planck solver
 /// `tools/fene_fokker_planck.py` (a Galerkin solution of the dumbbell's configuration-space
 /// equation, converged in the polynomial degree to ~10⁻⁸, written apart from the Brownian
 /// dynamics). `None` (with a note) when no Python is given, unless MESORHEO_REQUIRE_PYTHON is
 /// set (`./run test` sets both).
-fn fokker_planck(b: f64, wi: f64) -> Option<(f64, f64)> {
+fn fokker_planck(b: f64, wi: f64) -> Option<(f64, f64, f64)> {
     let Ok(python) = std::env::var("MESORHEO_PYTHON") else {
         assert!(
             std::env::var("MESORHEO_REQUIRE_PYTHON").is_err(),
@@ -616,7 +622,11 @@ fn fokker_planck(b: f64, wi: f64) -> Option<(f64, f64)> {
             .parse()
             .expect("a number")
     };
-    Some((value("eta_p/(G lambda)"), value("Psi1/(G lambda^2)") / 2.0))
+    Some((
+        value("eta_p/(G lambda)"),
+        value("Psi1/(G lambda^2)") / 2.0,
+        value("<|Q|^2>"),
+    ))
 }
 
 fn fene_params(b: f64, dt: f64) -> DumbbellParams {
@@ -635,8 +645,8 @@ fn fene_steady_shear(b: f64) {
     // (b = 10), Ψ₁ −10 % … −14 %), is ≤ 0.07 % in η_p and ≤ 0.6 % in Ψ₁ (≈ 0.5σ), inside the 4σ.
     // Δt = 0.1λ: the time-step bias measured at Wi = 1 is ≤ 0.2 % (below).
     let (eta0, psi0) = (b / (b + 5.0), b * b / ((b + 5.0) * (b + 7.0)));
-    let (eta, _) = steady_shear(fene_params(b, 0.1), 0.1, 200, 100, 3.0, 60.0, 51, true);
-    let (_, psi) = steady_shear(fene_params(b, 0.1), 0.2, 200, 100, 3.0, 120.0, 52, true);
+    let (eta, _, q2) = steady_shear(fene_params(b, 0.1), 0.1, 200, 100, 3.0, 60.0, 51, true);
+    let (_, psi, _) = steady_shear(fene_params(b, 0.1), 0.2, 200, 100, 3.0, 120.0, 52, true);
     within(
         eta.0,
         eta.1,
@@ -651,6 +661,17 @@ fn fene_steady_shear(b: f64) {
         4.0,
         &format!("FENE b {b} Wi 0.2: Ψ₁/(2Gλ²) vs b²/((b+5)(b+7))"),
     );
+    // ⟨|Q|²⟩ with control variates (their known mean is the continuum equilibrium D b/(b + D + 2))
+    // against the Fokker–Planck value at the same Wi = 0.1.
+    if let Some(fp) = fokker_planck(b, 0.1) {
+        within(
+            q2.0,
+            q2.1,
+            fp.2,
+            4.0,
+            &format!("FENE b {b} Wi 0.1: ⟨|Q|²⟩ (control variates) vs Fokker–Planck"),
+        );
+    }
     // Meaningful error bars: σ ≤ 0.5 % (η_p), ≤ 2 % (Ψ₁) — at b = 10 the FENE-P value and
     // (b/(b+5))² are 51 % and 13 % away from b²/((b+5)(b+7)), i.e. > 6σ.
     assert!(eta.1 < 0.005 * eta0, "σ(η_p) {} too large", eta.1);
@@ -687,8 +708,14 @@ fn fene_steady_shear(b: f64) {
                 fp_psi,
                 1.0 - (b + 3.0).powi(2) / ((b + 5.0) * (b + 7.0)),
             ),
+            // ⟨|Q|²⟩: no FENE-P comparison (below).
+            ("⟨|Q|²⟩/(k_BT/H)", 2, f64::NAN, f64::NAN),
         ] {
-            let x = |k: usize| if pick == 0 { runs[k].0 } else { runs[k].1 };
+            let x = |k: usize| match pick {
+                0 => runs[k].0,
+                1 => runs[k].1,
+                _ => runs[k].2,
+            };
             let richardson = |c: (f64, f64), f: (f64, f64)| {
                 (
                     (4.0 * f.0 - c.0) / 3.0,
@@ -699,7 +726,7 @@ fn fene_steady_shear(b: f64) {
             let what = format!("FENE b {b} Wi {wi} {name}");
             eprintln!(
                 "{what}: Δt {}: {:.5} ± {:.5}, {}: {:.5} ± {:.5}, {}: {:.5} ± {:.5}; \
-                 Richardson {:.5} ± {:.5}; FENE-P {fp:.5}",
+                 Richardson {:.5} ± {:.5}; FENE-P {fp:.5} (none for ⟨|Q|²⟩)",
                 4.0 * h,
                 x(0).0,
                 x(0).1,
@@ -735,7 +762,11 @@ fn fene_steady_shear(b: f64) {
             // The Fokker–Planck solution (independent of this code): the Richardson value
             // within 3σ, and 3σ ≤ 1 % so that the agreement means something.
             if let Some(fp_exact) = exact {
-                let want = if pick == 0 { fp_exact.0 } else { fp_exact.1 };
+                let want = match pick {
+                    0 => fp_exact.0,
+                    1 => fp_exact.1,
+                    _ => fp_exact.2,
+                };
                 within(
                     reference.0,
                     reference.1,
@@ -748,6 +779,9 @@ fn fene_steady_shear(b: f64) {
                     "{what}: 3σ_ref = {:.3} % > 1 %",
                     300.0 * reference.1 / want
                 );
+            }
+            if pick == 2 {
+                continue;
             }
             // FENE-P, approximate: FENE-P lies above FENE (as the exact Wi → 0 limits do) and
             // 1 − FENE/FENE-P is below a loose bound: 15 % for η_p, 40 % for Ψ₁. The scale of the

@@ -731,3 +731,44 @@ fn msph_connffessit_channel_restart_is_bitwise() {
     assert!(text.contains("steps = 120\n") && text.contains("per_particle = 8\n"));
     assert_restart_at_60_is_bitwise(&text, "CONNFFESSIT channel (MSPH)");
 }
+
+/// The Green–Kubo correlators travel in the checkpoint: the viscosity of N/2 steps +
+/// checkpoint + restart on another rank count + N/2 equals that of one run, bitwise, and so
+/// does the state.
+#[test]
+fn green_kubo_correlators_restart_bitwise_on_other_rank_counts() {
+    let text = small_dpd(
+        3,
+        6.0,
+        0.0,
+        120,
+        "equilibration = 10\n[diagnostics]\nobservables = [\"temperature\", \
+         \"green_kubo_viscosity\"]\nblocks = 2\ngreen_kubo_time = 0.4\n",
+    );
+    let loaded = case_from_str(&text, "whole");
+    let whole = in_process(1, move |c| run_case(&loaded, c, &options(None, None)))
+        .expect("uninterrupted run");
+    let eta = |s: &Summary| s.observables["green_kubo_viscosity"];
+    let reference = eta(&whole);
+    assert!(
+        reference.mean.is_finite() && reference.samples == 2,
+        "{reference:?}"
+    );
+    for (first, second) in [(1, 2), (2, 1)] {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let out = dir.path().to_path_buf();
+        // Step 60: inside the first block, with products at every level pending.
+        let half = run_until(&text, first, &out, 60);
+        assert_eq!(half.steps, 60);
+        let rest = restart_into(&out.join("checkpoints"), second, &out).expect("second half");
+        assert!(rest.completed);
+        assert_eq!(rest.state_digest, whole.state_digest);
+        let got = eta(&rest);
+        assert_eq!(
+            (got.mean.to_bits(), got.stderr.to_bits()),
+            (reference.mean.to_bits(), reference.stderr.to_bits()),
+            "{first} → {second} ranks: {got:?} vs {reference:?}"
+        );
+        assert!(out.join("green_kubo.csv").exists());
+    }
+}

@@ -292,6 +292,7 @@ impl FlowCase {
             }
             FlowKind::Rest => {}
         }
+        names.push("mean_square_connector_length".into());
         names.push("max_connector_length".into());
         names.sort();
         names
@@ -532,7 +533,9 @@ pub fn validate(case: &FlowCase, ix: &SpanIndex) -> Result<(), CaseError> {
             ReferenceCfg::Value(v) => {
                 super::validate::validate_value_reference(v, i, &scalars, "scene", ix)?;
             }
-            ReferenceCfg::LinearShearProfile(_) | ReferenceCfg::StartupProfile(_) => {
+            ReferenceCfg::LinearShearProfile(_)
+            | ReferenceCfg::StartupProfile(_)
+            | ReferenceCfg::DoublePoiseuilleProfile(_) => {
                 return Err(ix.error(
                     &at("kind"),
                     "a homogeneous-flow scene has no velocity profile; use kind = \"value\"",

@@ -5,6 +5,7 @@
 //! `docs/case-reference.md` is generated from [`reference::KEYS`], and a test checks that the
 //! table, the structs and the document agree.
 
+pub mod dpd_physical;
 pub mod flow;
 pub mod observables;
 pub mod reference;
@@ -297,6 +298,13 @@ pub enum IntegratorCfg {
     ThesisPredictorCorrector(TwoStageCfg),
 }
 
+impl Case {
+    /// Whether a DPD body force drives the flow (the velocity profile is then binned along y).
+    pub fn body_forced(&self) -> bool {
+        matches!(&self.fluid, FluidCfg::Dpd(d) if d.body_force.iter().any(|&g| g != 0.0))
+    }
+}
+
 impl IntegratorCfg {
     /// Time step.
     pub fn dt(&self) -> f64 {
@@ -403,6 +411,11 @@ pub enum Observable {
     /// `inclusion_torque`, the mean torque per inclusion about z, ∮ (x − c) × (σ·n) dS. Only a
     /// case that lists it makes the momentum pass accumulate the traction moments.
     CompositeViscosity,
+    /// The Green–Kubo shear viscosity η = V/(k_BT) ∫₀^τ ⟨P̃(0):P̃(t)⟩/((D−1)(D+2)) dt from the
+    /// equilibrium autocorrelation of the whole pressure tensor, random-force stress included
+    /// (needs a DPD fluid at rest, no walls; [`crate::green_kubo`]). τ =
+    /// `diagnostics.green_kubo_time`; OUT/green_kubo.csv holds G(t) and its running integral.
+    GreenKuboViscosity,
 }
 
 impl Observable {
@@ -421,6 +434,7 @@ impl Observable {
             Observable::DensityProfile => "density_profile",
             Observable::PolymerStressTrace => "polymer_stress_trace",
             Observable::CompositeViscosity => "composite_viscosity",
+            Observable::GreenKuboViscosity => "green_kubo_viscosity",
         }
     }
 }
@@ -438,6 +452,13 @@ pub struct DiagnosticsCfg {
     /// Number of blocks for the block-averaged standard errors.
     #[serde(default = "default_blocks")]
     pub blocks: usize,
+    /// Upper limit τ of the Green–Kubo integral (time units).
+    #[serde(default = "default_green_kubo_time")]
+    pub green_kubo_time: f64,
+}
+
+fn default_green_kubo_time() -> f64 {
+    2.0
 }
 
 fn ten_usize() -> usize {
@@ -456,6 +477,7 @@ impl Default for DiagnosticsCfg {
             observables: default_observables(),
             profile_bins: ten_usize(),
             blocks: default_blocks(),
+            green_kubo_time: default_green_kubo_time(),
         }
     }
 }
@@ -480,6 +502,27 @@ pub enum ReferenceCfg {
     LinearShearProfile(ProfileReference),
     /// An analytic start-up profile u_x(y, t) of a channel, at given times.
     StartupProfile(StartupProfileReference),
+    /// The steady reverse-Poiseuille profile of a DPD fluid driven by a `reverse` body force.
+    DoublePoiseuilleProfile(DoublePoiseuilleReference),
+}
+
+/// `[[reference]] kind = "double_poiseuille_profile"`: the time-averaged binned u_x(y) against
+/// the steady reverse Poiseuille flow of a periodic box, u_x = ρ g s (L_y/2 − |s|)/(2η),
+/// s = y − L_y/2 (each bin against the solution's mean over the bin); metric
+/// max_b |u_b − u_b,exact| / u_max, u_max = ρ g L_y²/(32η).
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct DoublePoiseuilleReference {
+    /// Short name.
+    pub name: String,
+    /// Largest acceptable max_b |u_b − u_b,exact| / u_max.
+    pub tolerance: f64,
+    /// η of the solution (default: `fluid.physical.viscosity`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub viscosity: Option<f64>,
+    /// Where the solution comes from.
+    #[serde(default)]
+    pub source: String,
 }
 
 /// `[[reference]] kind = "startup_profile"`: the binned u_x(y) at each listed time against an
@@ -694,9 +737,20 @@ pub fn parse(source: &str, path: &Path) -> Result<Case, CaseError> {
              kinds (this entry point reads particle scenes only)",
         ));
     }
+    let physical = table.get("fluid").and_then(|f| f.get("physical")).is_some();
+    let mut table = table;
+    if physical {
+        // A DPD fluid given by its physical properties: mapped to the raw parameters first.
+        dpd_physical::resolve(&mut table, &index)?;
+    }
     tagged::precheck(&table, &index)?;
-    let de = toml::Deserializer::parse(source).map_err(|e| index.syntax_error(&e))?;
-    let mut case: Case = serde_path_to_error::deserialize(de).map_err(|e| index.serde_error(&e))?;
+    let mut case: Case = if physical {
+        serde_path_to_error::deserialize(toml::Value::Table(table.clone()))
+            .map_err(|e| index.serde_error(&e))?
+    } else {
+        let de = toml::Deserializer::parse(source).map_err(|e| index.syntax_error(&e))?;
+        serde_path_to_error::deserialize(de).map_err(|e| index.serde_error(&e))?
+    };
     let observables_given = table
         .get("diagnostics")
         .and_then(|d| d.get("observables"))

@@ -137,7 +137,55 @@ pub const KEYS: &[KeyDoc] = &[
         "fluid.weight_exponent",
         "float > 0",
         "2.0",
-        "s in w_D = (1 − r/r_c)^s, w_R = √w_D (2: standard DPD; 0.5: modified).",
+        "s in w_D = (1 − r/r_c)^s, w_R = √w_D (2: standard DPD; 0.5: modified). Set by [fluid.physical] when given.",
+    ),
+    key(
+        "fluid.body_force",
+        "array of D floats",
+        "none",
+        "DPD: a constant acceleration g on every particle (force m g). With it, \"velocity_profile\" bins u_x along y.",
+    ),
+    key(
+        "fluid.body_force_profile",
+        "\"uniform\" | \"reverse\"",
+        "\"uniform\"",
+        "DPD: \"reverse\" applies +g for y ≥ L_y/2 and −g below: the reverse (double) Poiseuille flow of a periodic box.",
+    ),
+    key(
+        "fluid.conservative_exponent",
+        "float > 0",
+        "1.0",
+        "s̄ in w_C = (1 − r/r_c)^s̄ of the conservative force a w_C (1: Groot–Warren). Set by [fluid.physical] when given.",
+    ),
+    key(
+        "fluid.physical.viscosity",
+        "float > 0",
+        "required in [fluid.physical]",
+        "DPD from physical properties (Nguyen 2021; `mesorheo check` prints both sides): a `[fluid.physical]` table replaces a, gamma, weight_exponent and conservative_exponent, which are mapped from it (a raw key given beside it must equal the mapped value). The density and mass come from [particles], k_BT and r_c from [fluid]. `viscosity`: η, imposed as the kinetic-theory dissipative viscosity η̄_D (the measured η differs; measure it).",
+    ),
+    key(
+        "fluid.physical.time_scale_ratio",
+        "float > 0",
+        "none: classical-water repulsion",
+        "α = γ² r_c/(m a), the ratio of the dissipative to the conservative time scale; a = γ² r_c/(α m), and s̄ matches the compressibility. Without it a = 15(κ⁻¹ − 1)k_BT/(π n r_c⁴) (3D; 12(κ⁻¹ − 1)k_BT/(π n r_c³) in 2D) with s̄ = 1.",
+    ),
+    key(
+        "fluid.physical.inverse_compressibility",
+        "float > 1",
+        "15.9835 (water)",
+        "κ⁻¹ = (1/k_BT) ∂p/∂n.",
+    ),
+    key(
+        "fluid.physical.schmidt_number",
+        "float > 0",
+        "none (s = 1/2)",
+        "Sc = η̄_D/(ρD) to impose: fixes the dissipative exponent s (exclusive with particle_diffusion_time); infeasible values are refused with the allowed range.",
+    ),
+    key(
+        "fluid.physical.particle_diffusion_time",
+        "float > 0",
+        "none (s = 1/2)",
+        "τ_P = R²/D to impose (3D only): fixes s instead of a Schmidt number.",
     ),
     key(
         "fluid.noise",
@@ -449,7 +497,7 @@ pub const KEYS: &[KeyDoc] = &[
         "diagnostics.observables",
         "array of observable names",
         "dpd: [\"temperature\", \"pressure\"]; summation_gas: [\"temperature\", \"momentum\"]; sph: [\"momentum\"], plus \"viscosity\", \"first_normal_stress_difference\" (and \"second_normal_stress_difference\" in 3D) under shear",
-        "What to average: \"temperature\", \"pressure\", \"stress\" (full tensor by contribution), \"viscosity\", \"first_normal_stress_difference\", \"second_normal_stress_difference\", \"momentum\", \"velocity_profile\" (under shear, or across [walls]), \"wall_shear_stress\" (force along x per unit area the fluid exerts on each wall: wall_shear_stress_lower, _upper; needs [walls]), \"density_profile\" (the SPH density of the fluid per bin along y, diagnostics.profile_bins bins; needs sph), \"polymer_stress_trace\" (mean |tr τ| of the fluid particles; needs [fluid.polymer]), \"composite_viscosity\" (an SPH suspension's cell stress, the fluid's Σ (m/ρ)σ_xy plus the inclusions' traction moments ∮ (σ·n)_x y dS, over Vγ̇; also gives inclusion_torque, the mean torque per inclusion; needs [inclusions] and shear). For sph, \"viscosity\" and the normal stress differences come from the fluid particles' own deviatoric stress (viscous + polymer, the mean over fluid particles), \"pressure\" and \"stress\" are not available. The shear ones need box.shear_rate ≠ 0. Only what is listed is computed: the pair virial is skipped without \"pressure\", \"stress\" or the stress differences, and only its diagonal is accumulated without \"stress\" or \"viscosity\".",
+        "What to average: \"temperature\", \"pressure\", \"stress\" (full tensor by contribution), \"viscosity\", \"first_normal_stress_difference\", \"second_normal_stress_difference\", \"momentum\", \"velocity_profile\" (under shear, or across [walls]), \"wall_shear_stress\" (force along x per unit area the fluid exerts on each wall: wall_shear_stress_lower, _upper; needs [walls]), \"density_profile\" (the SPH density of the fluid per bin along y, diagnostics.profile_bins bins; needs sph), \"polymer_stress_trace\" (mean |tr τ| of the fluid particles; needs [fluid.polymer]), \"composite_viscosity\" (an SPH suspension's cell stress, the fluid's Σ (m/ρ)σ_xy plus the inclusions' traction moments ∮ (σ·n)_x y dS, over Vγ̇; also gives inclusion_torque, the mean torque per inclusion; needs [inclusions] and shear), \"green_kubo_viscosity\" (DPD at rest: η from the equilibrium autocorrelation of the whole pressure tensor, random-force stress included, integrated to diagnostics.green_kubo_time; sampled every step after equilibration, with the full virial each step; OUT/green_kubo.csv holds G(t) and its running integral). For sph, \"viscosity\" and the normal stress differences come from the fluid particles' own deviatoric stress (viscous + polymer, the mean over fluid particles), \"pressure\" and \"stress\" are not available. The shear ones need box.shear_rate ≠ 0. Only what is listed is computed: the pair virial is skipped without \"pressure\", \"stress\" or the stress differences, and only its diagonal is accumulated without \"stress\" or \"viscosity\".",
     ),
     key(
         "diagnostics.profile_bins",
@@ -462,6 +510,12 @@ pub const KEYS: &[KeyDoc] = &[
         "integer ≥ 2",
         "10",
         "Blocks of the block-averaged standard errors.",
+    ),
+    key(
+        "diagnostics.green_kubo_time",
+        "number > 0",
+        "2.0",
+        "Upper limit τ of the Green–Kubo integral η = V/(k_BT) ∫₀^τ C(t) dt (\"green_kubo_viscosity\"): long enough for the stress autocorrelation to have decayed (OUT/green_kubo.csv shows the running integral's plateau), short enough not to integrate noise; each block of the run after equilibration must last at least 2τ.",
     ),
     key(
         "flow.kind",
@@ -543,9 +597,9 @@ pub const KEYS: &[KeyDoc] = &[
     ),
     key(
         "reference[].kind",
-        "\"value\" | \"linear_shear_profile\" | \"startup_profile\"",
+        "\"value\" | \"linear_shear_profile\" | \"startup_profile\" | \"double_poiseuille_profile\"",
         "required",
-        "What the run checks itself against.",
+        "What the run checks itself against. double_poiseuille_profile: the time-averaged binned u_x(y) of a DPD fluid driven by a reverse body force against u_x = ρ g s (L_y/2 − |s|)/(2η), s = y − L_y/2 (each bin against the solution's bin mean).",
     ),
     key(
         "reference[].name",
@@ -575,7 +629,13 @@ pub const KEYS: &[KeyDoc] = &[
         "reference[].tolerance",
         "float > 0",
         "required",
-        "Largest acceptable metric; for linear_shear_profile, max over bins of |u_x − γ̇(y − L_y/2)| / (γ̇ L_y); for startup_profile, max over bins of |u_x − u(y, t)| / scale at each time (scale: the plate velocity, or the steady centre velocity F L²/(8ν₀), or with a polymer the centre velocity at the last listed time if larger).",
+        "Largest acceptable metric; for linear_shear_profile, max over bins of |u_x − γ̇(y − L_y/2)| / (γ̇ L_y); for startup_profile, max over bins of |u_x − u(y, t)| / scale at each time (scale: the plate velocity, or the steady centre velocity F L²/(8ν₀), or with a polymer the centre velocity at the last listed time if larger); for double_poiseuille_profile, max over bins of |u_x − u_exact| / u_max, u_max = ρ g L_y²/(32η).",
+    ),
+    key(
+        "reference[].viscosity",
+        "float > 0",
+        "fluid.physical.viscosity",
+        "double_poiseuille_profile: the η of the analytic solution.",
     ),
     key(
         "reference[].solution",

@@ -7,8 +7,9 @@
 
 use super::spans::{Segment, SpanIndex, segments};
 use super::{
-    CaseError, DpdCfg, GrootWarrenCfg, KickDriftKickCfg, ProfileReference, SphCfg,
-    StartupProfileReference, SummationGasCfg, TwoStageCfg, ValueReference,
+    CaseError, DoublePoiseuilleReference, DpdCfg, GrootWarrenCfg, KickDriftKickCfg,
+    ProfileReference, SphCfg, StartupProfileReference, SummationGasCfg, TwoStageCfg,
+    ValueReference,
 };
 use serde::de::DeserializeOwned;
 
@@ -36,6 +37,10 @@ const REFERENCES: &[(&str, Check)] = &[
     ("value", check::<ValueReference>),
     ("linear_shear_profile", check::<ProfileReference>),
     ("startup_profile", check::<StartupProfileReference>),
+    (
+        "double_poiseuille_profile",
+        check::<DoublePoiseuilleReference>,
+    ),
 ];
 
 /// Checks every tagged table present in the document.

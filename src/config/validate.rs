@@ -199,6 +199,26 @@ pub fn validate(case: &Case, ix: &SpanIndex) -> Result<(), CaseError> {
                 ),
             ));
             }
+            if !dpd.body_force.is_empty()
+                && (dpd.body_force.len() != dim || dpd.body_force.iter().any(|g| !g.is_finite()))
+            {
+                return Err(ix.error(
+                    &fl("body_force"),
+                    format!(
+                        "found {:?}; give {dim} finite components of the acceleration g",
+                        dpd.body_force
+                    ),
+                ));
+            }
+            if !(dpd.conservative_exponent.is_finite() && dpd.conservative_exponent > 0.0) {
+                return Err(ix.error(
+                    &fl("conservative_exponent"),
+                    format!(
+                        "found {}; the exponent s̄ of w_C = (1 − r/r_c)^s̄ must be > 0 (1 standard)",
+                        dpd.conservative_exponent
+                    ),
+                ));
+            }
         }
         FluidCfg::SummationGas(gas) => {
             if !(gas.smoothing_length.is_finite() && gas.smoothing_length > 0.0) {
@@ -436,12 +456,20 @@ pub fn validate(case: &Case, ix: &SpanIndex) -> Result<(), CaseError> {
                 | Observable::SecondNormalStressDifference
                 | Observable::VelocityProfile
         );
-        let walled_profile =
-            *o == Observable::VelocityProfile && boundaries.contains(&Boundary::Wall);
+        let walled_profile = *o == Observable::VelocityProfile
+            && (boundaries.contains(&Boundary::Wall) || case.body_forced());
         if needs_shear && shear == 0.0 && !walled_profile {
             return Err(ix.error(
                 &[k("diagnostics"), k("observables"), Segment::Index(i)],
-                format!("\"{}\" needs shear; set box.shear_rate ≠ 0", o.name()),
+                format!(
+                    "\"{}\" needs shear; set box.shear_rate ≠ 0{}",
+                    o.name(),
+                    if *o == Observable::VelocityProfile {
+                        " (or walls, or a DPD fluid.body_force)"
+                    } else {
+                        ""
+                    }
+                ),
             ));
         }
         let needs_virial = matches!(
@@ -528,6 +556,49 @@ pub fn validate(case: &Case, ix: &SpanIndex) -> Result<(), CaseError> {
                     .to_string(),
             ));
         }
+        if *o == Observable::GreenKuboViscosity {
+            let at = [k("diagnostics"), k("observables"), Segment::Index(i)];
+            if !matches!(case.fluid, FluidCfg::Dpd(_)) {
+                return Err(ix.error(
+                    &at,
+                    "\"green_kubo_viscosity\" correlates the pair virial of a DPD fluid; it needs \
+                     [fluid] kind = \"dpd\""
+                        .to_string(),
+                ));
+            }
+            if shear != 0.0 || boundaries.contains(&Boundary::Wall) {
+                return Err(ix.error(
+                    &at,
+                    "\"green_kubo_viscosity\" is an equilibrium method: it needs a periodic box \
+                     at rest (box.shear_rate = 0, no walls); under shear use \"viscosity\""
+                        .to_string(),
+                ));
+            }
+            let tau = d.green_kubo_time;
+            let block_time = (case.run.steps.saturating_sub(case.run.equilibration)) as f64
+                * case.integrator.dt()
+                / d.blocks as f64;
+            if !(tau.is_finite() && tau > 0.0) {
+                return err(
+                    &["diagnostics", "green_kubo_time"],
+                    format!(
+                        "found {tau}; must be > 0 (the upper limit of the Green–Kubo integral)"
+                    ),
+                );
+            }
+            if tau > 0.5 * block_time {
+                return err(
+                    &["diagnostics", "green_kubo_time"],
+                    format!(
+                        "found {tau}, but each of the {} blocks of the run after equilibration \
+                         lasts only {block_time:.4} time units; the integral needs blocks at \
+                         least twice as long as green_kubo_time: lower it, use fewer \
+                         diagnostics.blocks, or run longer",
+                        d.blocks
+                    ),
+                );
+            }
+        }
         if *o == Observable::SecondNormalStressDifference && dim != 3 {
             return Err(ix.error(
                 &[k("diagnostics"), k("observables"), Segment::Index(i)],
@@ -560,6 +631,48 @@ pub fn validate(case: &Case, ix: &SpanIndex) -> Result<(), CaseError> {
                 }
             }
             ReferenceCfg::StartupProfile(sp) => validate_startup_reference(case, sp, i, ix)?,
+            ReferenceCfg::DoublePoiseuilleProfile(dp) => {
+                let reverse_x = matches!(&case.fluid, FluidCfg::Dpd(d)
+                    if d.body_force_profile == crate::models::dpd::BodyForceProfile::Reverse
+                        && d.body_force.first().is_some_and(|&g| g != 0.0)
+                        && d.body_force[1..].iter().all(|&g| g == 0.0));
+                if !reverse_x || shear != 0.0 || !case.wants(Observable::VelocityProfile) {
+                    return Err(ix.error(
+                        &at("kind"),
+                        "a double_poiseuille_profile reference needs a DPD fluid driven along x \
+                         by fluid.body_force with fluid.body_force_profile = \"reverse\", no \
+                         shear, and \"velocity_profile\" among diagnostics.observables"
+                            .to_string(),
+                    ));
+                }
+                let physical = match &case.fluid {
+                    FluidCfg::Dpd(d) => d.physical.as_ref().map(|p| p.viscosity),
+                    _ => None,
+                };
+                match dp.viscosity.or(physical) {
+                    Some(eta) if eta.is_finite() && eta > 0.0 => {}
+                    Some(eta) => {
+                        return Err(ix.error(
+                            &at("viscosity"),
+                            format!("found {eta}; the viscosity must be > 0"),
+                        ));
+                    }
+                    None => {
+                        return Err(ix.error(
+                            &at("kind"),
+                            "a double_poiseuille_profile reference needs the viscosity of its \
+                             solution: give `viscosity` or a [fluid.physical] table"
+                                .to_string(),
+                        ));
+                    }
+                }
+                if !(dp.tolerance.is_finite() && dp.tolerance > 0.0) {
+                    return Err(ix.error(
+                        &at("tolerance"),
+                        format!("found {}; must be > 0", dp.tolerance),
+                    ));
+                }
+            }
         }
     }
     Ok(())

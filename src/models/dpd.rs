@@ -5,14 +5,16 @@
 //!
 //! ```text
 //! F_ij = [ a w_C(r) − γ w_D(r) (e_ij·v_ij) + σ w_R(r) θ_ij / √Δt ] e_ij
-//! w_C = 1 − r/r_c,   w_R = (1 − r/r_c)^{s/2},   w_D = w_R²,   σ² = 2 γ k_BT
+//! w_C = (1 − r/r_c)^s̄,   w_R = (1 − r/r_c)^{s/2},   w_D = w_R²,   σ² = 2 γ k_BT
 //! ```
 //!
 //! θ_ij is a unit-variance random number from the keyed hash stream
 //! ([`crate::rng::HashStream`]) of (seed, step, min gid, max gid), so θ_ij = θ_ji wherever the
 //! pair is evaluated, on any rank. The default is Gaussian (ziggurat; the thesis, L444);
 //! `noise = "uniform"` gives √3(2u − 1), Groot–Warren's choice.
-//! With s = 2 this is standard DPD; s = 1/2 is the thesis's "modified" weight.
+//! With s = 2, s̄ = 1 this is standard DPD; s = 1/2 is the thesis's "modified" weight, and s̄
+//! follows from the compressibility when the fluid is given by its physical properties
+//! (`[fluid.physical]`, [`crate::dpd_parameters`]).
 
 use crate::models::interface::{ParticleModel, PassContext, PassOutput, PassSpec};
 use crate::models::pair_loop::{
@@ -50,9 +52,64 @@ pub struct DpdCfg {
     /// Exponent s of w_D = (1 − r/r_c)^s.
     #[serde(default = "two")]
     pub weight_exponent: f64,
+    /// Exponent s̄ of w_C = (1 − r/r_c)^s̄ (1: Groot–Warren).
+    #[serde(default = "one")]
+    pub conservative_exponent: f64,
     /// Noise distribution.
     #[serde(default)]
     pub noise: Noise,
+    /// The physical properties a, γ, s and s̄ were mapped from, when the case gave them
+    /// ([`crate::config::dpd_physical`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub physical: Option<PhysicalDpdCfg>,
+    /// A constant acceleration g on every particle (force m g); empty: none.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub body_force: Vec<f64>,
+    /// How the body force depends on y.
+    #[serde(default, skip_serializing_if = "is_uniform")]
+    pub body_force_profile: BodyForceProfile,
+}
+
+/// The y-dependence of a DPD body force.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum BodyForceProfile {
+    /// The same everywhere.
+    #[default]
+    Uniform,
+    /// +g in the upper half of the box (y ≥ L_y/2), −g in the lower: the reverse ("double")
+    /// Poiseuille flow of a periodic box (Backer et al. 2005; Nguyen 2021 §3.4).
+    Reverse,
+}
+
+fn is_uniform(p: &BodyForceProfile) -> bool {
+    *p == BodyForceProfile::Uniform
+}
+
+/// `[fluid.physical]`
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct PhysicalDpdCfg {
+    /// Shear viscosity η, imposed as the kinetic-theory dissipative viscosity η̄_D.
+    pub viscosity: f64,
+    /// Time-scale ratio α = γ² r_c/(m a); without it the "classical water" repulsion
+    /// a = 15(κ⁻¹ − 1)k_BT/(π n r_c⁴) (3D), s̄ = 1, is used.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub time_scale_ratio: Option<f64>,
+    /// Dimensionless inverse compressibility κ⁻¹ (water: 15.9835).
+    #[serde(default = "water")]
+    pub inverse_compressibility: f64,
+    /// Schmidt number Sc = η̄_D/(ρD) to impose (fixes s); exclusive with
+    /// `particle_diffusion_time`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub schmidt_number: Option<f64>,
+    /// Particle diffusion time τ_P to impose (fixes s; 3D only).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub particle_diffusion_time: Option<f64>,
+}
+
+fn water() -> f64 {
+    crate::dpd_parameters::WATER_INVERSE_COMPRESSIBILITY
 }
 
 fn one() -> f64 {
@@ -76,6 +133,8 @@ pub struct Dpd {
     pub cutoff: f64,
     /// Weight exponent s of w_D = (1 − r/r_c)^s.
     pub weight_exponent: f64,
+    /// Exponent s̄ of w_C = (1 − r/r_c)^s̄.
+    pub conservative_exponent: f64,
     /// Noise distribution.
     pub noise: Noise,
     /// σ / √Δt, precomputed.
@@ -95,6 +154,7 @@ impl Dpd {
             kt: cfg.kt,
             cutoff: cfg.cutoff,
             weight_exponent: cfg.weight_exponent,
+            conservative_exponent: cfg.conservative_exponent,
             noise: cfg.noise,
             sigma_over_sqrt_dt: sigma / dt.sqrt(),
             inv_cutoff: 1.0 / cfg.cutoff,
@@ -164,6 +224,11 @@ impl<const D: usize> PairKernel<D> for Dpd {
             out.parts[0][k] = self.a * w;
             w_r[k] = w;
         }
+        if self.conservative_exponent != 1.0 {
+            for k in 0..n {
+                out.parts[0][k] = self.a * w_r[k].max(0.0).powf(self.conservative_exponent);
+            }
+        }
         if self.weight_exponent != 2.0 {
             for w in &mut w_r[..n] {
                 *w = w.powf(0.5 * self.weight_exponent);
@@ -215,11 +280,13 @@ impl<const D: usize> PairKernel<D> for Dpd {
 }
 
 /// DPD as a model of the engine: one pass, the vectorised half-list scatter of
-/// [`compute_forces`] (its SIMD fast path), which also accumulates the pair virial; no fields
-/// of its own.
+/// [`compute_forces`] (its SIMD fast path), which also accumulates the pair virial, then the
+/// body force if any; no fields of its own.
 pub struct DpdModel<const D: usize> {
     dpd: Dpd,
     workspace: PairWorkspace<D>,
+    /// m g, the profile and L_y.
+    body: Option<([f64; D], BodyForceProfile, f64)>,
 }
 
 impl<const D: usize> DpdModel<D> {
@@ -228,7 +295,19 @@ impl<const D: usize> DpdModel<D> {
         Self {
             dpd: Dpd::new(cfg, dt, seed),
             workspace: PairWorkspace::default(),
+            body: None,
         }
+    }
+
+    /// The same with the case's body force on particles of mass `mass` in a box of height
+    /// `ly` (none when the case has none).
+    pub fn with_body_force(mut self, cfg: &DpdCfg, mass: f64, ly: f64) -> Self {
+        if cfg.body_force.iter().any(|&g| g != 0.0) {
+            let force =
+                std::array::from_fn(|d| mass * cfg.body_force.get(d).copied().unwrap_or(0.0));
+            self.body = Some((force, cfg.body_force_profile, ly));
+        }
+        self
     }
 }
 
@@ -262,6 +341,20 @@ impl<const D: usize> ParticleModel<D> for DpdModel<D> {
             &mut force,
             scope,
         );
+        if let Some((mg, profile, ly)) = self.body {
+            // Positions may lie up to half the skin outside [0, L_y) between list builds: the
+            // half is taken of the wrapped coordinate.
+            for (f, x) in force.iter_mut().zip(&p.pos).take(p.n_owned) {
+                let sign = match profile {
+                    BodyForceProfile::Uniform => 1.0,
+                    BodyForceProfile::Reverse if x[1].rem_euclid(ly) >= 0.5 * ly => 1.0,
+                    BodyForceProfile::Reverse => -1.0,
+                };
+                for d in 0..D {
+                    f[d] += sign * mg[d];
+                }
+            }
+        }
         p.force = force;
         Ok(PassOutput { virial: virial? })
     }
@@ -280,6 +373,11 @@ mod tests {
             cutoff: 1.0,
             weight_exponent: 2.0,
             noise: Noise::Gaussian,
+
+            conservative_exponent: 1.0,
+            physical: None,
+            body_force: Vec::new(),
+            body_force_profile: BodyForceProfile::Uniform,
         };
         let dpd = Dpd::new(&cfg, 0.04, 7);
         let r = [0.3, -0.4, 0.0];
@@ -297,5 +395,35 @@ mod tests {
         assert!((t.parts[1] + 0.225).abs() < 1e-14);
         let beyond: Option<PairTerms<3>> = dpd.eval(&[1.0, 0.0, 0.0], &v, (1, 2), 0);
         assert!(beyond.is_none());
+    }
+
+    #[test]
+    fn generalised_weights_match_hand_values() {
+        // Nguyen 2021's weights: w_C = (1 − r/r_c)^s̄, w_D = (1 − r/r_c)^s, r_c = 1.5, r = 0.5:
+        // 1 − r/r_c = 2/3; s̄ = 5.0329, s = 0.5.
+        let cfg = DpdCfg {
+            a: 229.42,
+            gamma: 15.1466,
+            kt: 1.0,
+            cutoff: 1.5,
+            weight_exponent: 0.5,
+            conservative_exponent: 5.0329,
+            noise: Noise::Gaussian,
+            physical: None,
+            body_force: Vec::new(),
+            body_force_profile: BodyForceProfile::Uniform,
+        };
+        let dpd = Dpd::new(&cfg, 0.001, 7);
+        let (r, v) = ([0.3, -0.4, 0.0], [1.0, 0.5, -0.2]);
+        let t: PairTerms<3> = dpd.eval(&r, &v, (3, 9), 11).expect("inside the cutoff");
+        let w = 2.0_f64 / 3.0;
+        let conservative = 229.42 * w.powf(5.0329);
+        let dissipative = -15.1466 * w.sqrt() * 0.2;
+        assert!(
+            (t.parts[0] - conservative).abs() < 1e-12 * conservative,
+            "{:?}",
+            t.parts
+        );
+        assert!((t.parts[1] - dissipative).abs() < 1e-13, "{:?}", t.parts);
     }
 }

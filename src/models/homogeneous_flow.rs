@@ -434,6 +434,47 @@ impl<'c, const D: usize> HomogeneousEnsembles<'c, D> {
         per
     }
 
+    /// ⟨|Q|²⟩ (units k_BT/H) of each particle of this rank: its ensemble average, with control
+    /// variates ⟨|Q|²⟩ − ⟨|Q_eq|²⟩ + E[|Q_eq|²], where E[|Q_eq|²] is the exact discrete trace for
+    /// Hookean springs and the continuum equilibrium D b/(b + D + 2) for FENE (Bird et al., DPL
+    /// vol. 2: the FENE equilibrium density ∝ (1 − Q²/b)^(b/2)).
+    pub fn particle_mean_square_lengths(&self) -> Vec<f64> {
+        let n = self.gids.len();
+        let (q, single) = (&self.q, self.q_single.as_deref());
+        let mean_square = |c: &[f64]| -> f64 {
+            let sum: f64 = c.iter().map(|x| x * x).sum();
+            sum / (c.len() / D).max(1) as f64
+        };
+        let mut per: Vec<f64> = self.pool.install(|| {
+            (0..n)
+                .into_par_iter()
+                .map(|i| mean_square(&widened(q, single, i)))
+                .collect()
+        });
+        if let Some(c) = &self.control {
+            let expected = match self.params.spring {
+                Spring::Hookean => {
+                    let m = hookean_discrete_moment::<D>(&[[0.0; D]; D], &self.params, self.step);
+                    (0..D).map(|a| m[a][a]).sum()
+                }
+                Spring::Fene { b } => D as f64 * b / (b + D as f64 + 2.0),
+            };
+            let eq: Vec<f64> = self
+                .pool
+                .install(|| c.par_iter().map(|q| mean_square(q)).collect());
+            for (s, e) in per.iter_mut().zip(&eq) {
+                *s += expected - e;
+            }
+        }
+        per
+    }
+
+    /// The mean over all particles of all ranks of a per-particle value of this rank's particles,
+    /// with the standard error from their spread (collective; exact sums).
+    pub fn particle_mean(&self, per: &[f64]) -> (f64, f64) {
+        particle_moments(self.comm, per.len(), 1, self.total, |p, _| per[p])[0]
+    }
+
     /// τ/G averaged over all particles of all ranks, with the standard error from the
     /// particle-to-particle spread (collective; exact sums, so rank-count independent).
     pub fn stress(&self) -> StressEstimate<D> {

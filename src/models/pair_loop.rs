@@ -521,6 +521,11 @@ mod tests {
             cutoff: 1.0,
             weight_exponent,
             noise,
+
+            conservative_exponent: 1.0,
+            physical: None,
+            body_force: Vec::new(),
+            body_force_profile: crate::models::dpd::BodyForceProfile::Uniform,
         };
         let dpd = Dpd::new(&cfg, 0.04, 5);
         let run = |isa: Isa| {

@@ -283,6 +283,11 @@ pub(crate) fn series_hash(series: &Series) -> u64 {
         words.push(text_hash(name));
         words.extend(values.iter().map(|x| x.to_bits()));
     }
+    for c in &series.green_kubo {
+        let (reals, counts) = c.state();
+        words.extend(reals.iter().map(|x| x.to_bits()));
+        words.extend(counts);
+    }
     for p in &series.profile {
         words.extend(p.iter().map(|x| x.to_bits()));
     }
@@ -351,8 +356,39 @@ pub(crate) fn write_series(f: &mut SharedFile, series: &Series, root: bool) -> R
         let data = if root { &flat[..] } else { &flat[..0] };
         f.write("observables/velocity_profile", &[0, 0], &[rows, bins], data)?;
     }
+    // The Green–Kubo correlators: one row per block (every block has the same shape).
+    if let Some(first) = series.green_kubo.first() {
+        let blocks = series.green_kubo.len();
+        let (reals, counts) = first.state();
+        let (nr, nc) = (reals.len(), counts.len());
+        let (mut all_reals, mut all_counts) = (Vec::new(), Vec::new());
+        for c in &series.green_kubo {
+            let (r, n) = c.state();
+            all_reals.extend(r);
+            all_counts.extend(n);
+        }
+        let rows = if root { blocks } else { 0 };
+        f.dataset::<f64>(GREEN_KUBO_REALS, &[blocks, nr], false)?;
+        f.write(
+            GREEN_KUBO_REALS,
+            &[0, 0],
+            &[rows, nr],
+            &all_reals[..rows * nr],
+        )?;
+        f.dataset::<u64>(GREEN_KUBO_COUNTS, &[blocks, nc], false)?;
+        f.write(
+            GREEN_KUBO_COUNTS,
+            &[0, 0],
+            &[rows, nc],
+            &all_counts[..rows * nc],
+        )?;
+    }
     Ok(())
 }
+
+/// Datasets of the Green–Kubo correlators' state ([`crate::correlator::MultipleTauCorrelator::state`]).
+const GREEN_KUBO_REALS: &str = "observables/green_kubo_reals";
+const GREEN_KUBO_COUNTS: &str = "observables/green_kubo_counts";
 
 /// Reads the sampled series from `/observables`.
 pub(crate) fn read_series(f: &hdf5::File) -> Result<Series, String> {
@@ -373,7 +409,7 @@ pub(crate) fn read_series(f: &hdf5::File) -> Result<Series, String> {
         .ok_or_else(|| format!("{}: /observables/step is not 1-D", f.filename()))?;
     series.steps = read_block(f, "observables/step", &[0], &[s])?;
     for name in names {
-        if name == "step" {
+        if name == "step" || name.starts_with("green_kubo_") {
             continue;
         }
         let ds = format!("observables/{name}");
@@ -388,6 +424,31 @@ pub(crate) fn read_series(f: &hdf5::File) -> Result<Series, String> {
             series
                 .scalars
                 .insert(name.clone(), read_block(f, &ds, &[0], &[s])?);
+        }
+    }
+    if f.dataset(GREEN_KUBO_REALS).is_ok() {
+        let shape = len(GREEN_KUBO_REALS)?;
+        let count_shape = len(GREEN_KUBO_COUNTS)?;
+        if shape.len() != 2 || count_shape.len() != 2 || shape[0] != count_shape[0] {
+            return Err(format!(
+                "{}: the Green–Kubo correlators have the shapes {shape:?} and {count_shape:?}",
+                f.filename()
+            ));
+        }
+        let reals: Vec<f64> = read_block(f, GREEN_KUBO_REALS, &[0, 0], &shape)?;
+        let counts: Vec<u64> = read_block(f, GREEN_KUBO_COUNTS, &[0, 0], &count_shape)?;
+        for b in 0..shape[0] {
+            let c = crate::correlator::MultipleTauCorrelator::from_state(
+                &reals[b * shape[1]..(b + 1) * shape[1]],
+                &counts[b * count_shape[1]..(b + 1) * count_shape[1]],
+            )
+            .ok_or_else(|| {
+                format!(
+                    "{}: Green–Kubo correlator {b} is inconsistent",
+                    f.filename()
+                )
+            })?;
+            series.green_kubo.push(c);
         }
     }
     Ok(series)
