@@ -169,6 +169,9 @@ pub struct Series {
     pub steps: Vec<u64>,
     /// The Green–Kubo correlators, one per block ([`crate::green_kubo`]); empty unless asked.
     pub green_kubo: Vec<crate::correlator::MultipleTauCorrelator>,
+    /// The transverse-current correlators, blocks × modes ([`crate::transverse_current`]);
+    /// empty unless asked.
+    pub transverse_current: Vec<crate::correlator::MultipleTauCorrelator>,
 }
 
 impl Series {

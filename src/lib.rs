@@ -56,4 +56,6 @@ pub mod simd;
 pub mod species;
 pub mod stability;
 pub mod summary;
+pub mod tcaf_fit;
+pub mod transverse_current;
 pub mod workers;

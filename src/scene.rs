@@ -169,6 +169,9 @@ impl<const D: usize> Scene for ParticleScene<'_, D> {
         if self.sim.is_correlation_step() {
             self.sim.correlate();
         }
+        if self.sim.is_current_step() {
+            self.sim.sample_currents();
+        }
         Ok(())
     }
 
@@ -239,6 +242,13 @@ impl<const D: usize> Scene for ParticleScene<'_, D> {
             write_green_kubo_csv(&gk, out)
                 .map_err(|e| format!("cannot write {}/green_kubo.csv: {e}", out.display()))?;
         }
+        if let (Some(out), Some(tc)) = (out, self.sim.transverse_current())
+            && self.sim.comm().rank() == 0
+        {
+            write_transverse_current_csv(&tc, out).map_err(|e| {
+                format!("cannot write {}/transverse_current.csv: {e}", out.display())
+            })?;
+        }
         Ok(())
     }
 
@@ -254,6 +264,20 @@ impl<const D: usize> Scene for ParticleScene<'_, D> {
                     .to_owned(),
                 gk.viscosity,
             );
+        }
+        if let Some(tc) = sim.transverse_current() {
+            observables.insert(
+                crate::config::Observable::TransverseCurrentViscosity
+                    .name()
+                    .to_owned(),
+                tc.viscosity,
+            );
+            for (j, m) in tc.modes.iter().enumerate() {
+                observables.insert(
+                    crate::transverse_current::mode_observable(j + 1),
+                    m.viscosity,
+                );
+            }
         }
         let ly = case.domain.lengths[1];
         let nb = case.diagnostics.profile_bins as f64;
@@ -331,6 +355,43 @@ impl<const D: usize> Scene for ParticleScene<'_, D> {
     fn times(&mut self) -> &mut PhaseTimes {
         &mut self.sim.times
     }
+}
+
+/// `OUT/transverse_current.csv`: per mode j, k_j, η_k ± error, τ_k ± error, the measured and
+/// the equipartition C⊥(k, 0), then t, C⊥(k, t)/C⊥(k, 0) (the block mean) and the fitted
+/// Maxwell curve.
+fn write_transverse_current_csv(
+    tc: &crate::transverse_current::TransverseCurrentEstimate,
+    out: &Path,
+) -> std::io::Result<()> {
+    use std::fmt::Write as _;
+    std::fs::create_dir_all(out)?;
+    let mut text = String::from(
+        "mode,k,eta_k,eta_k_stderr,tau_k,tau_k_stderr,c0,c0_stderr,c0_equipartition,t,c_normalised,maxwell_fit\n",
+    );
+    for (j, m) in tc.modes.iter().enumerate() {
+        for &(t, c, fit) in &m.curve {
+            let _ = writeln!(
+                text,
+                "{},{:.10e},{:.10e},{:.10e},{:.10e},{:.10e},{:.10e},{:.10e},{:.10e},{:.10e},{:.10e},{:.10e}",
+                j + 1,
+                m.wavenumber,
+                m.viscosity.mean,
+                m.viscosity.stderr,
+                m.relaxation_time.mean,
+                m.relaxation_time.stderr,
+                m.initial.mean,
+                m.initial.stderr,
+                m.initial_expected,
+                t,
+                c,
+                fit
+            );
+        }
+    }
+    let tmp = out.join("transverse_current.csv.tmp");
+    std::fs::write(&tmp, text)?;
+    std::fs::rename(tmp, out.join("transverse_current.csv"))
 }
 
 /// `OUT/green_kubo.csv`: t, G(t) = V C(t)/k_BT (the block mean) and its running integral η(t).

@@ -386,6 +386,9 @@ impl<'c, const D: usize> Simulation<'c, D> {
         if sim.series.green_kubo.is_empty() {
             sim.series.green_kubo = fresh_green_kubo(&sim.case);
         }
+        if sim.series.transverse_current.is_empty() {
+            sim.series.transverse_current = fresh_transverse_current(&sim.case);
+        }
         Ok(sim)
     }
 
@@ -474,6 +477,7 @@ impl<'c, const D: usize> Simulation<'c, D> {
             total_particles: total,
             series: Series {
                 green_kubo: fresh_green_kubo(case),
+                transverse_current: fresh_transverse_current(case),
                 ..Series::default()
             },
             times: PhaseTimes::default(),
@@ -1036,6 +1040,97 @@ impl<'c, const D: usize> Simulation<'c, D> {
         self.times.diagnostics += t0.elapsed().as_secs_f64();
     }
 
+    /// Whether the current step feeds the transverse-current correlators (every
+    /// `diagnostics.transverse_current_every` steps after equilibration, when asked).
+    pub fn is_current_step(&self) -> bool {
+        !self.series.transverse_current.is_empty()
+            && self.step > self.case.run.equilibration
+            && (self.step).is_multiple_of(self.case.diagnostics.transverse_current_every)
+    }
+
+    /// Feeds the transverse currents J⊥(k_j) of the fluid particles, j = 1 … modes, to the
+    /// block's correlators ([`crate::transverse_current`]; collective, exact sums).
+    pub fn sample_currents(&mut self) {
+        let t0 = Instant::now();
+        let modes = self.case.diagnostics.transverse_current_modes;
+        let channels = crate::transverse_current::channels(D);
+        let mut sums = vec![FixedSum::ZERO; modes * channels];
+        let (particles, species) = (&self.particles, &self.species);
+        let length = self.sim_box.lengths[0];
+        let n = particles.n_owned;
+        for (k, (x, v)) in particles.pos[..n]
+            .iter()
+            .zip(&particles.vel[..n])
+            .enumerate()
+        {
+            if k % 2048 == 2047 {
+                sums.iter_mut().for_each(FixedSum::normalize);
+            }
+            if species[particles.species_of(k) as usize].is_fluid() {
+                crate::transverse_current::add_particle(&mut sums, x, v, length, modes);
+            }
+        }
+        FixedSum::allreduce(self.comm, &mut sums);
+        let r = &self.case.run;
+        let blocks = self.series.transverse_current.len() / modes;
+        let b = crate::green_kubo::block_of(self.step, r.equilibration, r.steps, blocks);
+        for mode in 0..modes {
+            let x: Vec<f64> = sums[mode * channels..(mode + 1) * channels]
+                .iter()
+                .map(FixedSum::value)
+                .collect();
+            self.series.transverse_current[b * modes + mode].add(&x);
+        }
+        self.times.diagnostics += t0.elapsed().as_secs_f64();
+    }
+
+    /// η_k and η₀ from the transverse-current correlators so far; `None` when the case does
+    /// not ask for them.
+    pub fn transverse_current(
+        &self,
+    ) -> Option<crate::transverse_current::TransverseCurrentEstimate> {
+        let crate::config::FluidCfg::Dpd(dpd) = &self.case.fluid else {
+            return None;
+        };
+        if self.series.transverse_current.is_empty() {
+            return None;
+        }
+        let (count, mass, inverse_mass) = self.fluid_mass_moments();
+        let fluid = crate::transverse_current::FluidState {
+            particles: count,
+            mass_density: mass / self.sim_box.volume(),
+            kt_over_mass: dpd.kt * inverse_mass / count,
+            length: self.sim_box.lengths[0],
+        };
+        let d = &self.case.diagnostics;
+        Some(crate::transverse_current::estimate(
+            &self.series.transverse_current,
+            d.transverse_current_modes,
+            d.transverse_current_every as f64 * self.dt,
+            &fluid,
+            D,
+        ))
+    }
+
+    /// (N, Σ m, Σ 1/m) over the fluid particles of every rank (collective, exact).
+    fn fluid_mass_moments(&self) -> (f64, f64, f64) {
+        let p = &self.particles;
+        let mut sums = [FixedSum::ZERO; 3];
+        for k in 0..p.n_owned {
+            let s = &self.species[p.species_of(k) as usize];
+            if s.is_fluid() {
+                sums[0].add(1.0);
+                sums[1].add(s.mass);
+                sums[2].add(1.0 / s.mass);
+            }
+            if k % 2048 == 2047 {
+                sums.iter_mut().for_each(FixedSum::normalize);
+            }
+        }
+        FixedSum::allreduce(self.comm, &mut sums);
+        (sums[0].value(), sums[1].value(), sums[2].value())
+    }
+
     /// The Green–Kubo viscosity of the correlators so far ([`crate::green_kubo::estimate`]);
     /// `None` when the case does not ask for it.
     pub fn green_kubo(&self) -> Option<crate::green_kubo::GreenKuboEstimate> {
@@ -1345,7 +1440,7 @@ impl<'c, const D: usize> Simulation<'c, D> {
                     .scalars
                     .push(("viscosity".into(), -pt(0, 1) / self.sim_box.shear_rate)),
                 // Not a sampled series: the correlators are fed every step ([`Self::correlate`]).
-                Observable::GreenKuboViscosity => {}
+                Observable::GreenKuboViscosity | Observable::TransverseCurrentViscosity => {}
                 Observable::FirstNormalStressDifference => out
                     .scalars
                     .push(("first_normal_stress_difference".into(), pt(1, 1) - pt(0, 0))),
@@ -1551,7 +1646,8 @@ fn virial_scope(observables: &[Observable]) -> VirialScope {
         | Observable::WallShearStress
         | Observable::DensityProfile
         | Observable::PolymerStressTrace
-        | Observable::CompositeViscosity => VirialScope::Off,
+        | Observable::CompositeViscosity
+        | Observable::TransverseCurrentViscosity => VirialScope::Off,
     };
     let scopes: Vec<VirialScope> = observables.iter().map(needs).collect();
     if scopes.contains(&VirialScope::Full) {
@@ -1735,6 +1831,22 @@ pub fn wall_layer_count(case: &Case, axis: usize) -> usize {
         .and_then(|w| w.thickness)
         .unwrap_or(2.0 * case.cutoff());
     (thickness / spacing - 1e-9).ceil().max(1.0) as usize
+}
+
+/// Empty transverse-current correlators (blocks × modes) for a case that asks for that
+/// viscosity, none otherwise.
+fn fresh_transverse_current(case: &Case) -> Vec<crate::correlator::MultipleTauCorrelator> {
+    if !case.wants(crate::config::Observable::TransverseCurrentViscosity) {
+        return Vec::new();
+    }
+    let d = &case.diagnostics;
+    crate::transverse_current::block_correlators(
+        d.blocks,
+        d.transverse_current_modes,
+        d.transverse_current_time,
+        d.transverse_current_every as f64 * case.integrator.dt(),
+        case.dimension,
+    )
 }
 
 /// Empty Green–Kubo correlators for a case that asks for the viscosity that way (one per block),

@@ -56,6 +56,9 @@ observables = ["temperature", "velocity_profile"]
 profile_bins = 4
 blocks = 4
 green_kubo_time = 1.5
+transverse_current_modes = 6
+transverse_current_every = 2
+transverse_current_time = 3.0
 [[reference]]
 kind = "value"
 name = "t"

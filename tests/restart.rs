@@ -732,9 +732,9 @@ fn msph_connffessit_channel_restart_is_bitwise() {
     assert_restart_at_60_is_bitwise(&text, "CONNFFESSIT channel (MSPH)");
 }
 
-/// The Green–Kubo correlators travel in the checkpoint: the viscosity of N/2 steps +
-/// checkpoint + restart on another rank count + N/2 equals that of one run, bitwise, and so
-/// does the state.
+/// The Green–Kubo and transverse-current correlators travel in the checkpoint: the viscosities
+/// of N/2 steps + checkpoint + restart on another rank count + N/2 equal those of one run,
+/// bitwise, and so does the state.
 #[test]
 fn green_kubo_correlators_restart_bitwise_on_other_rank_counts() {
     let text = small_dpd(
@@ -743,13 +743,17 @@ fn green_kubo_correlators_restart_bitwise_on_other_rank_counts() {
         0.0,
         120,
         "equilibration = 10\n[diagnostics]\nobservables = [\"temperature\", \
-         \"green_kubo_viscosity\"]\nblocks = 2\ngreen_kubo_time = 0.4\n",
+         \"green_kubo_viscosity\", \"transverse_current_viscosity\"]\nblocks = 2\n\
+         green_kubo_time = 0.4\ntransverse_current_modes = 2\ntransverse_current_every = 1\n\
+         transverse_current_time = 0.64\n",
     );
     let loaded = case_from_str(&text, "whole");
     let whole = in_process(1, move |c| run_case(&loaded, c, &options(None, None)))
         .expect("uninterrupted run");
     let eta = |s: &Summary| s.observables["green_kubo_viscosity"];
+    let tcaf = |s: &Summary| s.observables["transverse_current_viscosity_k1"];
     let reference = eta(&whole);
+    assert!(tcaf(&whole).mean.is_finite(), "{:?}", tcaf(&whole));
     assert!(
         reference.mean.is_finite() && reference.samples == 2,
         "{reference:?}"
@@ -770,5 +774,11 @@ fn green_kubo_correlators_restart_bitwise_on_other_rank_counts() {
             "{first} → {second} ranks: {got:?} vs {reference:?}"
         );
         assert!(out.join("green_kubo.csv").exists());
+        let (a, b) = (tcaf(&rest), tcaf(&whole));
+        assert_eq!(
+            (a.mean.to_bits(), a.stderr.to_bits()),
+            (b.mean.to_bits(), b.stderr.to_bits()),
+            "transverse-current viscosity, {first} → {second} ranks: {a:?} vs {b:?}"
+        );
     }
 }

@@ -416,6 +416,13 @@ pub enum Observable {
     /// (needs a DPD fluid at rest, no walls; [`crate::green_kubo`]). τ =
     /// `diagnostics.green_kubo_time`; OUT/green_kubo.csv holds G(t) and its running integral.
     GreenKuboViscosity,
+    /// The shear viscosity from the transverse-current autocorrelation of a fluid at rest
+    /// ([`crate::transverse_current`]): η_k at k_j = 2πj/L, j = 1 …
+    /// `diagnostics.transverse_current_modes` (`transverse_current_viscosity_k1`, …, Maxwell
+    /// fits of C⊥(k, t)/C⊥(k, 0)), and `transverse_current_viscosity`, their k → 0 limit η₀
+    /// from η_k = η₀ + a k² over the 4 smallest k. OUT/transverse_current.csv holds the
+    /// curves and the fits.
+    TransverseCurrentViscosity,
 }
 
 impl Observable {
@@ -435,6 +442,7 @@ impl Observable {
             Observable::PolymerStressTrace => "polymer_stress_trace",
             Observable::CompositeViscosity => "composite_viscosity",
             Observable::GreenKuboViscosity => "green_kubo_viscosity",
+            Observable::TransverseCurrentViscosity => "transverse_current_viscosity",
         }
     }
 }
@@ -455,6 +463,25 @@ pub struct DiagnosticsCfg {
     /// Upper limit τ of the Green–Kubo integral (time units).
     #[serde(default = "default_green_kubo_time")]
     pub green_kubo_time: f64,
+    /// Wavenumbers k_j = 2πj/L, j = 1 … this, of the transverse-current viscosity.
+    #[serde(default = "default_transverse_current_modes")]
+    pub transverse_current_modes: usize,
+    /// Steps between two samples of the transverse currents.
+    #[serde(default = "default_transverse_current_every")]
+    pub transverse_current_every: u64,
+    /// Longest lag of the transverse-current autocorrelation (time units).
+    #[serde(default = "default_transverse_current_time")]
+    pub transverse_current_time: f64,
+}
+
+fn default_transverse_current_modes() -> usize {
+    4
+}
+fn default_transverse_current_every() -> u64 {
+    5
+}
+fn default_transverse_current_time() -> f64 {
+    5.0
 }
 
 fn default_green_kubo_time() -> f64 {
@@ -478,6 +505,9 @@ impl Default for DiagnosticsCfg {
             profile_bins: ten_usize(),
             blocks: default_blocks(),
             green_kubo_time: default_green_kubo_time(),
+            transverse_current_modes: default_transverse_current_modes(),
+            transverse_current_every: default_transverse_current_every(),
+            transverse_current_time: default_transverse_current_time(),
         }
     }
 }

@@ -45,6 +45,12 @@ pub fn scalar_names(case: &Case) -> Vec<String> {
                 out.push("composite_viscosity".to_owned());
                 out.push("inclusion_torque".to_owned());
             }
+            Observable::TransverseCurrentViscosity => {
+                out.push(o.name().to_owned());
+                for j in 1..=case.diagnostics.transverse_current_modes {
+                    out.push(crate::transverse_current::mode_observable(j));
+                }
+            }
             other => out.push(other.name().to_owned()),
         }
     }

@@ -497,7 +497,7 @@ pub const KEYS: &[KeyDoc] = &[
         "diagnostics.observables",
         "array of observable names",
         "dpd: [\"temperature\", \"pressure\"]; summation_gas: [\"temperature\", \"momentum\"]; sph: [\"momentum\"], plus \"viscosity\", \"first_normal_stress_difference\" (and \"second_normal_stress_difference\" in 3D) under shear",
-        "What to average: \"temperature\", \"pressure\", \"stress\" (full tensor by contribution), \"viscosity\", \"first_normal_stress_difference\", \"second_normal_stress_difference\", \"momentum\", \"velocity_profile\" (under shear, or across [walls]), \"wall_shear_stress\" (force along x per unit area the fluid exerts on each wall: wall_shear_stress_lower, _upper; needs [walls]), \"density_profile\" (the SPH density of the fluid per bin along y, diagnostics.profile_bins bins; needs sph), \"polymer_stress_trace\" (mean |tr τ| of the fluid particles; needs [fluid.polymer]), \"composite_viscosity\" (an SPH suspension's cell stress, the fluid's Σ (m/ρ)σ_xy plus the inclusions' traction moments ∮ (σ·n)_x y dS, over Vγ̇; also gives inclusion_torque, the mean torque per inclusion; needs [inclusions] and shear), \"green_kubo_viscosity\" (DPD at rest: η from the equilibrium autocorrelation of the whole pressure tensor, random-force stress included, integrated to diagnostics.green_kubo_time; sampled every step after equilibration, with the full virial each step; OUT/green_kubo.csv holds G(t) and its running integral). For sph, \"viscosity\" and the normal stress differences come from the fluid particles' own deviatoric stress (viscous + polymer, the mean over fluid particles), \"pressure\" and \"stress\" are not available. The shear ones need box.shear_rate ≠ 0. Only what is listed is computed: the pair virial is skipped without \"pressure\", \"stress\" or the stress differences, and only its diagonal is accumulated without \"stress\" or \"viscosity\".",
+        "What to average: \"temperature\", \"pressure\", \"stress\" (full tensor by contribution), \"viscosity\", \"first_normal_stress_difference\", \"second_normal_stress_difference\", \"momentum\", \"velocity_profile\" (under shear, or across [walls]), \"wall_shear_stress\" (force along x per unit area the fluid exerts on each wall: wall_shear_stress_lower, _upper; needs [walls]), \"density_profile\" (the SPH density of the fluid per bin along y, diagnostics.profile_bins bins; needs sph), \"polymer_stress_trace\" (mean |tr τ| of the fluid particles; needs [fluid.polymer]), \"composite_viscosity\" (an SPH suspension's cell stress, the fluid's Σ (m/ρ)σ_xy plus the inclusions' traction moments ∮ (σ·n)_x y dS, over Vγ̇; also gives inclusion_torque, the mean torque per inclusion; needs [inclusions] and shear), \"transverse_current_viscosity\" (DPD at rest in a cubic box: η_k at k_j = 2πj/L from Maxwell fits of the transverse-current autocorrelation, as transverse_current_viscosity_k1 …, and their k → 0 limit η₀ as transverse_current_viscosity, jackknife errors over the blocks; OUT/transverse_current.csv holds the curves and the fits), \"green_kubo_viscosity\" (DPD at rest: η from the equilibrium autocorrelation of the whole pressure tensor, random-force stress included, integrated to diagnostics.green_kubo_time; sampled every step after equilibration, with the full virial each step; OUT/green_kubo.csv holds G(t) and its running integral). For sph, \"viscosity\" and the normal stress differences come from the fluid particles' own deviatoric stress (viscous + polymer, the mean over fluid particles), \"pressure\" and \"stress\" are not available. The shear ones need box.shear_rate ≠ 0. Only what is listed is computed: the pair virial is skipped without \"pressure\", \"stress\" or the stress differences, and only its diagonal is accumulated without \"stress\" or \"viscosity\".",
     ),
     key(
         "diagnostics.profile_bins",
@@ -516,6 +516,24 @@ pub const KEYS: &[KeyDoc] = &[
         "number > 0",
         "2.0",
         "Upper limit τ of the Green–Kubo integral η = V/(k_BT) ∫₀^τ C(t) dt (\"green_kubo_viscosity\"): long enough for the stress autocorrelation to have decayed (OUT/green_kubo.csv shows the running integral's plateau), short enough not to integrate noise; each block of the run after equilibration must last at least 2τ.",
+    ),
+    key(
+        "diagnostics.transverse_current_modes",
+        "integer 2 … 100",
+        "4",
+        "Wavenumbers k_j = 2πj/L, j = 1 … this, of \"transverse_current_viscosity\" (along every axis of the cubic box, both transverse components). Each mode's C⊥(k, t)/C⊥(k, 0) is fitted with the Maxwell model over the lags where it exceeds 0.05; η₀ is extrapolated from η_k = η₀ + a k² over the 4 smallest k. One correlator per mode and block.",
+    ),
+    key(
+        "diagnostics.transverse_current_every",
+        "integer ≥ 1",
+        "5",
+        "Steps between two samples of the transverse currents (each costs about D·modes complex products per particle; the thesis samples every 5 steps at Δt = 0.001). The largest k's decay ρ/(η_k k²) must span several samples.",
+    ),
+    key(
+        "diagnostics.transverse_current_time",
+        "number ≥ 16 × transverse_current_every × Δt",
+        "5.0",
+        "Longest lag of the transverse-current autocorrelation (time units): long enough for C⊥(k₁, t) to fall below 0.05 (about 3ρ/(η k₁²)); each of the ≥ 2 blocks after equilibration must last at least twice as long.",
     ),
     key(
         "flow.kind",

@@ -599,6 +599,84 @@ pub fn validate(case: &Case, ix: &SpanIndex) -> Result<(), CaseError> {
                 );
             }
         }
+        if *o == Observable::TransverseCurrentViscosity {
+            let at = [k("diagnostics"), k("observables"), Segment::Index(i)];
+            let FluidCfg::Dpd(dpd) = &case.fluid else {
+                return Err(ix.error(
+                    &at,
+                    "\"transverse_current_viscosity\" needs a thermal fluid, [fluid] kind = \"dpd\""
+                        .to_string(),
+                ));
+            };
+            if shear != 0.0
+                || boundaries.contains(&Boundary::Wall)
+                || dpd.body_force.iter().any(|&g| g != 0.0)
+            {
+                return Err(ix.error(
+                    &at,
+                    "\"transverse_current_viscosity\" is an equilibrium method: it needs a \
+                     periodic box at rest (box.shear_rate = 0, no walls, no fluid.body_force); \
+                     under shear use \"viscosity\""
+                        .to_string(),
+                ));
+            }
+            let lengths = &case.domain.lengths;
+            if lengths
+                .iter()
+                .any(|&l| (l - lengths[0]).abs() > 1e-12 * lengths[0])
+            {
+                return err(
+                    &["box", "lengths"],
+                    format!(
+                        "found {lengths:?}; \"transverse_current_viscosity\" averages the \
+                         wavevectors 2πj/L along every axis and needs a cubic (square) box: \
+                         give every edge the same length"
+                    ),
+                );
+            }
+            let modes = d.transverse_current_modes;
+            if !(2..=100).contains(&modes) {
+                return err(
+                    &["diagnostics", "transverse_current_modes"],
+                    format!(
+                        "found {modes}; must be 2 … 100 (wavenumbers 2πj/L, j = 1 … modes; the \
+                         k → 0 extrapolation needs at least 2)"
+                    ),
+                );
+            }
+            if d.transverse_current_every == 0 {
+                return err(
+                    &["diagnostics", "transverse_current_every"],
+                    "found 0; must be ≥ 1 (steps between samples of the currents)".to_string(),
+                );
+            }
+            let tau = d.transverse_current_time;
+            let block_time = (case.run.steps.saturating_sub(case.run.equilibration)) as f64
+                * case.integrator.dt()
+                / d.blocks as f64;
+            let interval = d.transverse_current_every as f64 * case.integrator.dt();
+            if !(tau.is_finite() && tau >= 16.0 * interval) {
+                return err(
+                    &["diagnostics", "transverse_current_time"],
+                    format!(
+                        "found {tau}; must be at least 16 sampling intervals \
+                         (transverse_current_every × Δt = {interval}), the span of the \
+                         correlator's first level"
+                    ),
+                );
+            }
+            if tau > 0.5 * block_time || d.blocks < 2 {
+                return err(
+                    &["diagnostics", "transverse_current_time"],
+                    format!(
+                        "found {tau} with {} blocks of {block_time:.4} time units after \
+                         equilibration; the jackknife error bars need ≥ 2 blocks, each at least \
+                         twice as long as transverse_current_time: lower it, or run longer",
+                        d.blocks
+                    ),
+                );
+            }
+        }
         if *o == Observable::SecondNormalStressDifference && dim != 3 {
             return Err(ix.error(
                 &[k("diagnostics"), k("observables"), Segment::Index(i)],

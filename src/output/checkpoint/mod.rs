@@ -283,7 +283,7 @@ pub(crate) fn series_hash(series: &Series) -> u64 {
         words.push(text_hash(name));
         words.extend(values.iter().map(|x| x.to_bits()));
     }
-    for c in &series.green_kubo {
+    for c in series.green_kubo.iter().chain(&series.transverse_current) {
         let (reals, counts) = c.state();
         words.extend(reals.iter().map(|x| x.to_bits()));
         words.extend(counts);
@@ -356,39 +356,85 @@ pub(crate) fn write_series(f: &mut SharedFile, series: &Series, root: bool) -> R
         let data = if root { &flat[..] } else { &flat[..0] };
         f.write("observables/velocity_profile", &[0, 0], &[rows, bins], data)?;
     }
-    // The Green–Kubo correlators: one row per block (every block has the same shape).
-    if let Some(first) = series.green_kubo.first() {
-        let blocks = series.green_kubo.len();
-        let (reals, counts) = first.state();
-        let (nr, nc) = (reals.len(), counts.len());
-        let (mut all_reals, mut all_counts) = (Vec::new(), Vec::new());
-        for c in &series.green_kubo {
-            let (r, n) = c.state();
-            all_reals.extend(r);
-            all_counts.extend(n);
-        }
-        let rows = if root { blocks } else { 0 };
-        f.dataset::<f64>(GREEN_KUBO_REALS, &[blocks, nr], false)?;
-        f.write(
-            GREEN_KUBO_REALS,
-            &[0, 0],
-            &[rows, nr],
-            &all_reals[..rows * nr],
-        )?;
-        f.dataset::<u64>(GREEN_KUBO_COUNTS, &[blocks, nc], false)?;
-        f.write(
-            GREEN_KUBO_COUNTS,
-            &[0, 0],
-            &[rows, nc],
-            &all_counts[..rows * nc],
-        )?;
-    }
+    write_correlators(f, GREEN_KUBO, &series.green_kubo, root)?;
+    write_correlators(f, TRANSVERSE_CURRENT, &series.transverse_current, root)?;
     Ok(())
 }
 
-/// Datasets of the Green–Kubo correlators' state ([`crate::correlator::MultipleTauCorrelator::state`]).
-const GREEN_KUBO_REALS: &str = "observables/green_kubo_reals";
-const GREEN_KUBO_COUNTS: &str = "observables/green_kubo_counts";
+/// Prefixes of the correlator sets' datasets: `observables/{prefix}_reals` and `_counts`, one
+/// row per correlator ([`crate::correlator::MultipleTauCorrelator::state`]; every correlator of
+/// a set has the same shape).
+const GREEN_KUBO: &str = "green_kubo";
+const TRANSVERSE_CURRENT: &str = "transverse_current";
+
+/// Writes one set of correlators (nothing for an empty set).
+fn write_correlators(
+    f: &mut SharedFile,
+    prefix: &str,
+    set: &[crate::correlator::MultipleTauCorrelator],
+    root: bool,
+) -> Result<(), String> {
+    let Some(first) = set.first() else {
+        return Ok(());
+    };
+    let n = set.len();
+    let (reals, counts) = first.state();
+    let (nr, nc) = (reals.len(), counts.len());
+    let (mut all_reals, mut all_counts) = (Vec::new(), Vec::new());
+    for c in set {
+        let (r, k) = c.state();
+        all_reals.extend(r);
+        all_counts.extend(k);
+    }
+    let rows = if root { n } else { 0 };
+    let (reals_ds, counts_ds) = (
+        format!("observables/{prefix}_reals"),
+        format!("observables/{prefix}_counts"),
+    );
+    f.dataset::<f64>(&reals_ds, &[n, nr], false)?;
+    f.write(&reals_ds, &[0, 0], &[rows, nr], &all_reals[..rows * nr])?;
+    f.dataset::<u64>(&counts_ds, &[n, nc], false)?;
+    f.write(&counts_ds, &[0, 0], &[rows, nc], &all_counts[..rows * nc])?;
+    Ok(())
+}
+
+/// Reads one set of correlators (empty when the file has none).
+fn read_correlators(
+    f: &hdf5::File,
+    prefix: &str,
+) -> Result<Vec<crate::correlator::MultipleTauCorrelator>, String> {
+    let (reals_ds, counts_ds) = (
+        format!("observables/{prefix}_reals"),
+        format!("observables/{prefix}_counts"),
+    );
+    if f.dataset(&reals_ds).is_err() {
+        return Ok(Vec::new());
+    }
+    let len = |name: &str| -> Result<Vec<usize>, String> {
+        f.dataset(name)
+            .map(|d| d.shape())
+            .map_err(|e| format!("{}: {name}: {e}", f.filename()))
+    };
+    let shape = len(&reals_ds)?;
+    let count_shape = len(&counts_ds)?;
+    if shape.len() != 2 || count_shape.len() != 2 || shape[0] != count_shape[0] {
+        return Err(format!(
+            "{}: the {prefix} correlators have the shapes {shape:?} and {count_shape:?}",
+            f.filename()
+        ));
+    }
+    let reals: Vec<f64> = read_block(f, &reals_ds, &[0, 0], &shape)?;
+    let counts: Vec<u64> = read_block(f, &counts_ds, &[0, 0], &count_shape)?;
+    (0..shape[0])
+        .map(|b| {
+            crate::correlator::MultipleTauCorrelator::from_state(
+                &reals[b * shape[1]..(b + 1) * shape[1]],
+                &counts[b * count_shape[1]..(b + 1) * count_shape[1]],
+            )
+            .ok_or_else(|| format!("{}: {prefix} correlator {b} is inconsistent", f.filename()))
+        })
+        .collect()
+}
 
 /// Reads the sampled series from `/observables`.
 pub(crate) fn read_series(f: &hdf5::File) -> Result<Series, String> {
@@ -409,7 +455,7 @@ pub(crate) fn read_series(f: &hdf5::File) -> Result<Series, String> {
         .ok_or_else(|| format!("{}: /observables/step is not 1-D", f.filename()))?;
     series.steps = read_block(f, "observables/step", &[0], &[s])?;
     for name in names {
-        if name == "step" || name.starts_with("green_kubo_") {
+        if name == "step" || name.starts_with(GREEN_KUBO) || name.starts_with(TRANSVERSE_CURRENT) {
             continue;
         }
         let ds = format!("observables/{name}");
@@ -426,31 +472,8 @@ pub(crate) fn read_series(f: &hdf5::File) -> Result<Series, String> {
                 .insert(name.clone(), read_block(f, &ds, &[0], &[s])?);
         }
     }
-    if f.dataset(GREEN_KUBO_REALS).is_ok() {
-        let shape = len(GREEN_KUBO_REALS)?;
-        let count_shape = len(GREEN_KUBO_COUNTS)?;
-        if shape.len() != 2 || count_shape.len() != 2 || shape[0] != count_shape[0] {
-            return Err(format!(
-                "{}: the Green–Kubo correlators have the shapes {shape:?} and {count_shape:?}",
-                f.filename()
-            ));
-        }
-        let reals: Vec<f64> = read_block(f, GREEN_KUBO_REALS, &[0, 0], &shape)?;
-        let counts: Vec<u64> = read_block(f, GREEN_KUBO_COUNTS, &[0, 0], &count_shape)?;
-        for b in 0..shape[0] {
-            let c = crate::correlator::MultipleTauCorrelator::from_state(
-                &reals[b * shape[1]..(b + 1) * shape[1]],
-                &counts[b * count_shape[1]..(b + 1) * count_shape[1]],
-            )
-            .ok_or_else(|| {
-                format!(
-                    "{}: Green–Kubo correlator {b} is inconsistent",
-                    f.filename()
-                )
-            })?;
-            series.green_kubo.push(c);
-        }
-    }
+    series.green_kubo = read_correlators(f, GREEN_KUBO)?;
+    series.transverse_current = read_correlators(f, TRANSVERSE_CURRENT)?;
     Ok(series)
 }
 
