@@ -40,6 +40,9 @@ and writes plots to docs/ when matplotlib is available.
   fene_table     FENE dumbbells (semi-implicit) in steady shear at b = 10, 50, Wi = 1, 10, 2D and
                  3D: η_p, Ψ₁ and ⟨|Q|²⟩ against the Fokker–Planck solution of
                  tools/fene_fokker_planck.py, in standard errors; docs/fene_table.csv (~10 min)
+  transverse_current  η(k) of Nguyen's ch. 4 solvent by transverse-current correlations against
+                 the thesis, and a Lees–Edwards η of the same fluid; docs/transverse_current.png
+                 (~1.5 h; MESORHEO_TCAF_OUT=DIR reuses a finished run of the case)
 """
 import json, math, os, subprocess, sys, tempfile
 
@@ -1021,6 +1024,75 @@ def fene_table():
     print("(CSV: docs/fene_table.csv)\n")
 
 
+THESIS_ETA_K = [28.9, 28.3, 26.8, 25.0]  # Nguyen 2021 ch. 4, η_k at k = 2πj/15, j = 1 … 4
+THESIS_ETA_0 = 29.02
+
+
+def transverse_current():
+    """η(k) of Nguyen's ch. 4 solvent by TCAF (cases/dpd_transverse_current_3d.toml, ~1 h on 2
+    threads), against the thesis's η_k at the four smallest k and η₀; and our Lees–Edwards
+    NEMD η of the same fluid at γ̇ = 0.1 (9³). An existing output directory of the TCAF case can
+    be given as MESORHEO_TCAF_OUT to skip its run. Plot: docs/transverse_current.png."""
+    out = os.environ.get("MESORHEO_TCAF_OUT")
+    if not out:
+        out = os.path.join(ROOT, "out", "validate_transverse_current")
+        cmd = [BIN, "run", os.path.join(ROOT, "cases", "dpd_transverse_current_3d.toml"),
+               "--out", out, "-t", "2", "-q"]
+        p = subprocess.run(cmd, env=ENV, capture_output=True, text=True)
+        if p.returncode not in (0, 3):
+            sys.exit(f"failed: {' '.join(cmd)}\n{p.stderr}")
+    with open(os.path.join(out, "summary.json")) as f:
+        obs = json.load(f)["observables"]
+    rows = {}
+    with open(os.path.join(out, "transverse_current.csv")) as f:
+        next(f)
+        for line in f:
+            v = [float(x) for x in line.split(",")]
+            rows.setdefault(int(v[0]), []).append(v)
+    print("| j | k | η_k (ours) | thesis | difference | τ_k | C⊥(k,0) / k²k_BT/m |")
+    print("|---|---|---|---|---|---|---|")
+    ks, etas, errs = [], [], []
+    for j in sorted(rows):
+        r = rows[j][0]
+        e = obs[f"transverse_current_viscosity_k{j}"]
+        ks.append(r[1]); etas.append(e["mean"]); errs.append(e["stderr"])
+        ref = THESIS_ETA_K[j - 1] if j <= len(THESIS_ETA_K) else None
+        diff = f"{100 * (e['mean'] / ref - 1):+.1f} % ({(e['mean'] - ref) / e['stderr']:+.1f}σ)" if ref else ""
+        print(f"| {j} | {r[1]:.4f} | {e['mean']:.2f} ± {e['stderr']:.2f} | {ref or ''} | {diff} | "
+              f"{r[4]:.4f} ± {r[5]:.4f} | {r[6] / r[8]:.4f} ± {r[7] / r[8]:.4f} |")
+    e0 = obs["transverse_current_viscosity"]
+    print(f"η₀ = {e0['mean']:.2f} ± {e0['stderr']:.2f} (thesis {THESIS_ETA_0}: "
+          f"{100 * (e0['mean'] / THESIS_ETA_0 - 1):+.1f} %); k_BT = {fmt(obs['temperature'])}")
+    nemd = run_text(open(os.path.join(ROOT, "cases", "dpd_transverse_current_3d.toml")).read()
+                    .split("[output]")[0]
+                    .replace("lengths = [15.0, 15.0, 15.0]", "lengths = [9.0, 9.0, 9.0]\nshear_rate = 0.1")
+                    .replace('temperature = 1.0\n', 'temperature = 1.0\nvelocity_profile = "shear"\n', 1)
+                    .replace("steps = 300000", "steps = 100000")
+                    .replace("equilibration = 5000", "equilibration = 5000")
+                    + '[diagnostics]\nobservables = ["temperature", "viscosity"]\nblocks = 10\n')
+    eta_le = nemd["observables"]["viscosity"]
+    print(f"Lees–Edwards NEMD (9³, γ̇ = 0.1, 10⁵ steps): η = {fmt(eta_le)}; "
+          f"TCAF η₀ − NEMD = {100 * (e0['mean'] / eta_le['mean'] - 1):+.1f} %")
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    fig, (a, b) = plt.subplots(1, 2, figsize=(11, 4.2))
+    a.errorbar(ks, etas, yerr=errs, fmt="o", label="mesorheo TCAF (Maxwell fits)")
+    a.plot([2 * math.pi * j / 15 for j in range(1, 5)], THESIS_ETA_K, "s", mfc="none",
+           label="Nguyen 2021 (62 data sets)")
+    a.errorbar([0], [e0["mean"]], yerr=[e0["stderr"]], fmt="D", label="η₀ (k → 0, 4 smallest k)")
+    a.errorbar([0.03], [eta_le["mean"]], yerr=[eta_le["stderr"]], fmt="^", label="LE NEMD, γ̇ = 0.1")
+    a.axhline(30, color="grey", lw=0.6, ls=":")
+    a.set_xlabel("k"); a.set_ylabel("η_k"); a.legend(fontsize=8)
+    for j in sorted(rows)[:4]:
+        t = [r[9] for r in rows[j]]
+        b.plot(t, [r[10] for r in rows[j]], ".", ms=3, label=f"k{j} measured")
+        b.plot(t, [r[11] for r in rows[j]], "-", lw=0.8, color=b.lines[-1].get_color())
+    b.set_xscale("log"); b.set_xlabel("t"); b.set_ylabel("C⊥(k,t)/C⊥(k,0)"); b.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(os.path.join(ROOT, "docs", "transverse_current.png"), dpi=110)
+
+
 def launch_text(text, sets=(), ranks=1, threads=2):
     """launch() on a case given as text."""
     with tempfile.NamedTemporaryFile("w", suffix=".toml", delete=False) as f:
@@ -1034,13 +1106,14 @@ def launch_text(text, sets=(), ranks=1, threads=2):
 if __name__ == "__main__":
     todo = sys.argv[1:] or ["stock", "kt_vs_dt", "viscosity", "viscometric", "sph", "sph_convergence", "maxwell",
                             "inclusion", "maxwell_convergence", "maxwell_stability", "connffessit_shear",
-                            "msph_channel", "weak_order", "fene_table"]
+                            "msph_channel", "weak_order", "fene_table", "transverse_current"]
     targets = {"kt_vs_dt": kt_vs_dt, "viscosity": viscosity, "stock": stock,
                "viscometric": viscometric, "sph": sph, "sph_convergence": sph_convergence,
                "maxwell": maxwell, "inclusion": inclusion,
                "maxwell_convergence": maxwell_convergence, "maxwell_stability": maxwell_stability,
                "connffessit_shear": connffessit_shear, "msph_channel": msph_channel,
-               "weak_order": weak_order, "fene_table": fene_table}
+               "weak_order": weak_order, "fene_table": fene_table,
+               "transverse_current": transverse_current}
     for name in todo:
         if name not in targets:
             sys.exit(f"unknown validation '{name}'; valid: {', '.join(targets)}")
