@@ -1302,8 +1302,9 @@ impl<'c, const D: usize> Simulation<'c, D> {
         let fluid = |k: usize| species[particles.species_of(k) as usize].is_fluid();
         // Every sum below is accumulated exactly ([`FixedSum`]) and reduced exactly over the
         // ranks, so the observables are bitwise the same for any decomposition, like the state.
-        // Pass 1: bin counts and momenta → mean velocity per bin.
-        let mut first = vec![FixedSum::ZERO; bins * (1 + D)];
+        // Pass 1: bin counts and momenta → mean velocity per bin; Σ 1/m per bin (for the
+        // degrees of freedom the subtraction removes).
+        let mut first = vec![FixedSum::ZERO; bins * (2 + D)];
         for (k, (x, v)) in pos.iter().zip(vel).enumerate() {
             if k % 2048 == 2047 {
                 first.iter_mut().for_each(FixedSum::normalize);
@@ -1316,6 +1317,7 @@ impl<'c, const D: usize> Simulation<'c, D> {
             for d in 0..D {
                 first[bins + b * D + d].add(v[d]);
             }
+            first[bins * (1 + D) + b].add(1.0 / species[particles.species_of(k) as usize].mass);
         }
         FixedSum::allreduce(self.comm, &mut first);
         let first: Vec<f64> = first.iter().map(FixedSum::value).collect();
@@ -1335,6 +1337,20 @@ impl<'c, const D: usize> Simulation<'c, D> {
         // ρ m γ̇²Δ²/12 to P_xx and to k_BT).
         let jump = self.sim_box.le_velocity_jump();
         let width = ly / bins as f64;
+        // The interpolation weights of the local mean at y: (bin, weight) twice.
+        let weights = |y: f64| -> [(usize, f64); 2] {
+            if bins == 1 {
+                return [(0, 1.0), (0, 0.0)];
+            }
+            let s = y / width - 0.5;
+            let k = s.floor();
+            let t = s - k;
+            let nb = bins as i64;
+            [
+                ((k as i64).rem_euclid(nb) as usize, 1.0 - t),
+                ((k as i64 + 1).rem_euclid(nb) as usize, t),
+            ]
+        };
         let local_mean = |y: f64| -> [f64; D] {
             if bins == 1 {
                 return mean[0];
@@ -1358,7 +1374,9 @@ impl<'c, const D: usize> Simulation<'c, D> {
         };
         // Pass 2: kinetic tensor, peculiar momentum, virial.
         let dd = D * D;
-        let mut second = vec![FixedSum::ZERO; dd + D + 3 * dd];
+        // The last slot: the degrees of freedom per dimension the local mean leaves (below).
+        let mut second = vec![FixedSum::ZERO; dd + D + 3 * dd + 1];
+        let dof_slot = dd + D + 3 * dd;
         for (k, (x, v)) in pos.iter().zip(vel).enumerate() {
             if k % 2048 == 2047 {
                 second.iter_mut().for_each(FixedSum::normalize);
@@ -1367,6 +1385,23 @@ impl<'c, const D: usize> Simulation<'c, D> {
                 continue;
             }
             let m = species[particles.species_of(k) as usize].mass;
+            // With V = (I − P)v, P_ij = φ_b(j)(y_i)/n_b(j) (the interpolated bin means), and
+            // independent thermal velocities ⟨v_j²⟩ = k_BT/m_j per component:
+            // ⟨Σ_i m_i V_i²⟩ = k_BT Σ_i [1 − 2P_ii + m_i Σ_b φ_b(y_i)² Σ_{j∈b} (1/m_j)/n_b²]
+            // per dimension — N − B for piecewise-constant means of equal masses, more with
+            // the interpolation.
+            let own = bin_of(x[GRADIENT]);
+            let mut kept = 1.0;
+            for (b, phi) in weights(x[GRADIENT]) {
+                let count = first[b];
+                if count > 0.0 && phi != 0.0 {
+                    if b == own {
+                        kept -= 2.0 * phi / count;
+                    }
+                    kept += m * phi * phi * first[bins * (1 + D) + b] / (count * count);
+                }
+            }
+            second[dof_slot].add(kept);
             let u = &local_mean(x[GRADIENT]);
             for a in 0..D {
                 let va = v[a] - u[a];
@@ -1412,12 +1447,10 @@ impl<'c, const D: usize> Simulation<'c, D> {
             trace = t;
         }
         let trace_k: f64 = (0..D).map(|a| kinetic[a * D + a]).sum();
-        let fluid_particles = if self.particles.species.is_none() {
-            self.total_particles as f64
-        } else {
-            first[..bins].iter().sum::<f64>()
-        };
-        let dof = (D as f64) * (fluid_particles - bins as f64);
+        // k_BT = Σ m V²/(degrees of freedom the local-mean subtraction leaves): unbiased for
+        // any bin occupancy (N·D − B·D would overstate k_BT by the interpolation's share,
+        // ≈ 10 % at 10 particles per bin).
+        let dof = (D as f64) * second[dof_slot];
         let mut out = Measurement::default();
         let pt = |a: usize, b: usize| total[a * D + b];
         for o in &case.diagnostics.observables {
