@@ -43,6 +43,8 @@ and writes plots to docs/ when matplotlib is available.
   transverse_current  η(k) of Nguyen's ch. 4 solvent by transverse-current correlations against
                  the thesis, and a Lees–Edwards η of the same fluid; docs/transverse_current.png
                  (~1.5 h; MESORHEO_TCAF_OUT=DIR reuses a finished run of the case)
+  kt_vs_dt_low_mass  Nguyen's Table 3.1 (m = 0.01 Couette): k_BT against Δt for velocity Verlet
+                 (~2 min)
 """
 import json, math, os, subprocess, sys, tempfile
 
@@ -1093,6 +1095,74 @@ def transverse_current():
     fig.savefig(os.path.join(ROOT, "docs", "transverse_current.png"), dpi=110)
 
 
+T8_THESIS_VV = {5e-4: None, 2.5e-4: None, 1e-4: 0.8917, 7.5e-5: 0.9164, 5e-5: 0.9422, 2.5e-5: 0.9696,
+                1e-5: 0.9872}  # Nguyen 2021 Table 3.1, velocity-Verlet column (None: diverged)
+
+
+def kt_vs_dt_low_mass():
+    """Nguyen 2021 Table 3.1 (spec T8): the low-mass Couette fluid (2D 10 × 10, n = 10, r_c = 1.6,
+    m = 0.01, η = 100, α = 10 → a = 234.08, s̄ = 13.92, γ = 3.825; Lees–Edwards γ̇ = 0.2) under
+    Groot–Warren velocity Verlet (λ = ½) against Δt: the profile-unbiased k_BT (100 bins of 0.1,
+    the thesis's bin width along y), and k_BT_x = P_kin,xx/n, the kinetic stress about the same
+    interpolated bin means divided by N (what a per-bin ⟨m V_x²⟩ without the degrees-of-freedom
+    correction gives). t = 0.1 equilibration + 0.4 sampled per point (~2 min)."""
+    base = """dimension = 2
+seed = 12
+[box]
+lengths = [10.0, 10.0]
+shear_rate = 0.2
+[particles]
+lattice = "random"
+density = 10.0
+mass = 0.01
+temperature = 1.0
+velocity_profile = "shear"
+[fluid]
+kind = "dpd"
+kt = 1.0
+cutoff = 1.6
+[fluid.physical]
+viscosity = 100.0
+time_scale_ratio = 10.0
+[integrator]
+kind = "groot_warren"
+dt = DT
+lambda = 0.5
+[neighbour]
+skin = 0.3
+[run]
+steps = STEPS
+equilibration = EQUIL
+sample_every = EVERY
+beyond_stability_limits = true
+[diagnostics]
+observables = ["temperature", "stress"]
+profile_bins = 100
+blocks = 10
+"""
+    print("| Δt | k_BT (dof-corrected) | k_BT_x = P_kin,xx/n | thesis VV | steps |")
+    print("|---|---|---|---|---|")
+    for dt in sorted(T8_THESIS_VV, reverse=True):
+        steps = int(round(0.5 / dt))
+        text = (base.replace("DT", repr(dt)).replace("STEPS", str(steps))
+                .replace("EQUIL", str(steps // 5)).replace("EVERY", str(max(1, steps // 1000))))
+        with tempfile.NamedTemporaryFile("w", suffix=".toml", delete=False) as f:
+            f.write(text)
+        try:
+            summary, _, stderr = launch(f.name)
+        finally:
+            os.unlink(f.name)
+        thesis = T8_THESIS_VV[dt]
+        thesis = "diverges" if thesis is None else f"{thesis:.4f}"
+        if summary is None:
+            print(f"| {dt:g} | blow-up: {_stock_error(stderr)} | | {thesis} | {steps} |")
+            continue
+        o = summary["observables"]
+        kx = o["stress_kinetic_xx"]
+        kx = {"mean": kx["mean"] / 10.0, "stderr": kx["stderr"] / 10.0}
+        print(f"| {dt:g} | {fmt(o['temperature'])} | {fmt(kx)} | {thesis} | {steps} |")
+
+
 def launch_text(text, sets=(), ranks=1, threads=2):
     """launch() on a case given as text."""
     with tempfile.NamedTemporaryFile("w", suffix=".toml", delete=False) as f:
@@ -1106,14 +1176,15 @@ def launch_text(text, sets=(), ranks=1, threads=2):
 if __name__ == "__main__":
     todo = sys.argv[1:] or ["stock", "kt_vs_dt", "viscosity", "viscometric", "sph", "sph_convergence", "maxwell",
                             "inclusion", "maxwell_convergence", "maxwell_stability", "connffessit_shear",
-                            "msph_channel", "weak_order", "fene_table", "transverse_current"]
+                            "msph_channel", "weak_order", "fene_table", "transverse_current",
+                            "kt_vs_dt_low_mass"]
     targets = {"kt_vs_dt": kt_vs_dt, "viscosity": viscosity, "stock": stock,
                "viscometric": viscometric, "sph": sph, "sph_convergence": sph_convergence,
                "maxwell": maxwell, "inclusion": inclusion,
                "maxwell_convergence": maxwell_convergence, "maxwell_stability": maxwell_stability,
                "connffessit_shear": connffessit_shear, "msph_channel": msph_channel,
                "weak_order": weak_order, "fene_table": fene_table,
-               "transverse_current": transverse_current}
+               "transverse_current": transverse_current, "kt_vs_dt_low_mass": kt_vs_dt_low_mass}
     for name in todo:
         if name not in targets:
             sys.exit(f"unknown validation '{name}'; valid: {', '.join(targets)}")
