@@ -112,11 +112,12 @@ pub fn estimate(
         },
         samples: n,
     };
-    // The block-mean curve on the lags every block has.
+    // The block-mean curve on the lags every block has (a block may be a sample short).
     let mut table = Vec::new();
     if let Some(first) = curves.first() {
+        let common = curves.iter().map(Vec::len).min().unwrap_or(0);
         let mut running = 0.0;
-        for (i, &(t, _)) in first.iter().enumerate() {
+        for (i, &(t, _)) in first[..common].iter().enumerate() {
             let g = curves.iter().map(|c| c[i].1).sum::<f64>() / n as f64;
             if let Some(&(t0, g0, _)) = table.last() {
                 running += 0.5 * (g0 + g) * (t - t0);
