@@ -213,7 +213,7 @@ def _stock_header():
 
 
 def stock():
-    """Every stock case on 2 ranks × 1 thread (MESORHEO_BIN, an MPI build); a case that fails
+    """Every stock case with a [[reference]] on 2 ranks × 1 thread (MESORHEO_BIN, an MPI build); a case that fails
     there is retried on 1 rank × 2 threads (with MESORHEO_SERIAL_BIN when set) and says why."""
     import time
     start = time.monotonic()
@@ -226,9 +226,14 @@ def stock():
     print("| case | ranks × threads | wall s | check | metric | value | measured | tolerance | pass |")
     print("|---|---|---|---|---|---|---|---|---|", flush=True)
     slow, failed = [], []
+    unreferenced = []
     for case in sorted(os.listdir(os.path.join(ROOT, "cases"))):
         if not case.endswith(".toml"):
             continue
+        with open(os.path.join(ROOT, "cases", case)) as f:
+            if "[[reference]]" not in f.read():
+                unreferenced.append(case)  # benchmarks, and validations with their own target
+                continue
         layout = "2 × 1"
         s, err, secs = _stock_launch(case, 2, 1, BIN)
         if s is None:
@@ -256,6 +261,8 @@ def stock():
     print(f"\nTotal wall time {total:.0f} s ({total / 60:.1f} min)"
           + (f"; over 5 min: {', '.join(f'{c} ({w:.0f} s)' for c, w in slow)}" if slow else "")
           + (f"; failed to run: {', '.join(failed)}" if failed else "") + ".\n")
+    print(f"Not run (no [[reference]]: benchmarks, or validated by their own `./run validate` target): "
+          f"{', '.join(unreferenced)}.\n")
 
 
 def startup_errors(summary):
