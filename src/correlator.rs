@@ -15,6 +15,11 @@
 //! so identical inputs on every rank give bitwise identical correlators, and the state
 //! ([`MultipleTauCorrelator::state`]) restores a run exactly.
 
+/// Lags per level of [`MultipleTauCorrelator::reaching`].
+pub const STANDARD_POINTS: usize = 16;
+/// Values averaged into one of the next level in [`MultipleTauCorrelator::reaching`].
+pub const STANDARD_AVERAGING: usize = 2;
+
 /// A multiple-tau autocorrelator of a signal with `channels` components.
 #[derive(Clone, Debug, PartialEq)]
 pub struct MultipleTauCorrelator {
@@ -67,6 +72,13 @@ impl MultipleTauCorrelator {
             channels,
             levels: (0..levels).map(|_| Level::new(points, channels)).collect(),
         }
+    }
+
+    /// The shape the viscosity estimators use ([`STANDARD_POINTS`] lags per level, pairs
+    /// averaged) with the fewest levels that reach `lag` samples.
+    pub fn reaching(lag: f64, channels: usize) -> Self {
+        let levels = Self::levels_for(STANDARD_POINTS, STANDARD_AVERAGING, lag);
+        Self::new(STANDARD_POINTS, STANDARD_AVERAGING, levels, channels)
     }
 
     /// The fewest levels whose longest lag reaches `lag` samples.

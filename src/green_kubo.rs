@@ -29,11 +29,6 @@
 use crate::correlator::{MultipleTauCorrelator, trapezoid_integral};
 use crate::diagnostics::Estimate;
 
-/// Lags per level of the correlators.
-pub const POINTS: usize = 16;
-/// Values averaged into one of the next level.
-pub const AVERAGING: usize = 2;
-
 /// The channels fed to the correlator: the D² components of the symmetric traceless part of the
 /// D × D (row-major) tensor `p`.
 pub fn traceless_symmetric(p: &[f64], dimension: usize) -> Vec<f64> {
@@ -55,8 +50,7 @@ pub fn block_correlators(
     dt: f64,
     dimension: usize,
 ) -> Vec<MultipleTauCorrelator> {
-    let levels = MultipleTauCorrelator::levels_for(POINTS, AVERAGING, tau_max / dt);
-    vec![MultipleTauCorrelator::new(POINTS, AVERAGING, levels, dimension * dimension); blocks]
+    vec![MultipleTauCorrelator::reaching(tau_max / dt, dimension * dimension); blocks]
 }
 
 /// The block that the sample of `step` belongs to, for samples after `equilibration` up to

@@ -27,10 +27,6 @@ use crate::diagnostics::Estimate;
 use crate::fixed_sum::FixedSum;
 use crate::tcaf_fit::{extrapolate_to_zero_wavenumber, fit_maxwell, maxwell_tcaf};
 
-/// Lags per level of the correlators.
-pub const POINTS: usize = 16;
-/// Values averaged into one of the next level.
-pub const AVERAGING: usize = 2;
 /// The fits use the leading lags where C⊥(k, t)/C⊥(k, 0) exceeds this (spec §6.3).
 pub const FIT_CUTOFF: f64 = 0.05;
 /// η₀ is extrapolated from at most this many of the smallest wavenumbers (spec §6.3).
@@ -50,8 +46,7 @@ pub fn block_correlators(
     sample_interval: f64,
     dimension: usize,
 ) -> Vec<MultipleTauCorrelator> {
-    let levels = MultipleTauCorrelator::levels_for(POINTS, AVERAGING, tau_max / sample_interval);
-    let one = MultipleTauCorrelator::new(POINTS, AVERAGING, levels, channels(dimension));
+    let one = MultipleTauCorrelator::reaching(tau_max / sample_interval, channels(dimension));
     vec![one; blocks * modes]
 }
 
