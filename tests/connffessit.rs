@@ -23,6 +23,13 @@ fn stock_shear_scene_meets_the_oldroyd_b_references() {
     assert_references_pass("connffessit_shear_2d.toml", &loaded);
 }
 
+/// The default scene of `./run` (the same fluid with 10× the dumbbells, ~30 s on 2 threads):
+/// every stock case under a minute runs its references here.
+#[test]
+fn default_scene_meets_the_oldroyd_b_references() {
+    assert_references_pass("default.toml", &common::stock_case("default.toml"));
+}
+
 #[test]
 fn coupled_run_is_bitwise_on_1_to_4_ranks_and_1_2_threads() {
     let text = stock_text("connffessit_shear_2d.toml")

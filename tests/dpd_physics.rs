@@ -30,6 +30,14 @@ fn equilibrium_temperature_and_pressure_match_references() {
     assert_validations_pass("dpd_equilibrium_2d.toml", 2, 1);
 }
 
+/// The 32 000-particle benchmark fluid (LAMMPS's bench/in.dpd): its pressure over steps 20–100
+/// within 1 % of LAMMPS's printed 23.86 (a few seconds; every stock case under a minute runs its
+/// references in `./run test`).
+#[test]
+fn benchmark_fluid_pressure_matches_lammps() {
+    assert_validations_pass("bench_dpd_32k.toml", 1, 2);
+}
+
 /// Linear profile through the Lees–Edwards plane (no kink), thermostat, momentum: 2D on 2 ranks.
 #[test]
 fn lees_edwards_shear_profile_is_linear_through_the_plane() {

@@ -229,10 +229,12 @@ fn scenes_that_do_not_fit_the_memory_are_refused() {
 
 #[test]
 fn stock_dumbbell_scenes_pass_their_references() {
-    // The FENE stock scene (semi-implicit, ~3× the cost) runs under `./run validate stock`.
+    // Every stock homogeneous-flow scene (each under a minute): the FENE scene's references
+    // are the Fokker–Planck solution of tools/fene_fokker_planck.py.
     for name in [
         "dumbbells_hookean_shear_3d.toml",
         "dumbbells_elongation_3d.toml",
+        "dumbbells_fene_shear_3d.toml",
     ] {
         let path = Path::new(env!("CARGO_MANIFEST_DIR"))
             .join("cases")
