@@ -456,7 +456,31 @@ fn dpd_report(case: &Case, d: &DpdCfg, density: f64, line: &mut impl FnMut(Strin
             ));
         }
     }
-    let ok = |limit: f64| if dt < limit { "ok" } else { "VIOLATED" };
+    let omega = crate::stability::dpd_mean_field_rate(d, dim, case.particles.density, m);
+    let phi = crate::sim::exponential_friction_factor_of(case);
+    let ok = |limit: f64| {
+        if dt < limit {
+            "ok"
+        } else if phi.is_some() && limit == lim.dissipative {
+            "lifted: exponential thermostat"
+        } else {
+            "VIOLATED"
+        }
+    };
+    match phi {
+        Some(phi) => line(format!(
+            "thermostat: exponential (SETD); ω₀Δt = {:.4} (ω₀ = γΣw_D/(d m) = {omega:.5}), \
+             friction and noise variance × φ = (1 − e^{{−ω₀Δt}})/(ω₀Δt) = {phi:.5}: k_BT kept, \
+             but the dissipative viscosity is φ η_D ({:.2} % below)",
+            omega * dt,
+            100.0 * (1.0 - phi)
+        )),
+        None => line(format!(
+            "thermostat: explicit; ω₀Δt = {:.4} (ω₀ = γΣw_D/(d m) = {omega:.5}; the step \
+             diverges past 2: thermostat = \"exponential\" integrates it exactly)",
+            omega * dt
+        )),
+    }
     line(format!(
         "time step Δt = {dt}: dissipative limit m/(γ Σw_D) = {:.4} [{}], Verlet limit 2/ω = {:.4} [{}], Groot–Warren accuracy guide Δt ≤ 0.06 at a = 25 [{}]",
         lim.dissipative,

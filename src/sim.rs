@@ -140,13 +140,16 @@ pub const LIST_REFERENCE_FIELD: &str = "list_reference_position";
 /// The fluid model the case names (the registration of every particle model).
 pub fn build_fluid<const D: usize>(case: &Case) -> Box<dyn ParticleModel<D>> {
     match &case.fluid {
-        FluidCfg::Dpd(d) => Box::new(
-            DpdModel::<D>::new(d, case.integrator.dt(), case.seed).with_body_force(
-                d,
-                case.particles.mass,
-                case.domain.lengths[1],
-            ),
-        ),
+        FluidCfg::Dpd(d) => {
+            let d = &dpd_as_integrated(case, d);
+            Box::new(
+                DpdModel::<D>::new(d, case.integrator.dt(), case.seed).with_body_force(
+                    d,
+                    case.particles.mass,
+                    case.domain.lengths[1],
+                ),
+            )
+        }
         FluidCfg::SummationGas(g) => Box::new(SummationGas::<D>::new(g, case.particles.mass)),
         FluidCfg::Sph(s) => {
             let lengths = std::array::from_fn(|d| case.domain.lengths[d]);
@@ -192,6 +195,37 @@ pub fn build_companions<const D: usize>(
         ));
     }
     Ok(out)
+}
+
+/// The DPD fluid the step integrates: as given, or with the friction φγ (and so the noise
+/// √φ σ) of the exponential thermostat ([`crate::integrators::groot_warren`]).
+pub fn dpd_as_integrated(case: &Case, d: &crate::config::DpdCfg) -> crate::config::DpdCfg {
+    let mut d = d.clone();
+    if let Some(phi) = exponential_friction_factor_of(case) {
+        d.gamma *= phi;
+    }
+    d
+}
+
+/// φ = (1 − e^{−ω₀Δt})/(ω₀Δt) when the case integrates a DPD fluid with the exponential
+/// thermostat.
+pub fn exponential_friction_factor_of(case: &Case) -> Option<f64> {
+    match (&case.integrator, &case.fluid) {
+        (IntegratorCfg::GrootWarren(gw), FluidCfg::Dpd(d))
+            if gw.thermostat == crate::config::Thermostat::Exponential =>
+        {
+            let omega = crate::stability::dpd_mean_field_rate(
+                d,
+                case.dimension,
+                case.particles.density,
+                case.particles.mass,
+            );
+            Some(crate::integrators::exponential_friction_factor(
+                omega * gw.dt,
+            ))
+        }
+        _ => None,
+    }
 }
 
 /// The integrator the case names, for the species `species` (a one-species scene: `&[]`).

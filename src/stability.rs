@@ -93,6 +93,13 @@ pub fn dpd_limits(d: &DpdCfg, dimension: usize, n: f64, m: f64) -> DpdLimits {
     }
 }
 
+/// The mean-field rate of the DPD friction, ω₀ = γ n [w_D]/(d m) = γ Σ_j w_D/(d m) (spec
+/// `dpd-physical-parameters.md` §10 A7): the velocity of a particle among neighbours at rest
+/// relaxes as e^{−ω₀t}.
+pub fn dpd_mean_field_rate(d: &DpdCfg, dimension: usize, n: f64, m: f64) -> f64 {
+    d.gamma * dpd_limits(d, dimension, n, m).sum_wd / (dimension as f64 * m)
+}
+
 /// Time-step limits of an SPH fluid, each with its name.
 pub fn sph_limits(s: &SphCfg, inclusions: bool) -> Vec<(&'static str, f64)> {
     let support = s.support();

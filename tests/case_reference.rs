@@ -312,6 +312,7 @@ time_scale_ratio = 20.0
 [integrator]
 kind = "groot_warren"
 dt = 0.001
+thermostat = "exponential"
 [run]
 steps = 100
 sample_every = 1

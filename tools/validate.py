@@ -1129,15 +1129,19 @@ blocks = 10
 
 T8_THESIS_VV = {5e-4: None, 2.5e-4: None, 1e-4: 0.8917, 7.5e-5: 0.9164, 5e-5: 0.9422, 2.5e-5: 0.9696,
                 1e-5: 0.9872}  # Nguyen 2021 Table 3.1, velocity-Verlet column (None: diverged)
+T8_THESIS_SETD = {5e-4: 0.4928, 2.5e-4: 0.7717, 1e-4: 0.9525, 7.5e-5: 0.9723, 5e-5: 0.9871, 2.5e-5: 0.9959,
+                  1e-5: 0.9984}  # the same table, SETD column
 
 
 def kt_vs_dt_low_mass():
     """Nguyen 2021 Table 3.1 (spec T8): the low-mass Couette fluid (2D 10 × 10, n = 10, r_c = 1.6,
     m = 0.01, η = 100, α = 10 → a = 234.08, s̄ = 13.92, γ = 3.825; Lees–Edwards γ̇ = 0.2) under
-    Groot–Warren velocity Verlet (λ = ½) against Δt: the profile-unbiased k_BT (100 bins of 0.1,
+    Groot–Warren velocity Verlet (λ = ½), explicit and with the exponential thermostat (SETD),
+    against Δt: the profile-unbiased k_BT (100 bins of 0.1,
     the thesis's bin width along y), and k_BT_x = P_kin,xx/n, the kinetic stress about the same
     interpolated bin means divided by N (what a per-bin ⟨m V_x²⟩ without the degrees-of-freedom
-    correction gives). t = 0.1 equilibration + 0.4 sampled per point (~2 min)."""
+    correction gives), and the exponential thermostat's shear viscosity against φη (its
+    dissipative viscosity). t = 0.1 equilibration + 0.4 sampled per point (~4 min)."""
     base = """dimension = 2
 seed = 12
 [box]
@@ -1160,6 +1164,7 @@ time_scale_ratio = 10.0
 kind = "groot_warren"
 dt = DT
 lambda = 0.5
+thermostat = "THERMOSTAT"
 [neighbour]
 skin = 0.3
 [run]
@@ -1168,31 +1173,42 @@ equilibration = EQUIL
 sample_every = EVERY
 beyond_stability_limits = true
 [diagnostics]
-observables = ["temperature", "stress"]
+observables = ["temperature", "stress", "viscosity"]
 profile_bins = 100
 blocks = 10
 """
-    print("| Δt | k_BT (dof-corrected) | k_BT_x = P_kin,xx/n | thesis VV | steps |")
-    print("|---|---|---|---|---|")
+    print("| Δt | ω₀Δt | explicit k_BT | explicit k_BT_x = P_kin,xx/n | thesis VV | exponential k_BT | "
+          "exponential η (φη_input) | thesis SETD | steps |")
+    print("|---|---|---|---|---|---|---|---|---|")
+    omega0 = 8203.125  # γ n [w_D]/(d m) of this fluid (mesorheo check)
     for dt in sorted(T8_THESIS_VV, reverse=True):
         steps = int(round(0.5 / dt))
-        text = (base.replace("DT", repr(dt)).replace("STEPS", str(steps))
-                .replace("EQUIL", str(steps // 5)).replace("EVERY", str(max(1, steps // 1000))))
-        with tempfile.NamedTemporaryFile("w", suffix=".toml", delete=False) as f:
-            f.write(text)
-        try:
-            summary, _, stderr = launch(f.name)
-        finally:
-            os.unlink(f.name)
-        thesis = T8_THESIS_VV[dt]
-        thesis = "diverges" if thesis is None else f"{thesis:.4f}"
-        if summary is None:
-            print(f"| {dt:g} | blow-up: {_stock_error(stderr)} | | {thesis} | {steps} |")
-            continue
-        o = summary["observables"]
-        kx = o["stress_kinetic_xx"]
-        kx = {"mean": kx["mean"] / 10.0, "stderr": kx["stderr"] / 10.0}
-        print(f"| {dt:g} | {fmt(o['temperature'])} | {fmt(kx)} | {thesis} | {steps} |")
+        row = {}
+        for thermostat in ("explicit", "exponential"):
+            text = (base.replace("DT", repr(dt)).replace("STEPS", str(steps))
+                    .replace("EQUIL", str(steps // 5)).replace("EVERY", str(max(1, steps // 1000)))
+                    .replace("THERMOSTAT", thermostat))
+            summary, _, stderr = launch_text(text)
+            row[thermostat] = (summary, stderr)
+        cells = []
+        for thermostat in ("explicit", "exponential"):
+            summary, stderr = row[thermostat]
+            if summary is None:
+                cells.append([f"blow-up: {_stock_error(stderr)}", ""])
+                continue
+            o = summary["observables"]
+            if thermostat == "explicit":
+                kx = o["stress_kinetic_xx"]
+                kx = {"mean": kx["mean"] / 10.0, "stderr": kx["stderr"] / 10.0}
+                cells.append([fmt(o["temperature"]), fmt(kx)])
+            else:
+                x = omega0 * dt
+                phi = -math.expm1(-x) / x
+                cells.append([fmt(o["temperature"]), f"{fmt(o['viscosity'])} ({100 * phi:.1f})"])
+        vv = T8_THESIS_VV[dt]
+        vv = "diverges" if vv is None else f"{vv:.4f}"
+        print(f"| {dt:g} | {omega0 * dt:.3f} | {cells[0][0]} | {cells[0][1]} | {vv} | {cells[1][0]} | "
+              f"{cells[1][1]} | {T8_THESIS_SETD[dt]:.4f} | {steps} |")
 
 
 def launch_text(text, sets=(), ranks=1, threads=2):

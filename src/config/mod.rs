@@ -14,7 +14,7 @@ mod tagged;
 mod validate;
 
 use crate::geometry::Boundary;
-pub use crate::integrators::groot_warren::GrootWarrenCfg;
+pub use crate::integrators::groot_warren::{GrootWarrenCfg, Thermostat};
 pub use crate::integrators::sph_schemes::{KickDriftKickCfg, TwoStageCfg};
 pub use crate::models::dpd::DpdCfg;
 pub use crate::models::sph::{InclusionsCfg, SphCfg, WallsCfg};

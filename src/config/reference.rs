@@ -347,13 +347,19 @@ pub const KEYS: &[KeyDoc] = &[
         "integrator.dt",
         "float > 0",
         "required",
-        "Time step Δt. DPD: refused beyond the dissipative limit m/(γ Σw_D) and the Verlet limit 2/ω (see `check`). Dumbbells: refused beyond λ/2 and beyond rate × Δt = 0.5; Δt ≤ λ/10 advised.",
+        "Time step Δt. DPD: refused beyond the dissipative limit m/(γ Σw_D) (not with thermostat = \"exponential\") and the Verlet limit 2/ω (see `check`). Dumbbells: refused beyond λ/2 and beyond rate × Δt = 0.5; Δt ≤ λ/10 advised.",
     ),
     key(
         "integrator.lambda",
         "float in [0, 1]",
         "0.5",
         "Velocity-prediction factor λ (0.5: plain velocity Verlet; 0.65: Groot–Warren).",
+    ),
+    key(
+        "integrator.thermostat",
+        "\"explicit\" | \"exponential\"",
+        "\"explicit\"",
+        "groot_warren, DPD: how the dissipative and random forces are integrated. \"explicit\": with the conservative force (stable for ω₀Δt < 2, ω₀ = γ n[w_D]/(d m)); \"exponential\" (SETD): the mean-field friction integrated exactly, i.e. friction φγ and noise √φ σ with φ = (1 − e^{−ω₀Δt})/(ω₀Δt), stable at any ω₀Δt and exact in k_BT in the mean-field limit, at the price of a dissipative viscosity φη_D (`check` prints φ); needs lambda = 0.5 and lifts the dissipative time-step limit.",
     ),
     key(
         "walls.axis",

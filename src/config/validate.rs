@@ -266,6 +266,32 @@ pub fn validate(case: &Case, ix: &SpanIndex) -> Result<(), CaseError> {
             ),
         );
     }
+    let exponential = matches!(
+        &case.integrator,
+        IntegratorCfg::GrootWarren(gw) if gw.thermostat == crate::config::Thermostat::Exponential
+    );
+    if exponential {
+        if let IntegratorCfg::GrootWarren(gw) = &case.integrator
+            && gw.lambda != 0.5
+        {
+            return err(
+                &["integrator", "lambda"],
+                format!(
+                    "found {} with thermostat = \"exponential\", whose temperature is exact (mean \
+                     field) for plain velocity Verlet only: use lambda = 0.5",
+                    gw.lambda
+                ),
+            );
+        }
+        if !matches!(case.fluid, FluidCfg::Dpd(_)) {
+            return err(
+                &["integrator", "thermostat"],
+                "thermostat = \"exponential\" integrates the DPD friction; this fluid has none \
+                 (use \"explicit\")"
+                    .to_string(),
+            );
+        }
+    }
     let sph = matches!(case.fluid, FluidCfg::Sph(_));
     let groot_warren = matches!(case.integrator, IntegratorCfg::GrootWarren(_));
     if !sph && !groot_warren {
@@ -337,7 +363,8 @@ pub fn validate(case: &Case, ix: &SpanIndex) -> Result<(), CaseError> {
         FluidCfg::Dpd(dpd) => {
             let (n, m) = (case.particles.density, case.particles.mass);
             let limits = stability::dpd_limits(dpd, dim, n, m);
-            if dt > limits.dissipative {
+            // The exponential thermostat integrates the mean-field friction exactly.
+            if dt > limits.dissipative && !exponential {
                 return err(
                     &["integrator", "dt"],
                     format!(

@@ -21,7 +21,7 @@ pub mod sph_schemes;
 
 use crate::particles::Particles;
 
-pub use groot_warren::GrootWarren;
+pub use groot_warren::{GrootWarren, Thermostat, exponential_friction_factor};
 pub use sph_schemes::{KickDriftKick, KickDriftKickCfg, TwoStage, TwoStageCfg, TwoStageVariant};
 
 /// A state field the integrator advances: `state` with `rate`, both extra fields of equal
