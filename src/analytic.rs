@@ -35,6 +35,23 @@ pub fn double_poiseuille_mean(y0: f64, y1: f64, ly: f64, rho: f64, g: f64, eta: 
     rho * g / (2.0 * eta) * (h(y1) - h(y0)) / (y1 - y0)
 }
 
+/// The mean over y ∈ [y0, y1] of the shear stress of the same flow, fixed by the momentum
+/// balance ∂τ_xy/∂y = −ρ g_x(y) alone (no viscosity):
+///
+/// ```text
+/// τ_xy(y) = ρ g (L_y/4 − |s|),   s = y − L_y/2,   τ_max = ρ g L_y/4 at s = 0 and s = ±L_y/2
+/// ∫ |s| ds = s|s|/2
+/// ```
+///
+/// (η du_x/dy of [`double_poiseuille_mean`]'s profile.)
+pub fn double_poiseuille_stress_mean(y0: f64, y1: f64, ly: f64, rho: f64, g: f64) -> f64 {
+    let h = |y: f64| {
+        let s = y - 0.5 * ly;
+        0.5 * s * s.abs()
+    };
+    rho * g * (0.25 * ly - (h(y1) - h(y0)) / (y1 - y0))
+}
+
 /// A start-up flow with a series solution.
 #[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq, Eq)]
 #[serde(rename_all = "snake_case")]

@@ -555,7 +555,8 @@ impl<const D: usize> Scene for FlowScene<'_, D> {
                     crate::config::ReferenceCfg::Value(v) => Some(check_value(v, &observables)),
                     crate::config::ReferenceCfg::LinearShearProfile(_)
                     | crate::config::ReferenceCfg::StartupProfile(_)
-                    | crate::config::ReferenceCfg::DoublePoiseuilleProfile(_) => None,
+                    | crate::config::ReferenceCfg::DoublePoiseuilleProfile(_)
+                    | crate::config::ReferenceCfg::DoublePoiseuilleStress(_) => None,
                 })
                 .collect()
         } else {
@@ -569,6 +570,7 @@ impl<const D: usize> Scene for FlowScene<'_, D> {
             observables,
             velocity_profile: Vec::new(),
             density_profile: Vec::new(),
+            shear_stress_profile: Vec::new(),
             validation,
             // The error bars come from the spread of independent particles' averages: no
             // blocks.

@@ -55,6 +55,7 @@ pub mod sim;
 pub mod simd;
 pub mod species;
 pub mod stability;
+pub mod stress_profile;
 pub mod summary;
 pub mod tcaf_fit;
 pub mod transverse_current;

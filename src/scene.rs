@@ -106,6 +106,8 @@ pub struct SceneReport {
     pub velocity_profile: Vec<ProfilePoint>,
     /// Binned SPH density profile.
     pub density_profile: Vec<DensityPoint>,
+    /// Binned shear stress.
+    pub shear_stress_profile: Vec<ProfilePoint>,
     /// Checks against the case's references (after a completed run).
     pub validation: Vec<Validation>,
     /// Warnings about the averages.
@@ -338,6 +340,10 @@ impl<const D: usize> Scene for ParticleScene<'_, D> {
         } else {
             Vec::new()
         };
+        // The stress profile's bins, like the density's, leave the scalar observables for
+        // their own list (after the checks, which read them).
+        let shear_stress_profile = crate::summary::shear_stress_points(case, &observables);
+        observables.retain(|k, _| !k.starts_with(crate::diagnostics::SHEAR_STRESS_PROFILE_PREFIX));
         Ok(SceneReport {
             case: serde_json::to_value(case).map_err(|e| e.to_string())?,
             dimension: D,
@@ -348,6 +354,7 @@ impl<const D: usize> Scene for ParticleScene<'_, D> {
             density_profile,
             validation,
             warnings,
+            shear_stress_profile,
             state_digest: sim.state_digest(),
         })
     }
@@ -611,6 +618,7 @@ pub fn drive(
         observables: report.observables,
         velocity_profile: report.velocity_profile,
         density_profile: report.density_profile,
+        shear_stress_profile: report.shear_stress_profile,
         validation: report.validation,
         warnings: report.warnings,
         state_digest: report.state_digest,

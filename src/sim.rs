@@ -17,7 +17,9 @@
 
 use crate::comm::{Comm, U64Op};
 use crate::config::{Case, FluidCfg, IntegratorCfg, Lattice, Observable, VelocityProfile};
-use crate::diagnostics::{DENSITY_PROFILE_PREFIX, STRESS_PARTS, Series, tensor_components};
+use crate::diagnostics::{
+    DENSITY_PROFILE_PREFIX, SHEAR_STRESS_PROFILE_PREFIX, STRESS_PARTS, Series, tensor_components,
+};
 use crate::domain::{HaloPlan, Slab, send_leavers, wrap_owned};
 use crate::fixed_sum::FixedSum;
 use crate::geometry::{GRADIENT, SimBox};
@@ -114,6 +116,8 @@ pub struct Simulation<'c, const D: usize> {
     restarted: bool,
     /// Virial of the last force evaluation that computed one, and its step.
     virial: Option<(u64, Virial)>,
+    /// The pair part of the binned shear virial of that evaluation, when asked for.
+    shear_virial_profile: Option<(u64, Vec<FixedSum>)>,
     /// The virial components the case's observables need.
     virial_scope: VirialScope,
     /// Current step.
@@ -142,13 +146,17 @@ pub fn build_fluid<const D: usize>(case: &Case) -> Box<dyn ParticleModel<D>> {
     match &case.fluid {
         FluidCfg::Dpd(d) => {
             let d = &dpd_as_integrated(case, d);
-            Box::new(
-                DpdModel::<D>::new(d, case.integrator.dt(), case.seed).with_body_force(
-                    d,
-                    case.particles.mass,
-                    case.domain.lengths[1],
-                ),
-            )
+            let ly = case.domain.lengths[1];
+            let model = DpdModel::<D>::new(d, case.integrator.dt(), case.seed).with_body_force(
+                d,
+                case.particles.mass,
+                ly,
+            );
+            if case.wants(Observable::ShearStressProfile) {
+                Box::new(model.with_shear_stress_profile(case.diagnostics.profile_bins, ly))
+            } else {
+                Box::new(model)
+            }
         }
         FluidCfg::SummationGas(g) => Box::new(SummationGas::<D>::new(g, case.particles.mass)),
         FluidCfg::Sph(s) => {
@@ -499,6 +507,7 @@ impl<'c, const D: usize> Simulation<'c, D> {
             wants_full_list: false,
             restarted,
             virial: None,
+            shear_virial_profile: None,
             // SPH measures its stress from the particles' fields, never from a pair virial:
             // a virial recomputation would also rewrite the rates the next step integrates.
             virial_scope: if matches!(case.fluid, crate::config::FluidCfg::Sph(_)) {
@@ -832,6 +841,7 @@ impl<'c, const D: usize> Simulation<'c, D> {
         let mut halo_seconds = 0.0;
         self.particles.force.fill([0.0; D]);
         let mut virial = None;
+        let mut shear_profile = None;
         for (m, model) in self.models.iter_mut().enumerate() {
             for (k, fields) in self.pass_fields[m].iter().enumerate() {
                 let t = Instant::now();
@@ -867,7 +877,10 @@ impl<'c, const D: usize> Simulation<'c, D> {
                     }),
                 }
                 match result {
-                    Ok(out) => virial = out.virial.or(virial),
+                    Ok(out) => {
+                        virial = out.virial.or(virial);
+                        shear_profile = out.shear_virial_profile.or(shear_profile);
+                    }
                     Err(e) => return Err(e),
                 }
                 if failed[0] > 0.0 {
@@ -884,6 +897,9 @@ impl<'c, const D: usize> Simulation<'c, D> {
         }
         if let Some(v) = virial {
             self.virial = Some((self.step, v));
+        }
+        if let Some(p) = shear_profile {
+            self.shear_virial_profile = Some((self.step, p));
         }
         self.times.halo += halo_seconds;
         self.times.forces += t0.elapsed().as_secs_f64() - halo_seconds;
@@ -1540,6 +1556,36 @@ impl<'c, const D: usize> Simulation<'c, D> {
                     ));
                     out.scalars.push(("inclusion_torque".into(), torque));
                 }
+                Observable::ShearStressProfile => {
+                    // τ_xy(b) = −[Σ_{i∈b} m V_x V_y + W_xy(b)]/V_b ([`crate::stress_profile`]),
+                    // V about the local mean velocity of the temperature.
+                    let nb = case.diagnostics.profile_bins;
+                    let mut sums = match &self.shear_virial_profile {
+                        Some((step, w)) if *step == self.step => w.clone(),
+                        _ => vec![FixedSum::ZERO; nb],
+                    };
+                    for (k, (x, v)) in pos.iter().zip(vel).enumerate() {
+                        if k % 2048 == 2047 {
+                            sums.iter_mut().for_each(FixedSum::normalize);
+                        }
+                        if !fluid(k) {
+                            continue;
+                        }
+                        let m = species[particles.species_of(k) as usize].mass;
+                        let u = local_mean(x[GRADIENT]);
+                        sums[profile_bin(x[GRADIENT], ly, nb)]
+                            .add(m * (v[0] - u[0]) * (v[1] - u[1]));
+                    }
+                    sums.iter_mut().for_each(FixedSum::normalize);
+                    FixedSum::allreduce(self.comm, &mut sums);
+                    let bin_volume = self.sim_box.volume() / nb as f64;
+                    for (b, w) in sums.iter().enumerate() {
+                        out.scalars.push((
+                            format!("{SHEAR_STRESS_PROFILE_PREFIX}{b:04}"),
+                            -w.value() / bin_volume,
+                        ));
+                    }
+                }
                 Observable::DensityProfile => {
                     for (b, rho) in self.density_profile().into_iter().enumerate() {
                         out.scalars
@@ -1701,9 +1747,10 @@ pub struct Measurement {
 /// the others.
 fn virial_scope(observables: &[Observable]) -> VirialScope {
     let needs = |o: &Observable| match o {
-        Observable::Stress | Observable::Viscosity | Observable::GreenKuboViscosity => {
-            VirialScope::Full
-        }
+        Observable::Stress
+        | Observable::Viscosity
+        | Observable::GreenKuboViscosity
+        | Observable::ShearStressProfile => VirialScope::Full,
         Observable::Pressure
         | Observable::FirstNormalStressDifference
         | Observable::SecondNormalStressDifference => VirialScope::Diagonal,

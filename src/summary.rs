@@ -93,6 +93,10 @@ pub struct Summary {
     /// Binned mean SPH density ρ(y) (runs that ask for `density_profile`).
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub density_profile: Vec<DensityPoint>,
+    /// Binned shear stress τ_xy(y) (runs that ask for `shear_stress_profile`); `expected` is
+    /// the reverse-Poiseuille stress of a case driven by a reverse body force, else null.
+    #[serde(skip_serializing_if = "Vec::is_empty", default)]
+    pub shear_stress_profile: Vec<ProfilePoint>,
     /// Reference checks.
     pub validation: Vec<Validation>,
     /// Caveats on the results (e.g. block error bars of correlated series that are too small).
@@ -250,6 +254,21 @@ fn check_one(
         match r {
             ReferenceCfg::StartupProfile(_) => unreachable!("handled by the caller"),
             ReferenceCfg::Value(v) => check_value(v, observables),
+            ReferenceCfg::DoublePoiseuilleStress(ds) => {
+                let points = shear_stress_points(case, observables);
+                let tau_max = double_poiseuille_tau_max(case);
+                let value = max_profile_deviation(&points, tau_max);
+                Validation {
+                    name: ds.name.clone(),
+                    metric: "max_bin |τ_xy − τ_exact| / τ_max (reverse Poiseuille, τ_max = ρ g \
+                             L_y/4)"
+                        .into(),
+                    value,
+                    tolerance: ds.tolerance,
+                    pass: value <= ds.tolerance,
+                    profile: Vec::new(),
+                }
+            }
             ReferenceCfg::DoublePoiseuilleProfile(dp) => {
                 let (_, u_max) = double_poiseuille_of(case, dp);
                 // The expected bin values (the solution plus the box-mean velocity) are the
@@ -397,6 +416,55 @@ pub fn double_poiseuille_expected(
     (0..means.len())
         .map(|b| exact(b as f64 * width, (b + 1) as f64 * width) + offset)
         .collect()
+}
+
+/// The binned shear stress of a run that asked for `shear_stress_profile` (its per-bin series
+/// in `observables`), each bin with the reverse-Poiseuille stress's bin mean when the case is
+/// driven by a reverse body force along x, else NaN.
+pub fn shear_stress_points(
+    case: &Case,
+    observables: &BTreeMap<String, Estimate>,
+) -> Vec<ProfilePoint> {
+    use crate::diagnostics::SHEAR_STRESS_PROFILE_PREFIX;
+    let bins: Vec<&Estimate> = observables
+        .iter()
+        .filter(|(k, _)| k.starts_with(SHEAR_STRESS_PROFILE_PREFIX))
+        .map(|(_, e)| e)
+        .collect();
+    let ly = case.domain.lengths[1];
+    let width = ly / bins.len().max(1) as f64;
+    let rho = case.particles.density * case.particles.mass;
+    let g = match &case.fluid {
+        crate::config::FluidCfg::Dpd(d)
+            if d.body_force_profile == crate::models::dpd::BodyForceProfile::Reverse =>
+        {
+            d.body_force.first().copied()
+        }
+        _ => None,
+    };
+    bins.iter()
+        .enumerate()
+        .map(|(b, e)| {
+            let (y0, y1) = (b as f64 * width, (b + 1) as f64 * width);
+            ProfilePoint {
+                y: 0.5 * (y0 + y1),
+                mean: e.mean,
+                stderr: e.stderr,
+                expected: g.map_or(f64::NAN, |g| {
+                    crate::analytic::double_poiseuille_stress_mean(y0, y1, ly, rho, g)
+                }),
+            }
+        })
+        .collect()
+}
+
+/// τ_max = |ρ g L_y/4| of a case driven by a reverse body force along x.
+fn double_poiseuille_tau_max(case: &Case) -> f64 {
+    let g = match &case.fluid {
+        crate::config::FluidCfg::Dpd(d) => d.body_force.first().copied().unwrap_or(0.0),
+        _ => 0.0,
+    };
+    (case.particles.density * case.particles.mass * g * case.domain.lengths[1] / 4.0).abs()
 }
 
 /// The steady reverse-Poiseuille solution of a case with a `double_poiseuille_profile`

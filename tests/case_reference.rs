@@ -317,11 +317,16 @@ thermostat = "exponential"
 steps = 100
 sample_every = 1
 [diagnostics]
-observables = ["temperature", "velocity_profile"]
+observables = ["temperature", "velocity_profile", "shear_stress_profile"]
 [[reference]]
 kind = "double_poiseuille_profile"
 name = "p"
 viscosity = 30.0
+tolerance = 0.1
+source = "s"
+[[reference]]
+kind = "double_poiseuille_stress"
+name = "t"
 tolerance = 0.1
 source = "s"
 "#;

@@ -304,3 +304,46 @@ fn exponential_thermostat_keeps_k_bt_where_the_explicit_step_diverges() {
         "the explicit step at ω₀Δt = 4.1 should diverge"
     );
 }
+
+/// The binned shear stress of the reverse Poiseuille flow (the n = 4 level of Nguyen's §3.4:
+/// 20 × 20, ρ = 8, g = ±1, the stock case shortened to t = 30 after t = 8) against the momentum
+/// balance alone, τ_xy = ρ g (L_y/4 − |s|), τ_max = 40, which holds whatever the viscosity: every
+/// bin within 4.5 of its block errors (20 blocks), and the bins averaging to the box's −P_xy
+/// (the segment shares sum to one pair's whole virial). Mutations: the dissipative and random
+/// parts left out of the binned pair stress make the profile ~20 times too flat; a pair's
+/// share put in the bins with the wrong sign of r_y flips the profile.
+#[test]
+fn double_poiseuille_shear_stress_follows_the_momentum_balance() {
+    let text = std::fs::read_to_string(
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("cases/dpd_double_poiseuille_2d_n4.toml"),
+    )
+    .expect("stock case")
+    .replace("steps = 150000", "steps = 19000")
+    .replace("equilibration = 25000", "equilibration = 4000")
+    .replace(
+        "observables = [\"temperature\", \"velocity_profile\", \"shear_stress_profile\"]",
+        "observables = [\"temperature\", \"velocity_profile\", \"shear_stress_profile\", \"stress\"]\nblocks = 20",
+    );
+    let s = run_in_process(&case_from_str(&text, "dp_stress.toml"), 1, 2, None)
+        .unwrap_or_else(|e| panic!("{e}"));
+    let profile = &s.shear_stress_profile;
+    assert_eq!(profile.len(), 20);
+    for p in profile {
+        assert!(
+            p.stderr < 0.8 && (p.mean - p.expected).abs() < 4.5 * p.stderr,
+            "τ_xy at y = {}: {} ± {} against {}",
+            p.y,
+            p.mean,
+            p.stderr,
+            p.expected
+        );
+    }
+    let mean = profile.iter().map(|p| p.mean).sum::<f64>() / 20.0;
+    let total = s.observables["stress_total_xy"].mean;
+    assert!(
+        (mean + total).abs() < 1e-9 * 40.0,
+        "bins {mean} vs −P_xy {}",
+        -total
+    );
+}

@@ -535,7 +535,8 @@ pub fn validate(case: &FlowCase, ix: &SpanIndex) -> Result<(), CaseError> {
             }
             ReferenceCfg::LinearShearProfile(_)
             | ReferenceCfg::StartupProfile(_)
-            | ReferenceCfg::DoublePoiseuilleProfile(_) => {
+            | ReferenceCfg::DoublePoiseuilleProfile(_)
+            | ReferenceCfg::DoublePoiseuilleStress(_) => {
                 return Err(ix.error(
                     &at("kind"),
                     "a homogeneous-flow scene has no velocity profile; use kind = \"value\"",

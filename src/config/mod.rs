@@ -423,6 +423,12 @@ pub enum Observable {
     /// from η_k = η₀ + a k² over the 4 smallest k. OUT/transverse_current.csv holds the
     /// curves and the fits.
     TransverseCurrentViscosity,
+    /// The binned shear stress τ_xy(y) = −P_xy(y) of a DPD fluid, `diagnostics.profile_bins`
+    /// bins along y: the Irving–Kirkwood volume average over each bin, the kinetic part
+    /// −Σ_{i∈b} m V_x V_y (V about the local mean velocity) and the pair part −Σ_pairs r_y F_x
+    /// ℓ_b/|r_y| (ℓ_b: the length of the pair's segment inside the bin), over the bin's
+    /// volume. The summary lists it as `shear_stress_profile`.
+    ShearStressProfile,
 }
 
 impl Observable {
@@ -443,6 +449,7 @@ impl Observable {
             Observable::CompositeViscosity => "composite_viscosity",
             Observable::GreenKuboViscosity => "green_kubo_viscosity",
             Observable::TransverseCurrentViscosity => "transverse_current_viscosity",
+            Observable::ShearStressProfile => "shear_stress_profile",
         }
     }
 }
@@ -534,6 +541,25 @@ pub enum ReferenceCfg {
     StartupProfile(StartupProfileReference),
     /// The steady reverse-Poiseuille profile of a DPD fluid driven by a `reverse` body force.
     DoublePoiseuilleProfile(DoublePoiseuilleReference),
+    /// The shear-stress profile of the same flow, fixed by the momentum balance alone.
+    DoublePoiseuilleStress(DoublePoiseuilleStressReference),
+}
+
+/// `[[reference]] kind = "double_poiseuille_stress"`: the time-averaged binned shear stress
+/// τ_xy(y) (observable `shear_stress_profile`) of the steady reverse Poiseuille flow against the
+/// momentum balance ∂τ_xy/∂y = −ρ g_x(y): τ_xy = ρ g (L_y/4 − |s|), s = y − L_y/2, whatever the
+/// viscosity (each bin against the solution's mean over the bin); metric
+/// max_b |τ_b − τ_b,exact| / τ_max, τ_max = ρ g L_y/4.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct DoublePoiseuilleStressReference {
+    /// Short name.
+    pub name: String,
+    /// Largest acceptable max_b |τ_b − τ_b,exact| / τ_max.
+    pub tolerance: f64,
+    /// Where the solution comes from.
+    #[serde(default)]
+    pub source: String,
 }
 
 /// `[[reference]] kind = "double_poiseuille_profile"`: the time-averaged binned u_x(y) against

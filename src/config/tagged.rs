@@ -7,9 +7,9 @@
 
 use super::spans::{Segment, SpanIndex, segments};
 use super::{
-    CaseError, DoublePoiseuilleReference, DpdCfg, GrootWarrenCfg, KickDriftKickCfg,
-    ProfileReference, SphCfg, StartupProfileReference, SummationGasCfg, TwoStageCfg,
-    ValueReference,
+    CaseError, DoublePoiseuilleReference, DoublePoiseuilleStressReference, DpdCfg, GrootWarrenCfg,
+    KickDriftKickCfg, ProfileReference, SphCfg, StartupProfileReference, SummationGasCfg,
+    TwoStageCfg, ValueReference,
 };
 use serde::de::DeserializeOwned;
 
@@ -40,6 +40,10 @@ const REFERENCES: &[(&str, Check)] = &[
     (
         "double_poiseuille_profile",
         check::<DoublePoiseuilleReference>,
+    ),
+    (
+        "double_poiseuille_stress",
+        check::<DoublePoiseuilleStressReference>,
     ),
 ];
 

@@ -569,6 +569,14 @@ pub fn validate(case: &Case, ix: &SpanIndex) -> Result<(), CaseError> {
                 ),
             ));
         }
+        if *o == Observable::ShearStressProfile && !matches!(case.fluid, FluidCfg::Dpd(_)) {
+            return Err(ix.error(
+                &[k("diagnostics"), k("observables"), Segment::Index(i)],
+                "\"shear_stress_profile\" bins the DPD pair and kinetic stress; it needs [fluid] \
+                 kind = \"dpd\""
+                    .to_string(),
+            ));
+        }
         if *o == Observable::DensityProfile && !matches!(case.fluid, FluidCfg::Sph(_)) {
             return Err(ix.error(
                 &[k("diagnostics"), k("observables"), Segment::Index(i)],
@@ -775,6 +783,32 @@ pub fn validate(case: &Case, ix: &SpanIndex) -> Result<(), CaseError> {
                     return Err(ix.error(
                         &at("tolerance"),
                         format!("found {}; must be > 0", dp.tolerance),
+                    ));
+                }
+            }
+            ReferenceCfg::DoublePoiseuilleStress(ds) => {
+                let reverse_x = matches!(&case.fluid, FluidCfg::Dpd(d)
+                    if d.body_force_profile == crate::models::dpd::BodyForceProfile::Reverse
+                        && d.body_force.first().is_some_and(|&g| g != 0.0)
+                        && d.body_force[1..].iter().all(|&g| g == 0.0));
+                if !reverse_x
+                    || shear != 0.0
+                    || !case.wants(Observable::ShearStressProfile)
+                    || !case.wants(Observable::VelocityProfile)
+                {
+                    return Err(ix.error(
+                        &at("kind"),
+                        "a double_poiseuille_stress reference needs a DPD fluid driven along x \
+                         by fluid.body_force with fluid.body_force_profile = \"reverse\", no \
+                         shear, and \"shear_stress_profile\" and \"velocity_profile\" (the local \
+                         mean velocity of the kinetic stress) among diagnostics.observables"
+                            .to_string(),
+                    ));
+                }
+                if !(ds.tolerance.is_finite() && ds.tolerance > 0.0) {
+                    return Err(ix.error(
+                        &at("tolerance"),
+                        format!("found {}; must be > 0", ds.tolerance),
                     ));
                 }
             }

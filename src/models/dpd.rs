@@ -18,7 +18,7 @@
 
 use crate::models::interface::{ParticleModel, PassContext, PassOutput, PassSpec};
 use crate::models::pair_loop::{
-    BATCH, BlockTerms, PairBlock, PairKernel, PairTerms, PairWorkspace, compute_forces,
+    BATCH, BlockTerms, PairBlock, PairKernel, PairTerms, PairWorkspace, VirialScope, compute_forces,
 };
 use crate::rng::{HashStream, Purpose};
 use serde::{Deserialize, Serialize};
@@ -287,6 +287,8 @@ pub struct DpdModel<const D: usize> {
     workspace: PairWorkspace<D>,
     /// m g, the profile and L_y.
     body: Option<([f64; D], BodyForceProfile, f64)>,
+    /// Bins and L_y of the binned shear virial, when the diagnostics ask for it.
+    shear_profile: Option<(usize, f64)>,
 }
 
 impl<const D: usize> DpdModel<D> {
@@ -296,7 +298,15 @@ impl<const D: usize> DpdModel<D> {
             dpd: Dpd::new(cfg, dt, seed),
             workspace: PairWorkspace::default(),
             body: None,
+            shear_profile: None,
         }
+    }
+
+    /// The same, also computing the pair part of the binned shear virial
+    /// ([`crate::stress_profile`]) in `bins` bins across `ly` whenever the full virial is asked.
+    pub fn with_shear_stress_profile(mut self, bins: usize, ly: f64) -> Self {
+        self.shear_profile = Some((bins, ly));
+        self
     }
 
     /// The same with the case's body force on particles of mass `mass` in a box of height
@@ -356,7 +366,17 @@ impl<const D: usize> ParticleModel<D> for DpdModel<D> {
             }
         }
         p.force = force;
-        Ok(PassOutput { virial: virial? })
+        let virial = virial?;
+        let shear_virial_profile = match self.shear_profile {
+            Some((bins, ly)) if scope == VirialScope::Full => Some(
+                crate::stress_profile::pair_shear_virial(&self.dpd, p, list, step, bins, ly),
+            ),
+            _ => None,
+        };
+        Ok(PassOutput {
+            virial,
+            shear_virial_profile,
+        })
     }
 }
 
