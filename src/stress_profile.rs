@@ -31,7 +31,8 @@ pub fn segment_shares(y_i: f64, r_y: f64, ly: f64, bins: usize, mut share: impl 
     } else {
         (y_i, y_i - r_y)
     };
-    if !(hi > lo) {
+    // Nothing to share for r_y = 0 (or a NaN, which the force loop reports).
+    if hi.partial_cmp(&lo) != Some(std::cmp::Ordering::Greater) {
         return;
     }
     let width = ly / bins as f64;
