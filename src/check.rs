@@ -61,6 +61,71 @@ pub fn check_particles_per_rank(case: &Case, ranks: usize) -> Result<(), String>
     ))
 }
 
+/// Estimated bytes one rank needs on `ranks` ranks: the particles' core arrays (positions,
+/// velocities, forces, ids, …), the ghosts, the neighbour list (cutoff + skin) and the
+/// dumbbell ensembles a fluid particle carries.
+pub fn rank_memory(case: &Case, ranks: usize) -> f64 {
+    let dim = case.dimension;
+    let (_, n) = case.lattice_counts();
+    let volume: f64 = case.domain.lengths.iter().product();
+    let density = n as f64 / volume;
+    let list_neighbours = density * ball_volume(dim, case.cutoff() + case.neighbour.skin);
+    let (owned, ghosts) = particles_per_rank(case, ranks);
+    let bytes_entry = 8.0;
+    let bytes_pair = 8.0 + (dim as f64 + 4.0) * 8.0;
+    let ensembles = match &case.fluid {
+        FluidCfg::Sph(s) => s.polymer.as_ref().filter(|p| p.is_ensemble()),
+        _ => None,
+    };
+    owned * BYTES_CORE
+        + ghosts * (8.0 + 2.0 * 8.0 * dim as f64)
+        + owned * list_neighbours * (bytes_entry + 0.5 * bytes_pair)
+        + owned * ensembles.map_or(0.0, |p| p.bytes_per_particle(dim))
+}
+
+/// Refuses a rank count whose ranks would need more memory than `available` bytes (this node's
+/// MemAvailable; no check when unknown), before anything is allocated, naming the rank count
+/// that fits or, when no rank count does, the largest box that fits one rank.
+pub fn check_rank_memory(case: &Case, ranks: usize, available: Option<f64>) -> Result<(), String> {
+    let Some(available) = available else {
+        return Ok(());
+    };
+    let gib = 1024.0 * 1024.0 * 1024.0;
+    let need = rank_memory(case, ranks);
+    // Leave a tenth for the rest of the process (buffers, output, MPI).
+    let budget = 0.9 * available;
+    if need <= budget {
+        return Ok(());
+    }
+    let max = max_ranks(case);
+    let fits = (ranks..=max).find(|&r| rank_memory(case, r) <= budget);
+    // One rank's memory grows like the particle count, i.e. the box volume.
+    let one = rank_memory(case, ranks.max(1));
+    let scale = (budget / one).powf(1.0 / case.dimension as f64);
+    let smaller: Vec<String> = case.domain.lengths[..case.dimension]
+        .iter()
+        .map(|l| format!("{:.4}", l * scale))
+        .collect();
+    Err(format!(
+        "one rank needs about {:.2} GiB on {ranks} rank(s) but this machine has {:.2} GiB \
+         available; {}",
+        need / gib,
+        available / gib,
+        match fits {
+            Some(r) => format!(
+                "run on at least {r} ranks (with one rank per node like this one), or shrink the \
+                 box to about [{}] on {ranks} rank(s)",
+                smaller.join(", ")
+            ),
+            None => format!(
+                "even the {max} ranks the slabs allow are too few: shrink the box to about [{}] \
+                 (or lower the density)",
+                smaller.join(", ")
+            ),
+        }
+    ))
+}
+
 /// The report `check` prints.
 pub fn report(case: &Case, ranks: usize) -> String {
     let dim = case.dimension;
@@ -310,21 +375,20 @@ pub fn report(case: &Case, ranks: usize) -> String {
     if let Err(e) = check_particles_per_rank(case, ranks) {
         line(format!("PARTICLES PER RANK: {e}"));
     }
-    let bytes_entry = 8.0;
-    let bytes_pair = 8.0 + (dim as f64 + 4.0) * 8.0;
     let ensembles = match &case.fluid {
         FluidCfg::Sph(s) => s.polymer.as_ref().filter(|p| p.is_ensemble()),
         _ => None,
     };
-    let mem = owned * BYTES_CORE
-        + ghosts * (8.0 + 2.0 * 8.0 * dim as f64)
-        + owned * list_neighbours * (bytes_entry + 0.5 * bytes_pair)
-        + owned * ensembles.map_or(0.0, |p| p.bytes_per_particle(dim));
+    let mem = rank_memory(case, ranks);
     line(format!(
-        "memory per rank ≈ {:.1} MiB ({:.0} owned + {:.0} ghost particles)",
+        "memory per rank ≈ {:.1} MiB ({:.0} owned + {:.0} ghost particles) [{}]",
         mem / 1048576.0,
         owned,
-        ghosts
+        ghosts,
+        match check_rank_memory(case, ranks, crate::flow_scene::available_memory()) {
+            Ok(()) => "ok".to_string(),
+            Err(e) => format!("DOES NOT FIT: {e}"),
+        }
     ));
     let pair_evals = n as f64 * neighbours / 2.0;
     line(format!(

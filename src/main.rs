@@ -141,6 +141,16 @@ fn main() -> ExitCode {
                 if root {
                     print!("{}", mesorheo::check::report(&loaded, ranks));
                 }
+                if let Err(e) = mesorheo::check::check_rank_memory(
+                    &loaded,
+                    ranks,
+                    mesorheo::flow_scene::available_memory(),
+                ) {
+                    if root {
+                        eprintln!("error: {}: {e}", case.display());
+                    }
+                    return ExitCode::from(2);
+                }
                 let max = mesorheo::check::max_ranks(&loaded);
                 if ranks > max {
                     if root {

@@ -470,6 +470,7 @@ impl<'c, const D: usize> Simulation<'c, D> {
             ));
         }
         crate::check::check_particles_per_rank(case, comm.size())?;
+        crate::check::check_rank_memory(case, comm.size(), crate::flow_scene::available_memory())?;
         Ok((sim_box, slab))
     }
 

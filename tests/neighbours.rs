@@ -201,3 +201,43 @@ fn a_rank_with_too_many_particles_is_refused_before_allocating() {
     assert!(report.contains("PARTICLES PER RANK"), "{report}");
     assert!(!mesorheo::check::report(&loaded.case, 4).contains("PARTICLES PER RANK"));
 }
+
+/// A scene whose rank does not fit the node's memory is refused before anything is allocated,
+/// with the rank count or the box that fits (issue #18: `check` of the default scene at
+/// 1000 × 1000 said 6.6·10⁶ MiB per rank and `[ok]`). The memory is given, so the verdict does
+/// not depend on this machine: 4·10⁸ particles × 1000 dumbbells need ~6500 GiB; with 24 GiB,
+/// about 310 ranks would fit, and a box of ~56 × 56 fits one; `run` refuses on this machine too.
+/// Fails with the check removed from `check` (it then reports `[ok]`).
+#[test]
+fn a_scene_larger_than_the_node_memory_is_refused_with_what_fits() {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("cases/default.toml");
+    let huge = mesorheo::config::load(&path).map(|l| l.case);
+    let mut case = huge.expect("stock case");
+    case.domain.lengths = vec![1000.0, 1000.0];
+    let gib = 1024.0 * 1024.0 * 1024.0;
+    let err = mesorheo::check::check_rank_memory(&case, 1, Some(24.0 * gib))
+        .expect_err("6500 GiB on a 24 GiB node");
+    assert!(err.contains("GiB available"), "{err}");
+    let ranks: usize = err
+        .split("run on at least ")
+        .nth(1)
+        .and_then(|s| s.split(' ').next())
+        .and_then(|s| s.parse().ok())
+        .unwrap_or_else(|| panic!("names a rank count: {err}"));
+    assert!(
+        mesorheo::check::check_rank_memory(&case, ranks, Some(24.0 * gib)).is_ok()
+            && mesorheo::check::check_rank_memory(&case, ranks - 1, Some(24.0 * gib)).is_err(),
+        "{ranks} is the smallest rank count that fits"
+    );
+    let report = mesorheo::check::report(&case, 1);
+    assert!(report.contains("DOES NOT FIT"), "{report}");
+    // The stock scene itself fits, and the memory left unknown checks nothing.
+    let stock = mesorheo::config::load(&path).expect("stock case").case;
+    assert!(mesorheo::check::check_rank_memory(&stock, 1, Some(24.0 * gib)).is_ok());
+    assert!(mesorheo::check::check_rank_memory(&case, 1, None).is_ok());
+    let comm = mesorheo::comm::SerialComm::new();
+    if mesorheo::flow_scene::available_memory().is_some() {
+        let refused = Simulation::<2>::new(&case, &comm, 1).err();
+        assert!(refused.is_some_and(|e| e.contains("GiB available")));
+    }
+}
