@@ -50,6 +50,10 @@ enum Command {
         /// wall-clock limit); continue with `mesorheo restart`.
         #[arg(long, value_name = "K")]
         until_step: Option<u64>,
+        /// Wall-clock budget: after timing the first 20 steps, stop (with a checkpoint and an
+        /// error) if the remaining steps would take longer than this many hours.
+        #[arg(long, value_name = "H", value_parser = positive_hours)]
+        max_hours: Option<f64>,
     },
     /// Continue a run from a checkpoint, on any number of ranks. Given a directory, the newest
     /// checkpoint in it; a corrupt checkpoint is reported and the previous one is used.
@@ -68,6 +72,9 @@ enum Command {
         /// Stop cleanly at this step with a checkpoint.
         #[arg(long, value_name = "K")]
         until_step: Option<u64>,
+        /// Wall-clock budget in hours (as for `run`).
+        #[arg(long, value_name = "H", value_parser = positive_hours)]
+        max_hours: Option<f64>,
     },
     /// Print what an HDF5 file written by mesorheo holds (series, steps, fields, case).
     Info {
@@ -179,6 +186,7 @@ fn main() -> ExitCode {
             steps,
             mut overrides,
             until_step,
+            max_hours,
         } => {
             if let Some(n) = steps {
                 overrides.push(format!("run.steps={n}"));
@@ -197,6 +205,7 @@ fn main() -> ExitCode {
                 steps: None,
                 until_step,
                 out: Some(out.clone()),
+                max_hours,
             };
             session(&*comm, &out, cli.quiet, cli.verbose, |comm| {
                 match &loaded.scene {
@@ -220,6 +229,7 @@ fn main() -> ExitCode {
             threads,
             steps,
             until_step,
+            max_hours,
         } => {
             // OUT/checkpoints/checkpoint_N.h5 → OUT; OUT/checkpoints → OUT.
             let out = out.unwrap_or_else(|| {
@@ -252,6 +262,7 @@ fn main() -> ExitCode {
                 steps,
                 until_step,
                 out: Some(out.clone()),
+                max_hours,
             };
             session(&*comm, &out, cli.quiet, cli.verbose, |comm| {
                 restart_case(&checkpoint, comm, &options)
@@ -397,4 +408,15 @@ fn init_logging(
         .try_init()
         .map_err(std::io::Error::other)?;
     Ok(guard)
+}
+
+/// `--max-hours`: a positive, finite number of hours.
+fn positive_hours(text: &str) -> Result<f64, String> {
+    match text.parse::<f64>() {
+        Ok(h) if h.is_finite() && h > 0.0 => Ok(h),
+        Ok(h) => Err(format!(
+            "found {h}; the budget must be a positive number of hours"
+        )),
+        Err(e) => Err(format!("{e}: give a number of hours, e.g. 1.5")),
+    }
 }

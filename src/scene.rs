@@ -28,7 +28,13 @@ pub struct RunOptions {
     pub until_step: Option<u64>,
     /// Output directory for checkpoints and snapshots (`None`: no files).
     pub out: Option<PathBuf>,
+    /// Wall-clock budget in hours: the run measures its first [`BUDGET_PROBE_STEPS`] steps
+    /// and stops there (with a checkpoint) when the remaining steps would take longer.
+    pub max_hours: Option<f64>,
 }
+
+/// Steps timed before a run with `--max-hours` decides whether it fits its budget.
+pub const BUDGET_PROBE_STEPS: u64 = 20;
 
 /// Set by SIGTERM / SIGUSR1: finish the step, checkpoint, stop.
 static STOP_REQUESTED: AtomicBool = AtomicBool::new(false);
@@ -542,6 +548,7 @@ pub fn drive(
     let mut last_checkpoint: Option<PathBuf> = None;
     let mut checkpointed_at = None;
     let mut stopped_by_signal = false;
+    let mut over_budget: Option<String> = None;
     while scene.step() < stop_at {
         if STOP_REQUESTED.load(Ordering::SeqCst) {
             scene.request_stop();
@@ -562,6 +569,28 @@ pub fn drive(
                 tracing::warn!("stop requested: stopping after step {step}");
             }
             break;
+        }
+        // The budget: decided after the same step on every rank, from the slowest rank's time.
+        if let Some(hours) = options.max_hours
+            && step - first_step == BUDGET_PROBE_STEPS
+            && step < stop_at
+        {
+            let mut seconds = [start.elapsed().as_secs_f64()];
+            comm.allreduce_max(&mut seconds);
+            let per_step = seconds[0] / BUDGET_PROBE_STEPS as f64;
+            let estimate = per_step * (stop_at - step) as f64 / 3600.0;
+            if estimate > hours {
+                over_budget = Some(format!(
+                    "the remaining {} steps would take about {estimate:.3} h ({:.0} s at {:.3e} s per step \
+                     over the first {BUDGET_PROBE_STEPS}), beyond --max-hours {hours}; stopped \
+                     at step {step}. Raise --max-hours, run on more ranks or threads, or ask for \
+                     fewer steps (--steps, --until-step)",
+                    stop_at - step,
+                    estimate * 3600.0,
+                    per_step
+                ));
+                break;
+            }
         }
         if is_root && every > 0.0 && last_report.elapsed().as_secs_f64() >= every {
             last_report = Instant::now();
@@ -590,6 +619,17 @@ pub fn drive(
                     .display()
                     .to_string())
         );
+    }
+    if let Some(reason) = over_budget {
+        scene.close_outputs(options.out.as_deref())?;
+        return Err(format!(
+            "{reason}; restart from {}",
+            last_checkpoint
+                .as_deref()
+                .map_or("(no checkpoint: no output directory)".into(), |p| p
+                    .display()
+                    .to_string())
+        ));
     }
     scene.close_outputs(options.out.as_deref())?;
     let report = scene.report(completed)?;

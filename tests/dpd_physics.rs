@@ -194,6 +194,7 @@ fn transverse_currents_obey_equipartition_and_are_rank_invariant() {
                     steps: None,
                     until_step: None,
                     out: Some(o.clone()),
+                    max_hours: None,
                 },
             )
         })

@@ -51,6 +51,7 @@ fn options(threads: usize, out: Option<&Path>, until: Option<u64>) -> RunOptions
         steps: None,
         until_step: until,
         out: out.map(Path::to_path_buf),
+        max_hours: None,
     }
 }
 

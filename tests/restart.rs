@@ -36,6 +36,7 @@ fn options(out: Option<&Path>, until: Option<u64>) -> RunOptions {
         steps: None,
         until_step: until,
         out: out.map(Path::to_path_buf),
+        max_hours: None,
     }
 }
 
@@ -781,4 +782,44 @@ fn green_kubo_correlators_restart_bitwise_on_other_rank_counts() {
             "transverse-current viscosity, {first} → {second} ranks: {a:?} vs {b:?}"
         );
     }
+}
+
+/// `--max-hours`: a run whose first 20 steps project beyond the budget stops there on every
+/// rank, with a checkpoint and an error saying so; restarting from it gives the uninterrupted
+/// run's bits; a generous budget changes nothing. (Issue #18.) Fails if the budget is ignored
+/// (the run completes) or decided per rank (the ranks disagree and the run hangs).
+#[test]
+fn a_run_beyond_its_time_budget_stops_after_the_probe_with_a_checkpoint() {
+    let text = le_case(2, 120, "");
+    let whole = uninterrupted(&text);
+    let dir = tempfile::tempdir().expect("tempdir");
+    let out = dir.path().to_path_buf();
+    let loaded = case_from_str(&text, "budget");
+    let o = out.clone();
+    let err = in_process(2, move |c| {
+        let options = RunOptions {
+            max_hours: Some(1e-12),
+            ..options(Some(&o), None)
+        };
+        run_case(&loaded, c, &options)
+    })
+    .expect_err("over budget");
+    assert!(
+        err.contains("--max-hours") && err.contains("stopped at step 20"),
+        "{err}"
+    );
+    let ck = out.join("checkpoints").join(checkpoint::file_name(20));
+    assert!(ck.exists(), "{err}");
+    let rest = restart_into(&out.join("checkpoints"), 1, &out).expect("restart");
+    assert_eq!(rest.state_digest, whole);
+    let loaded = case_from_str(&text, "budget");
+    let generous = in_process(1, move |c| {
+        let options = RunOptions {
+            max_hours: Some(100.0),
+            ..options(None, None)
+        };
+        run_case(&loaded, c, &options)
+    })
+    .expect("within budget");
+    assert!(generous.completed && generous.state_digest == whole);
 }

@@ -33,6 +33,7 @@ fn run(text: &str, ranks: usize, out: &Path, until: Option<u64>) {
                 steps: None,
                 until_step: until,
                 out: Some(out.clone()),
+                max_hours: None,
             },
         )
     })
