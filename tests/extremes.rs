@@ -1,0 +1,237 @@
+//! Scenes at the edges of what the models allow (issue #18): each either runs to a sane end or
+//! is refused with a clear error, never a panic or a silent NaN.
+//!
+//! - DPD with a = 0 (an ideal gas under the thermostat) and with a huge a (refused at the stock
+//!   Δt, naming the Verlet limit; stable below it);
+//! - two particles in a box;
+//! - slabs exactly one interaction range thick (the most ranks a box allows), bitwise equal to
+//!   one rank;
+//! - Δt just below, at and just above each DPD and SPH limit that validation enforces;
+//! - FENE dumbbells at Wi = 100 with b = 2.01;
+//! - a 10⁶-particle scene on one rank against the memory check.
+
+mod common;
+use common::{case_from_str, small_dpd, stock_case};
+use mesorheo::driver::run_in_process;
+
+fn run(text: &str, ranks: usize) -> mesorheo::summary::Summary {
+    run_in_process(&case_from_str(text, "extreme.toml"), ranks, 1, None)
+        .unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// a = 0: no conservative force, so the fluid is an ideal gas held at k_BT by the thermostat
+/// (within 4.5 block errors) with the ideal-gas pressure n k_BT (within 4.5 errors). a = 10⁶ is
+/// refused at Δt = 0.04 naming the Verlet limit, and runs to the end with finite averages at a
+/// tenth of that limit. Its temperature is not k_BT: the random initial positions store ~a per
+/// overlapping pair, which the forces release as heat (k_BT ≈ 7·10⁴ after 300 steps); at half
+/// the limit that release throws a particle beyond the neighbour list's range within ~100
+/// steps, which the run reports as unstable.
+#[test]
+fn dpd_without_repulsion_and_with_a_huge_one() {
+    let extra =
+        "equilibration = 100\n[diagnostics]\nobservables = [\"temperature\", \"pressure\"]\n";
+    // At Δt = 0.04 the explicit friction of the clusters an ideal gas forms (no repulsion keeps
+    // particles apart, so Σ_j w_D of a particle can be several times its mean) diverges within
+    // ~100 steps (reported: a particle moved beyond the list's range); 0.01 is stable.
+    let ideal = run(
+        &small_dpd(3, 6.0, 0.0, 2000, extra)
+            .replace("a = 25.0", "a = 0.0")
+            .replace("dt = 0.04", "dt = 0.01"),
+        1,
+    );
+    let (kt, p) = (
+        ideal.observables["temperature"],
+        ideal.observables["pressure"],
+    );
+    assert!((kt.mean - 1.0).abs() < 4.5 * kt.stderr, "{kt:?}");
+    assert!(
+        (p.mean - 3.0 * kt.mean).abs() < 4.5 * p.stderr,
+        "{p:?} vs n k_BT"
+    );
+    let stiff = small_dpd(3, 6.0, 0.0, 300, extra).replace("a = 25.0", "a = 1000000.0");
+    let err = mesorheo::config::parse_scene(&stiff, std::path::Path::new("stiff.toml"))
+        .err()
+        .expect("refused at Δt = 0.04")
+        .to_string();
+    assert!(err.contains("velocity-Verlet stability limit"), "{err}");
+    let loaded = case_from_str(&stiff.replace("a = 1000000.0", "a = 25.0"), "soft.toml");
+    let mut case = loaded.case.clone();
+    if let mesorheo::config::FluidCfg::Dpd(d) = &mut case.fluid {
+        d.a = 1e6;
+    }
+    let limits = mesorheo::stability::dpd_limits(
+        match &case.fluid {
+            mesorheo::config::FluidCfg::Dpd(d) => d,
+            _ => unreachable!(),
+        },
+        3,
+        3.0,
+        1.0,
+    );
+    let dt = 0.1 * limits.conservative;
+    let text = stiff.replace("dt = 0.04", &format!("dt = {dt:e}"));
+    let s = run(&text, 1);
+    let kt = s.observables["temperature"];
+    assert!(
+        s.completed && kt.mean.is_finite() && kt.mean > 0.0,
+        "{kt:?}"
+    );
+    assert!(s.observables["pressure"].mean.is_finite());
+}
+
+/// Two particles in a 3 × 3 × 3 box (cutoff + skin = 1.3 < L/2): the run completes with finite
+/// averages and conserves momentum.
+#[test]
+fn two_particles() {
+    let text = small_dpd(
+        3,
+        3.0,
+        0.0,
+        400,
+        "equilibration = 100\n[diagnostics]\nobservables = [\"temperature\", \"momentum\"]\n",
+    )
+    .replace("density = 3.0", "density = 0.08");
+    let s = run(&text, 1);
+    assert_eq!(s.particles, 2);
+    assert!(s.completed && s.observables["temperature"].mean.is_finite());
+    assert!(s.observables["momentum_x"].mean.abs() < 1e-9);
+}
+
+/// The stock 8³ fluid (cutoff + skin = 1.4) on 5 ranks: slabs of 1.6, the thinnest the box
+/// allows, still give the one-rank run's bits; 6 ranks are refused naming 5.
+#[test]
+fn slabs_one_interaction_range_thick() {
+    let mut loaded = stock_case("dpd_equilibrium_3d.toml");
+    loaded.case.run.steps = 60;
+    loaded.case.run.equilibration = 0;
+    assert_eq!(mesorheo::check::max_ranks(&loaded.case), 5);
+    let one = run_in_process(&loaded, 1, 1, None).expect("1 rank");
+    let five = run_in_process(&loaded, 5, 1, None).expect("5 ranks");
+    assert_eq!(one.state_digest, five.state_digest);
+    let err = run_in_process(&loaded, 6, 1, None)
+        .err()
+        .expect("6 ranks refused");
+    assert!(err.contains("at most 5"), "{err}");
+}
+
+/// Validation refuses Δt strictly beyond each enforced limit and accepts it at and just below:
+/// the DPD dissipative and Verlet limits (each made the binding one in turn) and the SPH
+/// binding limit of the stock Couette case.
+#[test]
+fn time_steps_at_and_around_each_limit() {
+    let parse = |text: &str| {
+        mesorheo::config::parse_scene(text, std::path::Path::new("dt.toml"))
+            .map(|_| ())
+            .map_err(|e| e.to_string())
+    };
+    // Dissipative limit binding (large γ), then the Verlet limit (large a).
+    for (fluid, what) in [
+        ("a = 25.0\ngamma = 400.0", "dissipative force"),
+        (
+            "a = 20000.0\ngamma = 4.5",
+            "velocity-Verlet stability limit",
+        ),
+    ] {
+        let base = small_dpd(3, 6.0, 0.0, 10, "").replace("a = 25.0\ngamma = 4.5", fluid);
+        let case = case_from_str(&base.replace("dt = 0.04", "dt = 1e-6"), "probe").case;
+        let mesorheo::config::FluidCfg::Dpd(d) = &case.fluid else {
+            unreachable!()
+        };
+        let l = mesorheo::stability::dpd_limits(d, 3, 3.0, 1.0);
+        let limit = l.dissipative.min(l.conservative);
+        let at = |dt: f64| parse(&base.replace("dt = 0.04", &format!("dt = {dt:e}")));
+        if let Err(e) = at(limit * (1.0 - 1e-9)) {
+            panic!("{what}: just below: {e}");
+        }
+        if let Err(e) = at(limit) {
+            panic!("{what}: at the limit: {e}");
+        }
+        let err = at(limit * (1.0 + 1e-9)).expect_err("just above");
+        assert!(err.contains(what), "{err}");
+    }
+    // Without its start-up references, whose times must be multiples of the sampling interval.
+    let couette = common::stock_text("sph_couette_2d.toml");
+    let couette = couette[..couette.find("[[reference]]").expect("references")].to_owned();
+    let case = case_from_str(&couette, "couette").case;
+    let mesorheo::config::FluidCfg::Sph(s) = &case.fluid else {
+        unreachable!()
+    };
+    let (name, limit) = mesorheo::stability::sph_binding_limit(s, false);
+    let dt_line = couette
+        .lines()
+        .find(|l| l.trim_start().starts_with("dt ="))
+        .expect("a dt line")
+        .to_owned();
+    let at = |dt: f64| parse(&couette.replace(&dt_line, &format!("dt = {dt:e}")));
+    if let Err(e) = at(limit * (1.0 - 1e-9)).and(at(limit)) {
+        panic!("{name}: at or just below: {e}");
+    }
+    let err = at(limit * (1.0 + 1e-9)).expect_err("just above the SPH limit");
+    assert!(err.contains(name), "{name}: {err}");
+}
+
+/// FENE dumbbells at Wi = 100 with b = 2.01 (almost rigid, almost fully stretched): the
+/// semi-implicit scheme keeps every |Q|² < b, ⟨Q²⟩ < b and the stresses finite.
+#[test]
+fn fene_at_wi_100_with_b_2_01() {
+    let text = common::stock_text("dumbbells_fene_shear_3d.toml");
+    // Without the stock references (they are for Wi = 1, b = 50).
+    let text = text[..text.find("[[reference]]").expect("references")].to_owned();
+    let overrides: Vec<String> = [
+        "flow.rate=100.0",
+        "polymer.b=2.01",
+        "integrator.dt=0.001",
+        "run.steps=1500",
+        "run.equilibration=500",
+        "flow.particles=50",
+        "polymer.per_particle=100",
+    ]
+    .iter()
+    .map(|s| s.to_string())
+    .collect();
+    let dir = tempfile::tempdir().expect("tempdir");
+    let path = dir.path().join("fene.toml");
+    std::fs::write(&path, text).expect("write");
+    let loaded = mesorheo::config::load_scene(&path, &overrides).unwrap_or_else(|e| panic!("{e}"));
+    let mesorheo::config::Scene::HomogeneousFlow(flow) = loaded.scene else {
+        panic!("a homogeneous-flow scene");
+    };
+    let comm = mesorheo::comm::SerialComm::new();
+    let s = mesorheo::driver::run_flow_case(
+        &flow,
+        &path,
+        &comm,
+        &mesorheo::driver::RunOptions {
+            threads: 2,
+            ..Default::default()
+        },
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    let q_max = s.observables["max_connector_length"].mean;
+    let q2 = s.observables["mean_square_connector_length"].mean;
+    assert!(
+        q_max * q_max < 2.01 && q2 < 2.01 && q2 > 1.0,
+        "max |Q| {q_max}, ⟨Q²⟩ {q2}"
+    );
+    assert!(s.observables.values().all(|e| e.mean.is_finite()));
+}
+
+/// A 10⁶-particle DPD scene on one rank: about 0.5 GiB, which fits 24 GiB and is refused with
+/// 0.25 GiB (naming 3 ranks or more).
+#[test]
+fn a_million_particles_on_one_rank_against_the_memory_check() {
+    let text = small_dpd(3, 69.4, 0.0, 10, "");
+    let case = case_from_str(&text, "million").case;
+    let (_, n) = case.lattice_counts();
+    assert!((990_000..1_010_000).contains(&n), "{n} particles");
+    let gib = 1024.0 * 1024.0 * 1024.0;
+    let need = mesorheo::check::rank_memory(&case, 1);
+    assert!(need > 0.1 * gib && need < 2.0 * gib, "{} GiB", need / gib);
+    assert!(mesorheo::check::check_rank_memory(&case, 1, Some(24.0 * gib)).is_ok());
+    let err = mesorheo::check::check_rank_memory(&case, 1, Some(0.5 * need / 0.9))
+        .expect_err("refused with half the memory it needs");
+    assert!(
+        err.contains("run on at least 2 ranks") || err.contains("run on at least 3 ranks"),
+        "{err}"
+    );
+}
