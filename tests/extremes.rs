@@ -49,10 +49,10 @@ fn dpd_without_repulsion_and_with_a_huge_one() {
         "{p:?} vs n k_BT"
     );
     let stiff = small_dpd(3, 6.0, 0.0, 300, extra).replace("a = 25.0", "a = 1000000.0");
-    let err = mesorheo::config::parse_scene(&stiff, std::path::Path::new("stiff.toml"))
-        .err()
-        .expect("refused at Δt = 0.04")
-        .to_string();
+    let Err(err) = mesorheo::config::parse_scene(&stiff, std::path::Path::new("stiff.toml")) else {
+        panic!("a = 10⁶ at Δt = 0.04 should be refused");
+    };
+    let err = err.to_string();
     assert!(err.contains("velocity-Verlet stability limit"), "{err}");
     let loaded = case_from_str(&stiff.replace("a = 1000000.0", "a = 25.0"), "soft.toml");
     let mut case = loaded.case.clone();
@@ -108,9 +108,9 @@ fn slabs_one_interaction_range_thick() {
     let one = run_in_process(&loaded, 1, 1, None).expect("1 rank");
     let five = run_in_process(&loaded, 5, 1, None).expect("5 ranks");
     assert_eq!(one.state_digest, five.state_digest);
-    let err = run_in_process(&loaded, 6, 1, None)
-        .err()
-        .expect("6 ranks refused");
+    let Err(err) = run_in_process(&loaded, 6, 1, None) else {
+        panic!("6 ranks should be refused");
+    };
     assert!(err.contains("at most 5"), "{err}");
 }
 
