@@ -369,7 +369,9 @@ pub fn validate(case: &Case, ix: &SpanIndex) -> Result<(), CaseError> {
                     &["integrator", "dt"],
                     format!(
                         "Δt = {} is beyond the explicit stability limit of the dissipative force, \
-                         Δt < m / (γ Σ_j w_D) ≈ {:.4} for this density and γ; use a smaller time step",
+                         Δt < m / (γ Σ_j w_D) ≈ {:.4e} for this density and γ; use a smaller time \
+                         step, or thermostat = \"exponential\" (which integrates the friction \
+                         exactly)",
                         dt, limits.dissipative
                     ),
                 );
@@ -379,7 +381,7 @@ pub fn validate(case: &Case, ix: &SpanIndex) -> Result<(), CaseError> {
                     &["integrator", "dt"],
                     format!(
                         "Δt = {} is beyond the velocity-Verlet stability limit of the conservative force, \
-                         Δt < 2/ω ≈ {:.4} (ω² = a N_c / (r_c D m)); use a smaller time step or a softer a",
+                         Δt < 2/ω ≈ {:.4e} (ω² = a N_c / (r_c D m)); use a smaller time step or a softer a",
                         dt, limits.conservative
                     ),
                 );
