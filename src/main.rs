@@ -365,7 +365,13 @@ fn session(
                 eprintln!("error: {e}");
             }
             tracing::error!("{e}");
-            ExitCode::FAILURE
+            // A blow-up has its own code, so a script (or a stability bisection) can tell
+            // it from a failure of the machine or the files.
+            if e.contains(mesorheo::sim::UNSTABLE) {
+                ExitCode::from(4)
+            } else {
+                ExitCode::FAILURE
+            }
         }
     }
 }

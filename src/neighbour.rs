@@ -328,13 +328,34 @@ impl<const D: usize> NeighbourList<D> {
 
     /// Largest displacement of an owned particle since the build (local to this rank).
     pub fn max_displacement(&self, particles: &Particles<D>) -> f64 {
-        let m2 = particles.pos[..particles.n_owned]
+        self.largest_displacement(particles).0
+    }
+
+    /// The largest displacement of an owned particle since the build and its index: a
+    /// position that is not finite counts as an infinite displacement (`f64::max` alone would
+    /// drop a NaN and let a blown-up particle through). Ties go to the lower index, so the
+    /// answer does not depend on the threads.
+    pub fn largest_displacement(&self, particles: &Particles<D>) -> (f64, usize) {
+        let (m2, i) = particles.pos[..particles.n_owned]
             .par_iter()
             .zip(self.build_pos.par_iter())
+            .enumerate()
             .with_min_len(4096)
-            .map(|(p, q)| dist2(p, q))
-            .reduce(|| 0.0, f64::max);
-        m2.sqrt()
+            .map(|(i, (p, q))| {
+                let d = dist2(p, q);
+                (if d.is_nan() { f64::INFINITY } else { d }, i)
+            })
+            .reduce(
+                || (0.0, usize::MAX),
+                |a, b| {
+                    if b.0 > a.0 || (b.0 == a.0 && b.1 < a.1) {
+                        b
+                    } else {
+                        a
+                    }
+                },
+            );
+        (m2.sqrt(), i)
     }
 
     /// Number of listed pairs.

@@ -138,6 +138,10 @@ pub struct Simulation<'c, const D: usize> {
     stop_agreed: bool,
 }
 
+/// What every blow-up diagnosis says (a force, a position or a moment sum that is not finite,
+/// a particle beyond the neighbour list's reach): `mesorheo run` exits with code 4 on it.
+pub const UNSTABLE: &str = "the run is unstable";
+
 /// Name of the extra field that carries the neighbour-list build positions in checkpoints.
 pub const LIST_REFERENCE_FIELD: &str = "list_reference_position";
 
@@ -887,7 +891,7 @@ impl<'c, const D: usize> Simulation<'c, D> {
                 if failed[0] > 0.0 {
                     return Err(format!(
                         "the pass `{}` of the model {} failed on another rank at step {} (a \
-                         pair term not finite or out of range): the run is unstable (time step \
+                         pair term not finite or out of range): {UNSTABLE} (time step \
                          too large?)",
                         self.pass_names[m][k],
                         model.name(),
@@ -962,10 +966,8 @@ impl<'c, const D: usize> Simulation<'c, D> {
         let t1 = Instant::now();
         let (list, particles) = (&self.list, &self.particles);
         // One reduction per stage carries the displacement and any rank's stop request.
-        let mut moved = [
-            self.pool.install(|| list.max_displacement(particles)),
-            if self.stop_requested_here { 1.0 } else { 0.0 },
-        ];
+        let (largest, culprit) = self.pool.install(|| list.largest_displacement(particles));
+        let mut moved = [largest, if self.stop_requested_here { 1.0 } else { 0.0 }];
         self.comm.allreduce_max(&mut moved);
         self.stop_agreed = moved[1] > 0.0;
         let drift = if self.sim_box.sheared() {
@@ -974,13 +976,28 @@ impl<'c, const D: usize> Simulation<'c, D> {
             0.0
         };
         if moved[0] > self.range() {
-            // Decided on the globally reduced value, so every rank count stops alike.
+            // Decided on the globally reduced value, so every rank count stops alike; the rank
+            // holding the particle names it (the largest id among ties).
+            let mut id = [if largest == moved[0] && culprit < self.particles.n_owned {
+                self.particles.gid[culprit] as f64
+            } else {
+                -1.0
+            }];
+            self.comm.allreduce_max(&mut id);
+            let what = if moved[0].is_finite() {
+                format!(
+                    "moved {:.3} (more than cutoff + skin = {:.3}) since the neighbour list was \
+                     built at step {}",
+                    moved[0],
+                    self.range(),
+                    self.halo.step_at_build()
+                )
+            } else {
+                "has a position that is not finite (NaN or infinite)".to_string()
+            };
             return Err(format!(
-                "a particle moved {:.3} (more than cutoff + skin = {:.3}) since the neighbour \
-                 list was built at step {}: the run is unstable; reduce the time step",
-                moved[0],
-                self.range(),
-                self.halo.step_at_build()
+                "particle {} {what}, at step {}: {UNSTABLE}; reduce the time step",
+                id[0] as u64, self.step
             ));
         }
         if 2.0 * moved[0] + drift.abs() > self.skin {

@@ -133,6 +133,40 @@ fn an_exploding_force_is_reported_not_accumulated() {
     assert!(err.contains("unstable"), "{err}");
 }
 
+/// Blow-up detection (issue #18): a particle whose position becomes NaN is caught at the next
+/// step's displacement check, on every rank alike, with a diagnosis naming it (`f64::max`
+/// alone would skip the NaN and let the run go on); a particle thrown beyond the list's reach
+/// is named with its displacement. Both say "the run is unstable", on which `mesorheo run`
+/// exits with code 4. Fails if NaN displacements are dropped again (the step then succeeds).
+#[test]
+fn a_non_finite_or_runaway_particle_is_named() {
+    let loaded = case_from_str(&small_dpd(3, 6.0, 0.0, 10, ""), "nan");
+    let comm = SerialComm::new();
+    for (poison, expect) in [
+        (f64::NAN, "has a position that is not finite"),
+        (0.0, "(more than cutoff + skin"),
+    ] {
+        let mut sim =
+            Simulation::<3>::new(&loaded.case, &comm, 1).unwrap_or_else(|e| panic!("{e}"));
+        sim.advance().expect("a good step");
+        let k = (0..sim.particles.n_owned)
+            .find(|&k| sim.particles.gid[k] == 17)
+            .expect("particle 17 is owned");
+        // A NaN position, or a kick of 30 per step along x (the list reaches 1.3).
+        sim.particles.pos[k][0] += poison;
+        if poison.is_finite() {
+            sim.particles.vel[k][0] += 30.0 / 0.04;
+        }
+        let err = sim.advance().expect_err("the blow-up is caught");
+        assert!(
+            err.contains("particle 17")
+                && err.contains(expect)
+                && err.contains(mesorheo::sim::UNSTABLE),
+            "{err}"
+        );
+    }
+}
+
 /// The profile-unbiased temperature removes the whole linear shear profile, including its
 /// variation inside a bin: a lattice moving exactly with u_x = γ̇ (y − L_y/2) at k_BT = 0 reads
 /// k_BT = 0 and no kinetic normal stress (a constant bin mean would read m γ̇² Δ² / (12 D) ≈

@@ -1178,6 +1178,22 @@ fn validate_sph(
             ),
         ));
     }
+    // A fluid particle sees one support deep: layers beyond the channel's own width (or two
+    // supports, for a narrow channel) only cost memory; an absurd value would overflow the
+    // layer count.
+    let thickest = case.domain.lengths[w.axis.index()].max(2.0 * s.support());
+    if let Some(t) = w.thickness
+        && t > thickest
+    {
+        return Err(ix.error(
+            &wk("thickness"),
+            format!(
+                "found {t}; a wall needs to be only one kernel support thick ({}); at most \
+                 {thickest} (the channel width or two supports, whichever is larger) is accepted",
+                s.support()
+            ),
+        ));
+    }
     let msph = s.derivatives == crate::models::sph::Derivatives::Msph;
     match w.treatment {
         crate::models::sph::WallTreatment::Mirror if !msph => {

@@ -14,6 +14,7 @@
 use crate::fixed_sum::{FixedSum, Split};
 use crate::neighbour::{NEAR_AT_BUILD, NeighbourList};
 use crate::particles::Particles;
+use crate::sim::UNSTABLE;
 use crate::simd::Isa;
 use rayon::prelude::*;
 
@@ -436,7 +437,7 @@ pub fn compute_forces<const D: usize, K: PairKernel<D>>(
     if let Some(&(a, b, f)) = results.iter().find_map(|(_, bad)| bad.as_ref()) {
         return Err(format!(
             "pair force {f:e} between particles {a} and {b} at step {step} is not finite or \
-             exceeds {:e}: the run is unstable (time step too large, or particles overlapping)",
+             exceeds {:e}: {UNSTABLE} (time step too large, or particles overlapping)",
             FixedSum::MAX_TERM
         ));
     }

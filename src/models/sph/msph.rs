@@ -23,6 +23,7 @@
 use super::kernels::{Kernel, TruncatedGaussian};
 use crate::models::gather::FullList;
 use crate::particles::Particles;
+use crate::sim::UNSTABLE;
 use rayon::prelude::*;
 
 /// Unknowns per particle: 1 + D + D(D + 1)/2 (6 in 2D, 10 in 3D).
@@ -309,7 +310,7 @@ impl std::fmt::Display for NotFinite {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         write!(
             f,
-            "the MSPH moment sums of particle {} are not finite: the run is unstable (time step \
+            "the MSPH moment sums of particle {} are not finite: {UNSTABLE} (time step \
              too large, particles overlapping)",
             self.gid
         )
