@@ -43,8 +43,11 @@ and writes plots to docs/ when matplotlib is available.
   transverse_current  η(k) of Nguyen's ch. 4 solvent by transverse-current correlations against
                  the thesis, and a Lees–Edwards η of the same fluid; docs/transverse_current.png
                  (~1.5 h; MESORHEO_TCAF_OUT=DIR reuses a finished run of the case)
-  kt_vs_dt_low_mass  Nguyen's Table 3.1 (m = 0.01 Couette): k_BT against Δt for velocity Verlet
-                 (~2 min)
+  kt_vs_dt_low_mass  Nguyen's Table 3.1 (m = 0.01 Couette): k_BT against Δt for velocity Verlet,
+                 explicit and with the exponential thermostat (~4 min)
+  fuzz           the long fuzz of the stock case files through `mesorheo check` (the ignored test
+                 tests/check_fuzz.rs::long_fuzz_through_check; MESORHEO_FUZZ_VARIANTS per case,
+                 default here 100 000, ~7 min): no panic, no hang
 """
 import json, math, os, subprocess, sys, tempfile
 
@@ -1133,6 +1136,34 @@ T8_THESIS_SETD = {5e-4: 0.4928, 2.5e-4: 0.7717, 1e-4: 0.9525, 7.5e-5: 0.9723, 5e
                   1e-5: 0.9984}  # the same table, SETD column
 
 
+def mean_field_friction_rate(case):
+    """ω₀ = γ n [w_D]/(d m) of a DPD case as run (its mapped γ and s): the rate the exponential
+    thermostat integrates exactly (spec §10 A7; src/stability.rs)."""
+    fluid, d = case["fluid"], case["dimension"]
+    s, rc = fluid["weight_exponent"], fluid["cutoff"]
+    n, m = case["particles"]["density"], case["particles"]["mass"]
+    if d == 2:
+        wd = 2 * math.pi * rc ** 2 / ((s + 1) * (s + 2))
+    else:
+        wd = 8 * math.pi * rc ** 3 / ((s + 1) * (s + 2) * (s + 3))
+    return fluid["gamma"] * n * wd / (d * m)
+
+
+def fuzz():
+    """The ignored long fuzz of tests/check_fuzz.rs: every stock case mutated as text and taken
+    through what `mesorheo check` does, asserting no panic and no hang."""
+    variants = os.environ.get("MESORHEO_FUZZ_VARIANTS", "100000")
+    print(f"### Fuzz of the stock case files through check ({variants} variants per case)\n")
+    env = dict(ENV, MESORHEO_FUZZ_VARIANTS=variants)
+    p = subprocess.run(["cargo", "test", "--release", "--test", "check_fuzz", "--",
+                        "--ignored", "--nocapture", "long_fuzz_through_check"],
+                       cwd=ROOT, env=env, capture_output=True, text=True)
+    tail = [l for l in (p.stdout + p.stderr).splitlines() if l.strip()][-12:]
+    print("\n".join(tail))
+    if p.returncode != 0:
+        sys.exit("fuzz: a panic or a hang (above)")
+
+
 def kt_vs_dt_low_mass():
     """Nguyen 2021 Table 3.1 (spec T8): the low-mass Couette fluid (2D 10 × 10, n = 10, r_c = 1.6,
     m = 0.01, η = 100, α = 10 → a = 234.08, s̄ = 13.92, γ = 3.825; Lees–Edwards γ̇ = 0.2) under
@@ -1178,9 +1209,9 @@ profile_bins = 100
 blocks = 10
 """
     print("| Δt | ω₀Δt | explicit k_BT | explicit k_BT_x = P_kin,xx/n | thesis VV | exponential k_BT | "
-          "exponential η (φη_input) | thesis SETD | steps |")
+          "exponential η (φη_input = 100φ) | thesis SETD | steps |")
     print("|---|---|---|---|---|---|---|---|---|")
-    omega0 = 8203.125  # γ n [w_D]/(d m) of this fluid (mesorheo check)
+    omega0 = None  # γ n [w_D]/(d m), from the mapped fluid of the first run's summary
     for dt in sorted(T8_THESIS_VV, reverse=True):
         steps = int(round(0.5 / dt))
         row = {}
@@ -1193,6 +1224,8 @@ blocks = 10
         cells = []
         for thermostat in ("explicit", "exponential"):
             summary, stderr = row[thermostat]
+            if summary is not None and omega0 is None:
+                omega0 = mean_field_friction_rate(summary["case"])
             if summary is None:
                 cells.append([f"blow-up: {_stock_error(stderr)}", ""])
                 continue
@@ -1207,7 +1240,8 @@ blocks = 10
                 cells.append([fmt(o["temperature"]), f"{fmt(o['viscosity'])} ({100 * phi:.1f})"])
         vv = T8_THESIS_VV[dt]
         vv = "diverges" if vv is None else f"{vv:.4f}"
-        print(f"| {dt:g} | {omega0 * dt:.3f} | {cells[0][0]} | {cells[0][1]} | {vv} | {cells[1][0]} | "
+        x = "?" if omega0 is None else f"{omega0 * dt:.3f}"
+        print(f"| {dt:g} | {x} | {cells[0][0]} | {cells[0][1]} | {vv} | {cells[1][0]} | "
               f"{cells[1][1]} | {T8_THESIS_SETD[dt]:.4f} | {steps} |")
 
 
@@ -1225,14 +1259,15 @@ if __name__ == "__main__":
     todo = sys.argv[1:] or ["stock", "kt_vs_dt", "viscosity", "viscometric", "sph", "sph_convergence", "maxwell",
                             "inclusion", "maxwell_convergence", "maxwell_stability", "connffessit_shear",
                             "msph_channel", "weak_order", "fene_table", "transverse_current",
-                            "kt_vs_dt_low_mass"]
+                            "kt_vs_dt_low_mass", "fuzz"]
     targets = {"kt_vs_dt": kt_vs_dt, "viscosity": viscosity, "stock": stock,
                "viscometric": viscometric, "sph": sph, "sph_convergence": sph_convergence,
                "maxwell": maxwell, "inclusion": inclusion,
                "maxwell_convergence": maxwell_convergence, "maxwell_stability": maxwell_stability,
                "connffessit_shear": connffessit_shear, "msph_channel": msph_channel,
                "weak_order": weak_order, "fene_table": fene_table,
-               "transverse_current": transverse_current, "kt_vs_dt_low_mass": kt_vs_dt_low_mass}
+               "transverse_current": transverse_current, "kt_vs_dt_low_mass": kt_vs_dt_low_mass,
+               "fuzz": fuzz}
     for name in todo:
         if name not in targets:
             sys.exit(f"unknown validation '{name}'; valid: {', '.join(targets)}")
