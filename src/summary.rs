@@ -438,7 +438,7 @@ pub fn shear_stress_points(
         crate::config::FluidCfg::Dpd(d)
             if d.body_force_profile == crate::models::dpd::BodyForceProfile::Reverse =>
         {
-            d.body_force.first().copied()
+            Some(body_force_x(case))
         }
         _ => None,
     };
@@ -460,11 +460,17 @@ pub fn shear_stress_points(
 
 /// τ_max = |ρ g L_y/4| of a case driven by a reverse body force along x.
 fn double_poiseuille_tau_max(case: &Case) -> f64 {
-    let g = match &case.fluid {
+    (case.particles.density * case.particles.mass * body_force_x(case) * case.domain.lengths[1]
+        / 4.0)
+        .abs()
+}
+
+/// g_x of a DPD fluid's body force (0 without one).
+fn body_force_x(case: &Case) -> f64 {
+    match &case.fluid {
         crate::config::FluidCfg::Dpd(d) => d.body_force.first().copied().unwrap_or(0.0),
         _ => 0.0,
-    };
-    (case.particles.density * case.particles.mass * g * case.domain.lengths[1] / 4.0).abs()
+    }
 }
 
 /// The steady reverse-Poiseuille solution of a case with a `double_poiseuille_profile`
@@ -473,12 +479,10 @@ pub fn double_poiseuille_of(
     case: &Case,
     r: &crate::config::DoublePoiseuilleReference,
 ) -> (impl Fn(f64, f64) -> f64, f64) {
-    let (g, physical) = match &case.fluid {
-        crate::config::FluidCfg::Dpd(d) => (
-            d.body_force.first().copied().unwrap_or(0.0),
-            d.physical.as_ref().map(|p| p.viscosity),
-        ),
-        _ => (0.0, None),
+    let g = body_force_x(case);
+    let physical = match &case.fluid {
+        crate::config::FluidCfg::Dpd(d) => d.physical.as_ref().map(|p| p.viscosity),
+        _ => None,
     };
     let eta = r.viscosity.or(physical).unwrap_or(f64::NAN);
     let rho = case.particles.density * case.particles.mass;

@@ -747,10 +747,7 @@ pub fn validate(case: &Case, ix: &SpanIndex) -> Result<(), CaseError> {
             }
             ReferenceCfg::StartupProfile(sp) => validate_startup_reference(case, sp, i, ix)?,
             ReferenceCfg::DoublePoiseuilleProfile(dp) => {
-                let reverse_x = matches!(&case.fluid, FluidCfg::Dpd(d)
-                    if d.body_force_profile == crate::models::dpd::BodyForceProfile::Reverse
-                        && d.body_force.first().is_some_and(|&g| g != 0.0)
-                        && d.body_force[1..].iter().all(|&g| g == 0.0));
+                let reverse_x = driven_in_reverse_along_x(case);
                 if !reverse_x || shear != 0.0 || !case.wants(Observable::VelocityProfile) {
                     return Err(ix.error(
                         &at("kind"),
@@ -789,10 +786,7 @@ pub fn validate(case: &Case, ix: &SpanIndex) -> Result<(), CaseError> {
                 }
             }
             ReferenceCfg::DoublePoiseuilleStress(ds) => {
-                let reverse_x = matches!(&case.fluid, FluidCfg::Dpd(d)
-                    if d.body_force_profile == crate::models::dpd::BodyForceProfile::Reverse
-                        && d.body_force.first().is_some_and(|&g| g != 0.0)
-                        && d.body_force[1..].iter().all(|&g| g == 0.0));
+                let reverse_x = driven_in_reverse_along_x(case);
                 if !reverse_x
                     || shear != 0.0
                     || !case.wants(Observable::ShearStressProfile)
@@ -817,6 +811,15 @@ pub fn validate(case: &Case, ix: &SpanIndex) -> Result<(), CaseError> {
         }
     }
     Ok(())
+}
+
+/// Whether the case is a DPD fluid driven along x by a reverse ("double Poiseuille") body force,
+/// the flow both double-Poiseuille references need.
+fn driven_in_reverse_along_x(case: &Case) -> bool {
+    matches!(&case.fluid, FluidCfg::Dpd(d)
+        if d.body_force_profile == crate::models::dpd::BodyForceProfile::Reverse
+            && d.body_force.first().is_some_and(|&g| g != 0.0)
+            && d.body_force[1..].iter().all(|&g| g == 0.0))
 }
 
 /// `[inclusions]`: each inside the box (none straddles a boundary, so a sheared image never
