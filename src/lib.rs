@@ -56,6 +56,7 @@ pub mod simd;
 pub mod species;
 pub mod stability;
 pub mod stress_profile;
+pub mod study;
 pub mod summary;
 pub mod tcaf_fit;
 pub mod transverse_current;

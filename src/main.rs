@@ -95,6 +95,22 @@ enum Command {
     },
     /// Print the case-file key reference (Markdown).
     Keys,
+    /// Speed/accuracy study: run every point of a sweep file (knobs × values) as an ordinary
+    /// run, and write the error against cost (study.csv, study.png), the Pareto front and the
+    /// cheapest point meeting a tolerance. Resumes: finished points are not run again.
+    Study {
+        /// Sweep file (TOML; see the README's "Studies").
+        sweep: PathBuf,
+        /// Output folder (default: out/study/<sweep name>).
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Tolerance of the recommendation (overrides the sweep's `target`).
+        #[arg(long, value_name = "TOL", value_parser = positive_hours)]
+        target: Option<f64>,
+        /// Run every point again, even those already done.
+        #[arg(long)]
+        rerun: bool,
+    },
 }
 
 fn main() -> ExitCode {
@@ -113,6 +129,23 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     let root = comm.rank() == 0;
     match cli.command {
+        Command::Study {
+            sweep,
+            out,
+            target,
+            rerun,
+        } => {
+            if comm.size() > 1 {
+                if root {
+                    eprintln!(
+                        "error: run `mesorheo study` without mpirun: it launches each point \
+                         itself, on the sweep file's `ranks`"
+                    );
+                }
+                return ExitCode::from(2);
+            }
+            study(&sweep, out, target, rerun, cli.quiet)
+        }
         Command::Keys => {
             if root {
                 print!("{}", config::reference::render_markdown());
@@ -271,6 +304,61 @@ fn main() -> ExitCode {
     }
 }
 
+/// `mesorheo study`: runs the sweep, prints the recommendation.
+fn study(
+    sweep: &std::path::Path,
+    out: Option<PathBuf>,
+    target: Option<f64>,
+    rerun: bool,
+    quiet: bool,
+) -> ExitCode {
+    let loaded = match mesorheo::study::load_sweep(sweep) {
+        Ok(s) => s,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::from(2);
+        }
+    };
+    let out = out.unwrap_or_else(|| {
+        let stem = sweep
+            .file_stem()
+            .map_or("study".into(), |s| s.to_string_lossy().to_string());
+        PathBuf::from("out/study").join(stem)
+    });
+    let exe = match std::env::current_exe() {
+        Ok(e) => e,
+        Err(e) => {
+            eprintln!("error: cannot locate the mesorheo executable to run the points: {e}");
+            return ExitCode::FAILURE;
+        }
+    };
+    let python = std::env::var_os("MESORHEO_PYTHON")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| PathBuf::from("python3"));
+    let options = mesorheo::study::StudyOptions {
+        out: out.clone(),
+        exe,
+        target,
+        rerun,
+        python: Some(python),
+        progress: !quiet,
+    };
+    match mesorheo::study::run_study(&loaded, &options) {
+        Ok(analysis) => {
+            print!("{}", analysis.recommendation);
+            println!(
+                "wrote {0}/study.csv, {0}/study.png, {0}/recommendation.txt",
+                out.display()
+            );
+            ExitCode::SUCCESS
+        }
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
 #[cfg(feature = "hdf5")]
 fn info(root: bool, file: &std::path::Path) -> ExitCode {
     match mesorheo::output::info::describe(file) {
@@ -416,7 +504,7 @@ fn init_logging(
     Ok(guard)
 }
 
-/// `--max-hours`: a positive, finite number of hours.
+/// `--max-hours` (and `--target`): a positive, finite number.
 fn positive_hours(text: &str) -> Result<f64, String> {
     match text.parse::<f64>() {
         Ok(h) if h.is_finite() && h > 0.0 => Ok(h),

@@ -662,6 +662,14 @@ impl Scene {
         }
     }
 
+    /// The time step and the run lengths.
+    pub fn dt_and_run(&self) -> (f64, &RunCfg) {
+        match self {
+            Scene::Particles(c) => (c.integrator.dt(), &c.run),
+            Scene::HomogeneousFlow(c) => (c.integrator.dt, &c.run),
+        }
+    }
+
     /// The scene as TOML (the echo stored in checkpoints and summaries).
     pub fn to_toml(&self) -> Result<String, String> {
         match self {
