@@ -98,7 +98,7 @@ fn run(pt: &Point, seed: u64) -> Result {
     let avg = (pt.t_avg / pt.dt).round() as u64;
     let every = ((0.1 / pt.dt).round() as u64).max(1);
     while e.step < warm {
-        e.advance();
+        e.advance().expect("a stable step");
     }
     let np = pt.particles as usize;
     let (mut xy, mut n1, mut k) = (vec![0.0; np], vec![0.0; np], 0.0);
@@ -106,7 +106,7 @@ fn run(pt: &Point, seed: u64) -> Result {
     // Control copy: E[τ_eq] is 0 for τ_xy and N₁ by isotropy (any spring, any Δt), and only
     // those two are used, so τ(Q) − τ(Q_eq) is unbiased.
     for i in 1..=avg {
-        e.advance();
+        e.advance().expect("a stable step");
         if i % every == 0 {
             for j in 0..np {
                 let mut s = kramers_stress::<3>(&e.ensemble(j), p.spring);

@@ -608,6 +608,20 @@ pub fn flow_report(case: &crate::config::FlowCase, ranks: usize) -> (String, Res
         case.run.equilibration,
         case.run.sample_every
     ));
+    line(match crate::config::flow::explicit_stability_limit(case) {
+        Some(limit) => format!(
+            "stability: explicit scheme, Δt < 4λ/(1 + 2λc) = {limit:.4} [{}]",
+            if params.dt < limit {
+                "ok"
+            } else {
+                "BEYOND (run.beyond_stability_limits)"
+            }
+        ),
+        None => "stability: semi-implicit scheme, stable at any Δt [ok]".to_string(),
+    });
+    for w in crate::config::flow::accuracy_warnings(case) {
+        line(format!("accuracy: {w} [warning]"));
+    }
     line(format!(
         "memory: {:.3} MiB on the largest of {ranks} rank(s), {:.3} MiB in all ({}{})",
         per_rank / (1024.0 * 1024.0),

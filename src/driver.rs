@@ -52,6 +52,11 @@ pub fn run_flow_case(
     options: &RunOptions,
 ) -> Result<Summary, String> {
     let threads = threads_of(options);
+    if comm.rank() == 0 {
+        for w in crate::config::flow::accuracy_warnings(case) {
+            tracing::warn!("{w}");
+        }
+    }
     match case.dimension {
         2 => {
             let scene = FlowScene::<2>::fresh(case, comm, threads)?;

@@ -430,16 +430,30 @@ impl<const D: usize> Scene for FlowScene<'_, D> {
 
     fn advance(&mut self) -> Result<(), String> {
         let t = Instant::now();
-        self.e.advance();
+        let outside = self.e.advance();
         self.times.integrate += t.elapsed().as_secs_f64();
         if self.e.step.is_multiple_of(self.case.run.sample_every) {
             let t = Instant::now();
             sample(&self.e, &self.case, &mut self.series, &mut self.averages);
             self.times.diagnostics += t.elapsed().as_secs_f64();
         }
-        // Every rank stops after the same step.
-        let mut stop = [if self.stop_requested_here { 1.0 } else { 0.0 }];
+        // Every rank stops after the same step; one reduction carries the stop requests and
+        // the blow-ups. The rank that saw a dumbbell leave its domain names it; the others say
+        // where to look.
+        let mut stop = [
+            if self.stop_requested_here { 1.0 } else { 0.0 },
+            if outside.is_err() { 1.0 } else { 0.0 },
+        ];
         self.comm.allreduce_max(&mut stop);
+        outside?;
+        if stop[1] > 0.0 {
+            return Err(format!(
+                "a dumbbell on another rank left the spring's domain at step {}: {} (see that \
+                 rank's log)",
+                self.e.step,
+                crate::sim::UNSTABLE
+            ));
+        }
         self.stop_agreed = stop[0] > 0.0;
         Ok(())
     }

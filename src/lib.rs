@@ -55,6 +55,7 @@ pub mod sim;
 pub mod simd;
 pub mod species;
 pub mod stability;
+pub mod stability_map;
 pub mod stress_profile;
 pub mod study;
 pub mod summary;

@@ -111,6 +111,40 @@ enum Command {
         #[arg(long)]
         rerun: bool,
     },
+    /// Stability map: the largest stable value of a knob (by bisection over trial runs that a
+    /// blow-up detector stops or not) at each value of a second parameter, beside what `check`
+    /// accepts (stability.csv, stability.png).
+    Stability {
+        /// Case file (TOML).
+        case: PathBuf,
+        /// The knob to maximise.
+        #[arg(long, default_value = "integrator.dt")]
+        vary: String,
+        /// The second parameter: KEY=a..b (with --points, --log) or KEY=v1,v2,….
+        #[arg(long)]
+        over: String,
+        /// Values of a range.
+        #[arg(long, default_value_t = 5)]
+        points: usize,
+        /// Geometric spacing of a range.
+        #[arg(long)]
+        log: bool,
+        /// Steps of every trial run.
+        #[arg(long, default_value_t = 1000)]
+        steps: u64,
+        /// Stop bisecting when unstable/stable ≤ 1 + this.
+        #[arg(long, default_value_t = 0.05)]
+        tolerance: f64,
+        /// Fixed overrides of every trial (repeatable).
+        #[arg(long = "set", value_name = "KEY=VALUE")]
+        overrides: Vec<String>,
+        /// rayon threads of every trial.
+        #[arg(long, short = 't', default_value_t = 1)]
+        threads: usize,
+        /// Output folder (default: out/stability/<case name>).
+        #[arg(long)]
+        out: Option<PathBuf>,
+    },
 }
 
 fn main() -> ExitCode {
@@ -145,6 +179,63 @@ fn main() -> ExitCode {
                 return ExitCode::from(2);
             }
             study(&sweep, out, target, rerun, cli.quiet)
+        }
+        Command::Stability {
+            case,
+            vary,
+            over,
+            points,
+            log,
+            steps,
+            tolerance,
+            overrides,
+            threads,
+            out,
+        } => {
+            if comm.size() > 1 {
+                if root {
+                    eprintln!("error: run `mesorheo stability` without mpirun");
+                }
+                return ExitCode::from(2);
+            }
+            let (over, over_values) = match mesorheo::stability_map::parse_over(&over, points, log)
+            {
+                Ok(v) => v,
+                Err(e) => {
+                    eprintln!("error: {e}");
+                    return ExitCode::from(2);
+                }
+            };
+            let Ok(exe) = std::env::current_exe() else {
+                eprintln!("error: cannot locate the mesorheo executable to run the trials");
+                return ExitCode::FAILURE;
+            };
+            let out = out.unwrap_or_else(|| mesorheo::stability_map::default_out(&case));
+            let request = mesorheo::stability_map::StabilityRequest {
+                case,
+                vary,
+                over,
+                over_values,
+                steps,
+                tolerance,
+                set: overrides,
+                threads,
+                out: out.clone(),
+                exe,
+                python: Some(python()),
+                progress: !cli.quiet,
+            };
+            match mesorheo::stability_map::run_stability(&request) {
+                Ok(rows) => {
+                    print!("{}", mesorheo::stability_map::report(&request, &rows));
+                    println!("wrote {0}/stability.csv, {0}/stability.png", out.display());
+                    ExitCode::SUCCESS
+                }
+                Err(e) => {
+                    eprintln!("error: {e}");
+                    ExitCode::FAILURE
+                }
+            }
         }
         Command::Keys => {
             if root {
@@ -304,6 +395,14 @@ fn main() -> ExitCode {
     }
 }
 
+/// The Python (with matplotlib) that draws the plots of study and stability: MESORHEO_PYTHON,
+/// else python3.
+fn python() -> PathBuf {
+    std::env::var_os("MESORHEO_PYTHON")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| PathBuf::from("python3"))
+}
+
 /// `mesorheo study`: runs the sweep, prints the recommendation.
 fn study(
     sweep: &std::path::Path,
@@ -332,15 +431,12 @@ fn study(
             return ExitCode::FAILURE;
         }
     };
-    let python = std::env::var_os("MESORHEO_PYTHON")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| PathBuf::from("python3"));
     let options = mesorheo::study::StudyOptions {
         out: out.clone(),
         exe,
         target,
         rerun,
-        python: Some(python),
+        python: Some(python()),
         progress: !quiet,
     };
     match mesorheo::study::run_study(&loaded, &options) {

@@ -599,61 +599,27 @@ fn run_point(
     let _ = std::fs::remove_file(point_dir.join("point.json"));
     std::fs::create_dir_all(point_dir)
         .map_err(|e| format!("cannot create {}: {e}", point_dir.display()))?;
-    let mut argv: Vec<String> = Vec::new();
-    if sweep.ranks > 1 {
-        argv.extend(
-            sweep
-                .launcher
-                .replace("{ranks}", &sweep.ranks.to_string())
-                .split_whitespace()
-                .map(str::to_string),
-        );
-    }
-    argv.push(opts.exe.display().to_string());
-    argv.extend(
-        [
-            "run",
-            &sweep.case.display().to_string(),
-            "--out",
-            &point_dir.display().to_string(),
-            "-q",
-            "-t",
-            &sweep.threads.to_string(),
-        ]
-        .map(str::to_string),
-    );
-    // The points' checkpoints are not needed (a study reruns a point, it does not extend it).
-    for o in overrides
-        .iter()
-        .map(String::as_str)
-        .chain(["output.checkpoint_at_end=false"])
-    {
-        argv.push("--set".into());
-        argv.push(o.to_string());
-    }
-    let output = Command::new(&argv[0])
-        .args(&argv[1..])
-        .output()
-        .map_err(|e| format!("cannot start {}: {e}", argv[0]))?;
-    let stderr = String::from_utf8_lossy(&output.stderr).to_string();
-    let _ = std::fs::write(point_dir.join("stderr.txt"), &stderr);
-    let last_error = stderr
-        .lines()
-        .rev()
-        .find(|l| l.starts_with("error:"))
-        .unwrap_or("")
-        .trim_start_matches("error: ")
-        .to_string();
+    let (code, last_error) = launch(
+        &opts.exe,
+        &Launch {
+            case: &sweep.case,
+            ranks: sweep.ranks,
+            threads: sweep.threads,
+            launcher: &sweep.launcher,
+        },
+        point_dir,
+        overrides,
+    )?;
     // 0: done; 3: done, but the case's own reference checks failed (expected away from the
     // case's own settings); 4: a blow-up.
-    let status = match output.status.code() {
+    let status = match code {
         Some(0 | 3) => read_summary(point_dir, &sweep.observables)?,
         Some(4) => Status::Unstable(last_error.clone()),
         _ => {
             return Err(format!(
-                "the run of the point {} failed ({}): {last_error} (its output is in {}/)",
+                "the run of the point {} failed (exit {code:?}): {last_error} (its output is in \
+                 {}/)",
                 overrides.join(" "),
-                output.status,
                 point_dir.display()
             ));
         }
@@ -676,6 +642,73 @@ fn run_point(
     std::fs::write(point_dir.join("point.json"), text)
         .map_err(|e| format!("cannot write {}/point.json: {e}", point_dir.display()))?;
     Ok(status)
+}
+
+/// How a child run is started.
+pub struct Launch<'a> {
+    pub case: &'a Path,
+    pub ranks: usize,
+    pub threads: usize,
+    /// Command prefix for ranks > 1, `{ranks}` replaced.
+    pub launcher: &'a str,
+}
+
+/// Runs `mesorheo run` once as a child process in `dir` with `overrides` (and no checkpoint at
+/// the end: a study reruns a point, it does not extend it). Returns the exit code (0: done;
+/// 3: done, but the case's own reference checks failed, as expected away from its settings;
+/// 4: a blow-up; 2: refused) and the last `error:` line of its stderr, kept in
+/// `dir/stderr.txt`.
+pub fn launch(
+    exe: &Path,
+    how: &Launch,
+    dir: &Path,
+    overrides: &[String],
+) -> Result<(Option<i32>, String), String> {
+    std::fs::create_dir_all(dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
+    let mut argv: Vec<String> = Vec::new();
+    if how.ranks > 1 {
+        argv.extend(
+            how.launcher
+                .replace("{ranks}", &how.ranks.to_string())
+                .split_whitespace()
+                .map(str::to_string),
+        );
+    }
+    argv.push(exe.display().to_string());
+    argv.extend(
+        [
+            "run",
+            &how.case.display().to_string(),
+            "--out",
+            &dir.display().to_string(),
+            "-q",
+            "-t",
+            &how.threads.to_string(),
+        ]
+        .map(str::to_string),
+    );
+    for o in overrides
+        .iter()
+        .map(String::as_str)
+        .chain(["output.checkpoint_at_end=false"])
+    {
+        argv.push("--set".into());
+        argv.push(o.to_string());
+    }
+    let output = Command::new(&argv[0])
+        .args(&argv[1..])
+        .output()
+        .map_err(|e| format!("cannot start {}: {e}", argv[0]))?;
+    let stderr = String::from_utf8_lossy(&output.stderr).to_string();
+    let _ = std::fs::write(dir.join("stderr.txt"), &stderr);
+    let last_error = stderr
+        .lines()
+        .rev()
+        .find(|l| l.starts_with("error:"))
+        .unwrap_or("")
+        .trim_start_matches("error: ")
+        .to_string();
+    Ok((output.status.code(), last_error))
 }
 
 /// One observable's error at one point.

@@ -167,6 +167,36 @@ fn a_non_finite_or_runaway_particle_is_named() {
     }
 }
 
+/// Blow-up detection (issue #18), runaway energy: a DPD particle kicked to a peculiar kinetic
+/// energy beyond RUNAWAY_KT + a n_c (here 100 + 25 × 4π/3 × 3 ≈ 416 k_BT) while still within the
+/// lists' reach (v = 30: 1.2 per step of 0.04, below cutoff + skin = 1.3) is stopped at the
+/// next step, named, with its energy. Fails if the energy check is dropped (that step then
+/// succeeds) or measured without the mass, or against the thermal bound alone on the
+/// violent random start of a = 10⁶ (tests/extremes.rs, which must complete).
+#[test]
+fn a_particle_with_a_runaway_kinetic_energy_is_named() {
+    let loaded = case_from_str(&small_dpd(3, 6.0, 0.0, 10, ""), "hot");
+    let comm = SerialComm::new();
+    let mut sim = Simulation::<3>::new(&loaded.case, &comm, 1).unwrap_or_else(|e| panic!("{e}"));
+    sim.advance().expect("a good step");
+    let k = (0..sim.particles.n_owned)
+        .find(|&k| sim.particles.gid[k] == 23)
+        .expect("particle 23 is owned");
+    sim.particles.vel[k] = [30.0, 0.0, 0.0];
+    let err = sim.advance().expect_err("the runaway is caught");
+    assert!(
+        err.contains("particle 23")
+            && err.contains("peculiar kinetic energy")
+            && err.contains(mesorheo::sim::UNSTABLE),
+        "{err}"
+    );
+    let bound = match &loaded.case.fluid {
+        mesorheo::config::FluidCfg::Dpd(d) => mesorheo::sim::runaway_energy_in_kt(d, 3, 3.0),
+        _ => unreachable!(),
+    };
+    assert!((bound - (100.0 + 25.0 * 4.0 * std::f64::consts::PI)).abs() < 1e-9);
+}
+
 /// The profile-unbiased temperature removes the whole linear shear profile, including its
 /// variation inside a bin: a lattice moving exactly with u_x = γ̇ (y − L_y/2) at k_BT = 0 reads
 /// k_BT = 0 and no kinetic normal stress (a constant bin mean would read m γ̇² Δ² / (12 D) ≈

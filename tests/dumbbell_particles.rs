@@ -44,7 +44,7 @@ fn reference(total: u64, scheme: Scheme, precision: Precision) -> Vec<Vec<f64>> 
         e = e.with_single_precision();
     }
     for _ in 0..STEPS {
-        e.advance();
+        e.advance().expect("a stable step");
     }
     (0..total as usize)
         .map(|i| e.ensemble(i).to_vec())

@@ -93,7 +93,7 @@ fn stress_autocorrelation(scheme: Scheme, dt: f64, seed: u64) -> Autocorrelation
     };
     record(&e, 0, &mut series);
     for n in 1..=steps {
-        e.advance();
+        e.advance().expect("a stable step");
         record(&e, n, &mut series);
     }
     // Lag sums per particle group (for the jackknife): C_g(l) = Σ s(n)s(n+l), counts Σ 1.
@@ -399,14 +399,14 @@ fn hookean_shear_reversal_follows_the_exact_moments_and_ucm_at_wi_1_and_5() {
         let mut e =
             HomogeneousEnsembles::<3>::new(&comm, 1, 400, 100, p, flow, seed).expect("ensembles");
         while e.step < r_steps {
-            e.advance();
+            e.advance().expect("a stable step");
         }
         let before = e.stress();
         let mut dip = None;
         for &s in &after {
             let steps = ((t_r + s) / dt).round() as u64;
             while e.step < steps {
-                e.advance();
+                e.advance().expect("a stable step");
             }
             let st = e.stress();
             if s == 1.0 {
@@ -555,13 +555,13 @@ fn steady_shear(
     let avg = (t_avg / p.dt).round() as u64;
     let every = ((0.1 / p.dt).round() as u64).max(1);
     while e.step < warm {
-        e.advance();
+        e.advance().expect("a stable step");
     }
     let np = particles as usize;
     let (mut xy, mut n1, mut k) = (vec![0.0; np], vec![0.0; np], 0.0);
     let mut q2 = vec![0.0; np];
     for i in 1..=avg {
-        e.advance();
+        e.advance().expect("a stable step");
         if i % every == 0 {
             // ⟨|Q|²⟩ as the scene reports it (with control variates when they are on).
             for (j, x) in e.particle_mean_square_lengths().iter().enumerate() {

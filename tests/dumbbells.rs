@@ -48,7 +48,7 @@ fn shear_start_up<const D: usize>(wi: f64) {
     for &t in &checkpoints {
         let steps = (t / dt).round() as u64;
         while e.step < steps {
-            e.advance();
+            e.advance().expect("a stable step");
         }
         let s = e.stress();
         let c = hookean_discrete_moment::<D>(&tensor_rows(&flow.kappa::<D>(0.0)), &p, steps);
@@ -125,13 +125,13 @@ fn steady_shear_viscometric_functions_of_hookean_dumbbells() {
     let comm = mesorheo::comm::SerialComm::new();
     let mut e = HomogeneousEnsembles::<3>::new(&comm, 0, 500, 200, p, flow, 3).expect("ensembles");
     while e.time() < 5.0 - 1e-9 {
-        e.advance();
+        e.advance().expect("a stable step");
     }
     let (mut eta, mut psi1, mut psi2) = (vec![], vec![], vec![]);
     for _ in 0..10 {
         let (mut a, mut b, mut c, mut k) = (0.0, 0.0, 0.0, 0.0);
         for _ in 0..100 {
-            e.advance();
+            e.advance().expect("a stable step");
             if e.step.is_multiple_of(10) {
                 let s = e.stress();
                 a += s.mean[0][1];
@@ -176,7 +176,7 @@ fn uniaxial_elongation_below_the_coil_stretch_transition() {
     for t in [1.0, 3.0] {
         let steps = (t / p.dt).round() as u64;
         while e.step < steps {
-            e.advance();
+            e.advance().expect("a stable step");
         }
         let a = 1.0 / (1.0 - 2.0 * wi);
         let cxx = a + (1.0 - a) * (-(1.0 - 2.0 * wi) * t).exp();
@@ -261,7 +261,7 @@ fn weak_order_one_for_euler_and_two_for_heun() {
     let comm = mesorheo::comm::SerialComm::new();
     let mut e = HomogeneousEnsembles::<2>::new(&comm, 0, 1000, 400, p, flow, 9).expect("ensembles");
     for _ in 0..10 {
-        e.advance();
+        e.advance().expect("a stable step");
     }
     let s = e.stress();
     let c = hookean_discrete_moment::<2>(&tensor_rows(&flow.kappa::<2>(0.0)), &p, 10);
@@ -291,7 +291,7 @@ fn stress_noise_falls_as_one_over_root_n_d() {
         let mut e = HomogeneousEnsembles::<2>::new(&comm, 0, particles, n_d, p, flow, 21)
             .expect("ensembles");
         for _ in 0..50 {
-            e.advance();
+            e.advance().expect("a stable step");
         }
         let sd = e.stress().stderr[0][1] * (particles as f64).sqrt();
         // Expected sd = √(c_xx c_yy + c_xy²)/√N_d (Gaussian Q), ≈ 1.65/√N_d at t = λ.
@@ -348,7 +348,7 @@ fn fene_equilibrium_and_the_bound_at_wi_100() {
         .expect("ensembles");
         let mut largest: f64 = 0.0;
         for _ in 0..300 {
-            e.advance();
+            e.advance().expect("a stable step");
             largest = largest.max(e.max_q2());
         }
         assert!(largest < b, "|Q|² reached {largest} ≥ b = {b}");
@@ -385,7 +385,7 @@ fn ensembles_are_bitwise_identical_on_1_to_3_ranks_and_1_to_2_threads() {
                     8,
                 )?;
                 for _ in 0..30 {
-                    e.advance();
+                    e.advance().expect("a stable step");
                 }
                 let s = e.stress();
                 Ok((e.digest(), s.mean[0][1].to_bits(), s.stderr[0][1].to_bits()))
@@ -419,7 +419,7 @@ fn control_variates_cut_the_error_bar_without_bias() {
                 e = e.with_control_variates();
             }
             for _ in 0..steps {
-                e.advance();
+                e.advance().expect("a stable step");
             }
             let s = e.stress();
             within(

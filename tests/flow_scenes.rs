@@ -190,8 +190,8 @@ fn single_precision_storage_halves_memory_and_changes_only_rounding() {
         .with_single_precision();
     assert_eq!(2 * single.memory_bytes(), double.memory_bytes());
     for _ in 0..200 {
-        double.advance();
-        single.advance();
+        double.advance().expect("a stable step");
+        single.advance().expect("a stable step");
     }
     let (a, b) = (double.stress(), single.stress());
     // The same noise drives both: they differ by the accumulated f32 rounding (2⁻²⁴ ≈ 6·10⁻⁸
@@ -255,4 +255,72 @@ fn stock_dumbbell_scenes_pass_their_references() {
             );
         }
     }
+}
+
+/// Blow-up detection (issue #18), dumbbells: Euler–Maruyama at Δt = 5λ (beyond the explicit
+/// limit 4λ, which the case validation refuses; constructed directly here) amplifies the mean
+/// connector by |1 − Δt/2λ| = 1.5 per step. The run stops at the first step that leaves a
+/// connector beyond the runaway bound 10⁴ × (D + 2Wi²), naming the particle, the dumbbell and
+/// |Q|²: before that step every |Q|² is below the bound, after it the named one is above. Also
+/// the bound itself, and that the FENE bound is b. Fails if the check is dropped (the ensemble
+/// then overflows to NaN silently) or made against the wrong limit.
+#[test]
+fn a_runaway_dumbbell_is_stopped_at_the_step_it_leaves_its_domain() {
+    use mesorheo::comm::SerialComm;
+    use mesorheo::models::dumbbells::{DumbbellParams, Scheme, Spring, outside_domain};
+    use mesorheo::models::homogeneous_flow::{Flow, HomogeneousEnsembles};
+    let comm = SerialComm::new();
+    let p = DumbbellParams {
+        spring: Spring::Hookean,
+        scheme: Scheme::EulerMaruyama,
+        lambda: 1.0,
+        dt: 5.0,
+    };
+    let flow = Flow::SimpleShear { rate: 1.0 };
+    let bound = flow.hookean_runaway_q2(3, 1.0);
+    assert_eq!(bound, 5e4);
+    assert!(
+        Flow::PlanarElongation { rate: 0.6 }
+            .hookean_runaway_q2(3, 1.0)
+            .is_infinite()
+    );
+    let mut e = HomogeneousEnsembles::<3>::new(&comm, 1, 6, 40, p, flow, 4).unwrap();
+    let mut steps = 0;
+    let err = loop {
+        let inside = (0..6).all(|i| outside_domain::<3, f64>(&e.ensemble(i), bound).is_none());
+        assert!(
+            inside,
+            "a connector was already beyond the bound before step {steps}"
+        );
+        match e.advance() {
+            Ok(()) => steps += 1,
+            Err(err) => break err,
+        }
+        assert!(steps < 200, "never stopped");
+    };
+    assert!(
+        err.contains("|Q|²") && err.contains("of particle") && err.contains("runaway"),
+        "{err}"
+    );
+    assert!(err.contains(mesorheo::sim::UNSTABLE), "{err}");
+    let named: u64 = err
+        .split("of particle ")
+        .nth(1)
+        .and_then(|s| s.split_whitespace().next())
+        .and_then(|s| s.parse().ok())
+        .expect("a particle id");
+    let (k, q2) = outside_domain::<3, f64>(&e.ensemble(named as usize), bound).expect("beyond");
+    assert!(
+        q2 >= bound && err.contains(&format!("dumbbell {k} ")),
+        "{err}"
+    );
+    // FENE: the domain is |Q|² < b.
+    assert_eq!(
+        outside_domain::<3, f64>(&[1.0, 1.0, 0.0, 0.5, 0.0, 0.0], 2.0),
+        Some((0, 2.0))
+    );
+    assert_eq!(
+        outside_domain::<3, f32>(&[1.0, 0.9, 0.0, f32::NAN, 0.0, 0.0], 2.0).map(|v| v.0),
+        Some(1)
+    );
 }

@@ -205,6 +205,67 @@ pub fn spring_law(spring: SpringKind, b: Option<f64>) -> Spring {
     }
 }
 
+/// The flow's largest compressive rate c ≥ 0 (minus the most negative eigenvalue of κ): 0 in
+/// shear (κ is nilpotent), ε̇ in planar and ε̇/2 in uniaxial elongation.
+pub fn compressive_rate(f: &FlowCfg) -> f64 {
+    match f.kind {
+        FlowKind::Rest | FlowKind::SimpleShear | FlowKind::ShearReversal => 0.0,
+        FlowKind::PlanarElongation => f.rate.abs(),
+        FlowKind::UniaxialElongation => {
+            if f.rate >= 0.0 {
+                0.5 * f.rate
+            } else {
+                -f.rate
+            }
+        }
+    }
+}
+
+/// The largest stable Δt of the explicit schemes (Euler–Maruyama, Heun) for Hookean springs,
+/// None for the semi-implicit scheme (stable at any Δt). Along an eigen-direction of κ with
+/// eigenvalue μ the mean connector follows Q' = (1 + zΔt) Q (Euler) or
+/// (1 + zΔt + (zΔt)²/2) Q (Heun), z = μ − 1/(2λ); both are bounded iff −2 < zΔt < 0 for the
+/// decaying directions, i.e. Δt < 2/(1/(2λ) + c) = 4λ/(1 + 2λc), c the largest compressive
+/// rate. (A stretching direction with μ > 1/(2λ), elongation at Wi > ½, grows in the model
+/// itself, not by the scheme.)
+pub fn explicit_stability_limit(case: &FlowCase) -> Option<f64> {
+    let p = &case.polymer;
+    match p.scheme_or_default() {
+        Scheme::SemiImplicit => None,
+        Scheme::EulerMaruyama | Scheme::Heun => {
+            let lambda = p.relaxation_time;
+            Some(4.0 * lambda / (1.0 + 2.0 * lambda * compressive_rate(&case.flow)))
+        }
+    }
+}
+
+/// What a time step costs in accuracy (warnings printed by `check` and logged by `run`; the
+/// error itself is measured by `mesorheo study`): Δt > λ/2 leaves the relaxation unresolved
+/// (the weak error is O(Δt/λ) or O((Δt/λ)²) long before), and |κ|Δt > 0.5 deforms a dumbbell by
+/// more than half its length per step.
+pub fn accuracy_warnings(case: &FlowCase) -> Vec<String> {
+    let mut out = Vec::new();
+    let dt = case.integrator.dt;
+    let lambda = case.polymer.relaxation_time;
+    if dt > 0.5 * lambda {
+        out.push(format!(
+            "Δt = {dt} is more than λ/2 = {}: the relaxation is not resolved (use Δt ≤ λ/10, or \
+             measure the bias with mesorheo study)",
+            0.5 * lambda
+        ));
+    }
+    let fastest = case.flow.rate.abs();
+    if fastest * dt > 0.5 {
+        out.push(format!(
+            "rate × Δt = {:.3} > 0.5: the flow deforms a dumbbell by more than half its length \
+             per step (use Δt ≤ {:.3e})",
+            fastest * dt,
+            0.1 / fastest
+        ));
+    }
+    out
+}
+
 /// The scheme of the key `scheme`, with its default: Heun for Hookean, semi-implicit for FENE.
 pub fn scheme_or_default(scheme: Option<SchemeKind>, spring: SpringKind) -> Scheme {
     match (scheme, spring) {
@@ -482,27 +543,20 @@ pub fn validate(case: &FlowCase, ix: &SpanIndex) -> Result<(), CaseError> {
     if !(dt.is_finite() && dt > 0.0) {
         return err(&["integrator", "dt"], format!("found {dt}; must be > 0"));
     }
-    let lambda = p.relaxation_time;
-    if dt > 0.5 * lambda {
+    // Stability is refused (unless the case asks to run beyond the limits, for a stability
+    // study); accuracy is warned about (`accuracy_warnings`) and measured by `mesorheo study`.
+    if let Some(limit) = explicit_stability_limit(case)
+        && dt >= limit
+        && !case.run.beyond_stability_limits
+    {
         return err(
             &["integrator", "dt"],
             format!(
-                "Δt = {dt} is more than λ/2 = {}: the relaxation is not resolved (explicit \
-                 schemes are unstable beyond Δt = 4λ, and errors are O(Δt/λ) long before); use \
-                 Δt ≤ λ/10",
-                0.5 * lambda
-            ),
-        );
-    }
-    let fastest = f.rate.abs();
-    if fastest * dt > 0.5 {
-        return err(
-            &["integrator", "dt"],
-            format!(
-                "rate × Δt = {:.3} > 0.5: the flow deforms a dumbbell by more than half its \
-                 length per step; use Δt ≤ {:.3e}",
-                fastest * dt,
-                0.1 / fastest
+                "Δt = {dt} is beyond the stability limit 4λ/(1 + 2λc) = {limit:.4} of the \
+                 explicit scheme (c = {:.4}, the flow's largest compressive rate): the \
+                 connectors grow without bound; use Δt ≤ λ/10 for accuracy, or scheme = \
+                 \"semi_implicit\", which is stable at any Δt",
+                compressive_rate(&case.flow)
             ),
         );
     }

@@ -177,6 +177,28 @@ fn fene_length(r: f64, b: f64, eps: f64) -> f64 {
     l.min(b.sqrt() * (1.0 - f64::EPSILON))
 }
 
+/// The first dumbbell of the ensemble `q` that is outside the spring's domain, as
+/// (index, |Q|²): a connector that is not finite or has |Q|² ≥ `limit` (b for FENE; for
+/// Hookean springs the runaway bound of the flow,
+/// [`Flow::hookean_runaway_q2`](crate::models::homogeneous_flow::Flow::hookean_runaway_q2)).
+/// The semi-implicit FENE step keeps |Q| < √b in exact arithmetic; this detector catches what
+/// rounding (single-precision storage) or an explicit scheme beyond its stability limit does.
+pub fn outside_domain<const D: usize, T: Copy + Into<f64>>(
+    q: &[T],
+    limit: f64,
+) -> Option<(usize, f64)> {
+    q.chunks_exact(D).enumerate().find_map(|(k, c)| {
+        let q2: f64 = c
+            .iter()
+            .map(|&x| {
+                let x: f64 = x.into();
+                x * x
+            })
+            .sum();
+        (q2.is_nan() || q2 >= limit).then_some((k, q2))
+    })
+}
+
 /// Advances the ensemble `q` (N_d × D numbers, connector after connector) by one step under
 /// the velocity gradient `kappa`, drawing its noise from `noise` (D normals per dumbbell, in
 /// connector order).

@@ -19,7 +19,7 @@
 
 use super::dumbbells::{
     DumbbellParams, Spring, hookean_discrete_moment, init_stream, kramers_stress, noise_stream,
-    sample_equilibrium, step_ensemble,
+    outside_domain, sample_equilibrium, step_ensemble,
 };
 use crate::comm::Comm;
 use crate::domain::id_block;
@@ -57,6 +57,26 @@ pub enum Flow {
 }
 
 impl Flow {
+    /// The |Q|² beyond which a Hookean connector is a runaway in this flow, in units of k_BT/H:
+    /// 10⁴ × (D + 2 Wi²), Wi = λ × rate, ten thousand times the steady shear ⟨Q²⟩ — a Gaussian
+    /// connector exceeds it with probability e^{−thousands}. Infinite in an elongation with a
+    /// stretching rate beyond 1/(2λ), where the Hookean model itself grows without bound.
+    pub fn hookean_runaway_q2(&self, dim: usize, lambda: f64) -> f64 {
+        let (rate, stretching) = match *self {
+            Flow::Rest => (0.0, 0.0),
+            Flow::SimpleShear { rate } | Flow::ShearReversal { rate, .. } => (rate, 0.0),
+            Flow::PlanarElongation { rate } => (rate, rate.abs()),
+            Flow::UniaxialElongation { rate } => {
+                (rate, if rate >= 0.0 { rate } else { -0.5 * rate })
+            }
+        };
+        if stretching * lambda >= 0.5 {
+            return f64::INFINITY;
+        }
+        let wi = lambda * rate;
+        1e4 * (dim as f64 + 2.0 * wi * wi)
+    }
+
     /// κ(t).
     pub fn kappa<const D: usize>(&self, t: f64) -> Tensor<D> {
         let mut k = Tensor::<D>::zeros();
@@ -358,33 +378,47 @@ impl<'c, const D: usize> HomogeneousEnsembles<'c, D> {
         self.step as f64 * self.params.dt
     }
 
-    /// Advances every ensemble by one step (κ frozen at the start of the step).
-    pub fn advance(&mut self) {
+    /// Advances every ensemble by one step (κ frozen at the start of the step). A dumbbell left
+    /// outside the spring's domain (not finite, or |Q|² ≥ b) stops the run, named by its
+    /// particle and index (the lowest particle id, so the message does not depend on threads).
+    pub fn advance(&mut self) -> Result<(), String> {
         // As rows for the per-dumbbell kernel (one conversion per step).
         let kappa = tensor_rows(&self.flow.kappa::<D>(self.time()));
         let (p, seed, step) = (self.params, self.seed, self.step);
+        let limit = match p.spring {
+            Spring::Fene { b } => b,
+            Spring::Hookean => self.flow.hookean_runaway_q2(D, p.lambda),
+        };
         let (q, gids) = (&mut self.q, &self.gids);
-        if let Some(single) = &mut self.q_single {
+        let outside = if let Some(single) = &mut self.q_single {
             self.pool.install(|| {
-                single.par_iter_mut().zip(gids.par_iter()).for_each_init(
-                    Vec::new,
-                    |wide: &mut Vec<f64>, (q, &g)| {
+                single
+                    .par_iter_mut()
+                    .zip(gids.par_iter())
+                    .map_init(Vec::new, |wide: &mut Vec<f64>, (q, &g)| {
                         wide.clear();
                         wide.extend(q.iter().map(|&x| f64::from(x)));
                         step_ensemble::<D>(wide, &kappa, &p, &mut noise_stream(seed, g, step, 0));
                         for (s, w) in q.iter_mut().zip(wide.iter()) {
                             *s = *w as f32;
                         }
-                    },
-                )
-            });
+                        // What is stored, after the rounding to single precision.
+                        outside_domain::<D, f32>(q, limit).map(|(k, q2)| (g, k, q2))
+                    })
+                    .flatten()
+                    .min_by_key(|v| (v.0, v.1))
+            })
         } else {
             self.pool.install(|| {
-                q.par_iter_mut().zip(gids.par_iter()).for_each(|(q, &g)| {
-                    step_ensemble::<D>(q, &kappa, &p, &mut noise_stream(seed, g, step, 0));
-                })
-            });
-        }
+                q.par_iter_mut()
+                    .zip(gids.par_iter())
+                    .filter_map(|(q, &g)| {
+                        step_ensemble::<D>(q, &kappa, &p, &mut noise_stream(seed, g, step, 0));
+                        outside_domain::<D, f64>(q, limit).map(|(k, q2)| (g, k, q2))
+                    })
+                    .min_by_key(|v| (v.0, v.1))
+            })
+        };
         if let Some(c) = &mut self.control {
             let rest = [[0.0; D]; D];
             self.pool.install(|| {
@@ -395,6 +429,28 @@ impl<'c, const D: usize> HomogeneousEnsembles<'c, D> {
             });
         }
         self.step += 1;
+        match outside {
+            None => Ok(()),
+            Some((g, k, q2)) => Err(format!(
+                "dumbbell {k} of particle {g} has |Q|² = {q2:.6e}{} at step {}: {} (the \
+                 connector left the spring's domain; reduce the time step{})",
+                match p.spring {
+                    Spring::Fene { b } => format!(" ≥ b = {b}"),
+                    Spring::Hookean if q2.is_finite() => format!(
+                        " (a runaway Hookean connector: beyond {limit:.3e}, 10⁴ × its steady \
+                         shear size)"
+                    ),
+                    Spring::Hookean => " (not finite)".into(),
+                },
+                self.step,
+                crate::sim::UNSTABLE,
+                if self.q_single.is_some() {
+                    ", or store the connectors in double precision"
+                } else {
+                    ""
+                }
+            )),
+        }
     }
 
     /// τ/G of each particle of this rank: its ensemble average, with control variates the
