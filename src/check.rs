@@ -610,7 +610,7 @@ pub fn flow_report(case: &crate::config::FlowCase, ranks: usize) -> (String, Res
     ));
     line(match crate::config::flow::explicit_stability_limit(case) {
         Some(limit) => format!(
-            "stability: explicit scheme, Δt < 4λ/(1 + 2λc) = {limit:.4} [{}]",
+            "stability: explicit scheme, Δt < 0.95 × 4λ/(1 + 2λc) = {limit:.4} [{}]",
             if params.dt < limit {
                 "ok"
             } else {

@@ -148,6 +148,8 @@ enum Command {
 }
 
 fn main() -> ExitCode {
+    // The environment before MPI_Init, for the child runs of `study` and `stability`.
+    let pristine_env: Vec<(std::ffi::OsString, std::ffi::OsString)> = std::env::vars_os().collect();
     // The MPI universe is declared first so that it is dropped (MPI_Finalize) last.
     #[cfg(feature = "mpi")]
     let Some((universe, _threading)) = mpi::initialize_with_threading(mpi::Threading::Funneled)
@@ -178,7 +180,7 @@ fn main() -> ExitCode {
                 }
                 return ExitCode::from(2);
             }
-            study(&sweep, out, target, rerun, cli.quiet)
+            study(&sweep, out, target, rerun, cli.quiet, pristine_env)
         }
         Command::Stability {
             case,
@@ -224,6 +226,7 @@ fn main() -> ExitCode {
                 exe,
                 python: Some(python()),
                 progress: !cli.quiet,
+                child_env: Some(pristine_env),
             };
             match mesorheo::stability_map::run_stability(&request) {
                 Ok(rows) => {
@@ -410,6 +413,7 @@ fn study(
     target: Option<f64>,
     rerun: bool,
     quiet: bool,
+    child_env: Vec<(std::ffi::OsString, std::ffi::OsString)>,
 ) -> ExitCode {
     let loaded = match mesorheo::study::load_sweep(sweep) {
         Ok(s) => s,
@@ -438,6 +442,7 @@ fn study(
         rerun,
         python: Some(python()),
         progress: !quiet,
+        child_env: Some(child_env),
     };
     match mesorheo::study::run_study(&loaded, &options) {
         Ok(analysis) => {

@@ -50,6 +50,8 @@ pub struct StabilityRequest {
     pub exe: PathBuf,
     pub python: Option<PathBuf>,
     pub progress: bool,
+    /// The environment of the trial runs (see [`crate::study::Launch::env`]).
+    pub child_env: Option<Vec<(std::ffi::OsString, std::ffi::OsString)>>,
 }
 
 /// One row of the map.
@@ -238,6 +240,7 @@ pub fn run_stability(req: &StabilityRequest) -> Result<Vec<MapRow>, String> {
                     ranks: 1,
                     threads: req.threads,
                     launcher: "",
+                    env: req.child_env.as_deref(),
                 },
                 &dir,
                 &o,

@@ -262,7 +262,7 @@ pub fn parse_sweep(text: &str, here: &Path) -> Result<Sweep, String> {
         let reference = match (o.value, o.reference.as_deref()) {
             (Some(v), None) => {
                 let stderr = o.value_stderr.unwrap_or(0.0);
-                if !v.is_finite() || !(stderr.is_finite() && stderr >= 0.0) {
+                if !(v.is_finite() && stderr.is_finite() && stderr >= 0.0) {
                     return Err(format!(
                         "{at}: value = {v} ± {stderr}: need a finite value and stderr ≥ 0"
                     ));
@@ -436,6 +436,8 @@ pub struct StudyOptions {
     pub python: Option<PathBuf>,
     /// Progress lines on stderr.
     pub progress: bool,
+    /// The environment of the child runs (see [`Launch::env`]).
+    pub child_env: Option<Vec<(std::ffi::OsString, std::ffi::OsString)>>,
 }
 
 #[derive(serde::Serialize, Deserialize)]
@@ -606,6 +608,7 @@ fn run_point(
             ranks: sweep.ranks,
             threads: sweep.threads,
             launcher: &sweep.launcher,
+            env: opts.child_env.as_deref(),
         },
         point_dir,
         overrides,
@@ -651,6 +654,10 @@ pub struct Launch<'a> {
     pub threads: usize,
     /// Command prefix for ranks > 1, `{ranks}` replaced.
     pub launcher: &'a str,
+    /// The environment the children get (None: this process's). Under an MPI build it must be
+    /// the environment from before `MPI_Init`: a singleton's PMIx variables would make a child
+    /// `mpirun` or `mesorheo` join the parent's job instead of starting its own.
+    pub env: Option<&'a [(std::ffi::OsString, std::ffi::OsString)]>,
 }
 
 /// Runs `mesorheo run` once as a child process in `dir` with `overrides` (and no checkpoint at
@@ -695,8 +702,12 @@ pub fn launch(
         argv.push("--set".into());
         argv.push(o.to_string());
     }
-    let output = Command::new(&argv[0])
-        .args(&argv[1..])
+    let mut command = Command::new(&argv[0]);
+    command.args(&argv[1..]);
+    if let Some(env) = how.env {
+        command.env_clear().envs(env.iter().map(|(k, v)| (k, v)));
+    }
+    let output = command
         .output()
         .map_err(|e| format!("cannot start {}: {e}", argv[0]))?;
     let stderr = String::from_utf8_lossy(&output.stderr).to_string();
