@@ -652,3 +652,31 @@ fn the_wall_repulsion_keeps_fluid_particles_off_the_wall_plane() {
         "without repulsion the row still stopped at {unheld}"
     );
 }
+
+/// Blow-up detection (issue #18), SPH density: a fluid particle whose (continuity) density has
+/// gone negative is stopped at the next momentum pass, before the equation of state turns it
+/// into a pressure, naming the particle and its density. Fails if the check is dropped (the
+/// step then succeeds with a negative density in the sums).
+#[test]
+fn a_negative_density_is_stopped_and_named() {
+    let text = periodic_box("morris", 0.05, "density = \"continuity\"");
+    let loaded = case_from_str(&text, "box.toml");
+    let comm = SerialComm::new();
+    let mut sim = Simulation::<2>::new(&loaded.case, &comm, 1).expect("set up");
+    sim.advance().expect("a good step");
+    let rho = sim
+        .particles
+        .extra_index(mesorheo::models::sph::DENSITY)
+        .expect("a density field");
+    let k = (0..sim.particles.n_owned)
+        .find(|&k| sim.particles.gid[k] == 31)
+        .expect("particle 31 is owned");
+    sim.particles.extra[rho].data[k] = -0.5;
+    let err = sim.advance().expect_err("the negative density is caught");
+    assert!(
+        err.contains("particle 31")
+            && err.contains("density ρ = -")
+            && err.contains(mesorheo::sim::UNSTABLE),
+        "{err}"
+    );
+}

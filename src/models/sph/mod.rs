@@ -1975,6 +1975,9 @@ impl<const D: usize> ParticleModel<D> for SphModel<D> {
         let kind = self.passes[pass];
         let (kernel, h) = (self.cfg.kernel, self.cfg.smoothing_length);
         let (p, list, full) = (ctx.particles, ctx.list, ctx.full);
+        if matches!(kind, Pass::Momentum | Pass::MsphDivergence) {
+            check_density(p, self.density, ctx.step)?;
+        }
         match kind {
             Pass::WallMirror | Pass::MsphGradient | Pass::WallStress | Pass::MsphDivergence => {
                 self.run_msph(kind, p, full).map_err(|e| e.to_string())
@@ -1984,6 +1987,30 @@ impl<const D: usize> ParticleModel<D> for SphModel<D> {
         }
         .map_err(|e| format!("{e} (SPH pass {kind:?} at step {})", ctx.step))?;
         Ok(PassOutput::default())
+    }
+}
+
+/// Blow-up detector: a fluid particle whose density is zero, negative or not finite (continuity
+/// density under too large a step, or a NaN from elsewhere) stops the run before the equation
+/// of state turns it into a pressure, naming the particle (the lowest id on this rank).
+fn check_density<const D: usize>(
+    p: &Particles<D>,
+    density: usize,
+    step: u64,
+) -> Result<(), String> {
+    let rho = &p.extra[density].data;
+    let bad = (0..p.n_owned)
+        .filter(|&i| p.species_of(i) == FLUID && !(rho[i] > 0.0 && rho[i].is_finite()))
+        .min_by_key(|&i| p.gid[i]);
+    match bad {
+        None => Ok(()),
+        Some(i) => Err(format!(
+            "particle {} has density ρ = {:e} (it must be positive and finite) at step {step}: \
+             {} (reduce the time step, or use summation density, which cannot go negative)",
+            p.gid[i],
+            rho[i],
+            crate::sim::UNSTABLE
+        )),
     }
 }
 
