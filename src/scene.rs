@@ -553,7 +553,9 @@ pub fn drive(
         if STOP_REQUESTED.load(Ordering::SeqCst) {
             scene.request_stop();
         }
-        scene.advance()?;
+        if let Err(e) = scene.advance() {
+            return Err(keep_blown_up_state(&mut scene, options, e));
+        }
         let step = scene.step();
         if options.out.is_some() {
             scene.write_outputs()?;
@@ -668,6 +670,41 @@ pub fn drive(
 
 /// Rank 0's log line after a restart has read its checkpoint.
 #[cfg(feature = "hdf5")]
+/// On a blow-up (every detector decides collectively, so every rank is here), writes the state
+/// as the detector found it to `OUT/blowup/` for inspection (`mesorheo info`, h5py): the
+/// offending particle with its position, velocity or ensemble is in it. The last good state is
+/// the newest checkpoint in `OUT/checkpoints/`. Other errors pass through unchanged.
+fn keep_blown_up_state(scene: &mut impl Scene, options: &RunOptions, error: String) -> String {
+    let Some(out) = options
+        .out
+        .as_ref()
+        .filter(|_| error.contains(crate::sim::UNSTABLE))
+    else {
+        return error;
+    };
+    let checkpoints = out.join("checkpoints");
+    let earlier = std::fs::read_dir(&checkpoints).is_ok_and(|d| {
+        d.flatten()
+            .any(|e| e.file_name().to_string_lossy().starts_with("checkpoint_"))
+    });
+    match scene.write_checkpoint(&out.join("blowup"), 1) {
+        Ok(path) => format!(
+            "{error}. The state at the blow-up is in {} (inspect it with `mesorheo info` or \
+             h5py); {}",
+            path.display(),
+            if earlier {
+                format!(
+                    "the last good state is the newest checkpoint in {}",
+                    checkpoints.display()
+                )
+            } else {
+                "no earlier checkpoint was written (output.checkpoint_every)".to_string()
+            }
+        ),
+        Err(e) => format!("{error} (the state at the blow-up could not be written: {e})"),
+    }
+}
+
 pub(crate) fn log_restart(comm: &dyn Comm, path: &Path, step: u64) {
     if comm.rank() == 0 {
         tracing::info!(

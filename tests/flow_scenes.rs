@@ -324,3 +324,41 @@ fn a_runaway_dumbbell_is_stopped_at_the_step_it_leaves_its_domain() {
         Some(1)
     );
 }
+
+/// On a blow-up the run writes the state the detector found to OUT/blowup/ (2 ranks, so the
+/// write is collective like the detectors), says where, and names the last good checkpoint:
+/// Euler–Maruyama beyond its limit (Δt = 5λ, run.beyond_stability_limits) after a checkpoint at
+/// step 2. The written state is a readable checkpoint of the step that blew up. Fails if the
+/// state is not written or the message does not say where.
+#[cfg(feature = "hdf5")]
+#[test]
+fn a_blow_up_writes_the_state_it_found_and_names_the_last_good_checkpoint() {
+    let mut case = flow_case("scheme = \"euler_maruyama\"", 200);
+    case.integrator.dt = 5.0;
+    case.flow.kind = mesorheo::config::flow::FlowKind::SimpleShear;
+    case.run.beyond_stability_limits = true;
+    case.run.equilibration = 0;
+    case.output.checkpoint_every = 2;
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().to_path_buf();
+    let o = options(1, Some(&out), None);
+    let e = in_process(2, move |c| {
+        run_flow_case(&case, Path::new("flow.toml"), c, &o)
+    })
+    .expect_err("blows up");
+    assert!(e.contains(mesorheo::sim::UNSTABLE), "{e}");
+    assert!(e.contains("The state at the blow-up is in"), "{e}");
+    assert!(
+        e.contains("the last good state is the newest checkpoint"),
+        "{e}"
+    );
+    let written: Vec<_> = std::fs::read_dir(out.join("blowup"))
+        .expect("OUT/blowup")
+        .flatten()
+        .map(|f| f.path())
+        .collect();
+    assert_eq!(written.len(), 1, "{written:?}");
+    let text = mesorheo::output::info::describe(&written[0]).expect("a readable checkpoint");
+    assert!(text.contains("homogeneous-flow"), "{text}");
+    assert!(e.contains(&written[0].display().to_string()), "{e}");
+}
