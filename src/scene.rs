@@ -668,8 +668,6 @@ pub fn drive(
     })
 }
 
-/// Rank 0's log line after a restart has read its checkpoint.
-#[cfg(feature = "hdf5")]
 /// On a blow-up (every detector decides collectively, so every rank is here), writes the state
 /// as the detector found it to `OUT/blowup/` for inspection (`mesorheo info`, h5py): the
 /// offending particle with its position, velocity or ensemble is in it. The last good state is
@@ -705,6 +703,8 @@ fn keep_blown_up_state(scene: &mut impl Scene, options: &RunOptions, error: Stri
     }
 }
 
+/// Rank 0's log line after a restart has read its checkpoint.
+#[cfg(feature = "hdf5")]
 pub(crate) fn log_restart(comm: &dyn Comm, path: &Path, step: u64) {
     if comm.rank() == 0 {
         tracing::info!(
