@@ -345,16 +345,7 @@ impl<const D: usize> NeighbourList<D> {
                 let d = dist2(p, q);
                 (if d.is_nan() { f64::INFINITY } else { d }, i)
             })
-            .reduce(
-                || (0.0, usize::MAX),
-                |a, b| {
-                    if b.0 > a.0 || (b.0 == a.0 && b.1 < a.1) {
-                        b
-                    } else {
-                        a
-                    }
-                },
-            );
+            .reduce(|| (0.0, usize::MAX), larger_then_lower_index);
         (m2.sqrt(), i)
     }
 
@@ -366,6 +357,16 @@ impl<const D: usize> NeighbourList<D> {
     /// Whether no pair is listed.
     pub fn is_empty(&self) -> bool {
         self.flagged.is_empty()
+    }
+}
+
+/// The reduction of a (value, index) maximum that does not depend on how rayon splits the work:
+/// the larger value, and among equal values the lower index.
+pub fn larger_then_lower_index(a: (f64, usize), b: (f64, usize)) -> (f64, usize) {
+    if b.0 > a.0 || (b.0 == a.0 && b.1 < a.1) {
+        b
+    } else {
+        a
     }
 }
 

@@ -2081,12 +2081,6 @@ fn largest_kinetic_energy_in_kt<const D: usize>(
         })
         .reduce(
             || (0.0, usize::MAX),
-            |a, b| {
-                if b.0 > a.0 || (b.0 == a.0 && b.1 < a.1) {
-                    b
-                } else {
-                    a
-                }
-            },
+            crate::neighbour::larger_then_lower_index,
         )
 }
