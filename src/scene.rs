@@ -172,7 +172,7 @@ impl<const D: usize> Scene for ParticleScene<'_, D> {
     fn advance(&mut self) -> Result<(), String> {
         self.sim.advance()?;
         if self.sim.is_sample_step() {
-            self.sim.sample();
+            self.sim.sample()?;
         }
         if self.sim.is_correlation_step() {
             self.sim.correlate();

@@ -149,6 +149,15 @@ pub const UNSTABLE: &str = "the run is unstable";
 /// stability limit reaches it within a few steps of going wrong.
 pub const RUNAWAY_KT: f64 = 100.0;
 
+/// The kinetic temperature, in units of the thermostat's k_BT, beyond which a DPD fluid is
+/// heating without bound: checked at every sample (after the equilibration, so that a random
+/// start's release of potential energy may pass). A time step near the dissipative limit
+/// heats the fluid gradually — 2D ρ = 4, a = 25, γ = 18.9 (`cases/dpd_equilibrium_2d.toml`,
+/// 1000 steps): k_BT = 1.05, 1.17, 1.32, 1.62 at Δt = 0.040, 0.044, 0.046, 0.048, and a runaway
+/// particle at 0.052 — so no single particle need pass [`RUNAWAY_KT`] before the fluid
+/// is useless. Shear heating of a thermostatted fluid is a few per cent at γ̇ ~ 1.
+pub const HEATING_BOUND: f64 = 2.0;
+
 /// The runaway bound of a DPD fluid in units of k_BT: RUNAWAY_KT + a n_c / k_BT, where
 /// n_c = ρ V_d(r_c) is the mean number of neighbours within the cutoff. The second term is
 /// twice the most potential energy a particle's neighbourhood can hold (each pair at most a/2),
@@ -1384,11 +1393,24 @@ impl<'c, const D: usize> Simulation<'c, D> {
         )
     }
 
-    /// Samples every observable the case asked for (collective).
-    pub fn sample(&mut self) {
+    /// Samples every observable the case asked for (collective). A thermostatted (DPD) fluid
+    /// whose kinetic temperature has passed [`HEATING_BOUND`] × k_BT stops the run (the
+    /// decision is on an exactly reduced sum, so every rank count stops alike).
+    pub fn sample(&mut self) -> Result<(), String> {
         let t0 = Instant::now();
         let values = self.measure();
         self.times.diagnostics += t0.elapsed().as_secs_f64();
+        if let crate::config::FluidCfg::Dpd(dpd) = &self.case.fluid {
+            let heated = values.kinetic_temperature / dpd.kt;
+            if heated.is_nan() || heated > HEATING_BOUND {
+                return Err(format!(
+                    "the fluid's kinetic temperature is {:.4} k_BT, more than {HEATING_BOUND} × \
+                     the thermostat's k_BT = {} (a fluid heating without bound), at step {}: \
+                     {UNSTABLE}; reduce the time step",
+                    heated, dpd.kt, self.step
+                ));
+            }
+        }
         for (name, v) in values.scalars {
             self.series.push(&name, v);
         }
@@ -1396,6 +1418,7 @@ impl<'c, const D: usize> Simulation<'c, D> {
             self.series.profile.push(profile);
         }
         self.series.steps.push(self.step);
+        Ok(())
     }
 
     /// Instantaneous observables (collective).
@@ -1574,7 +1597,10 @@ impl<'c, const D: usize> Simulation<'c, D> {
         // any bin occupancy (N·D − B·D would overstate k_BT by the interpolation's share,
         // ≈ 10 % at 10 particles per bin).
         let dof = (D as f64) * second[dof_slot];
-        let mut out = Measurement::default();
+        let mut out = Measurement {
+            kinetic_temperature: trace_k / dof,
+            ..Measurement::default()
+        };
         let pt = |a: usize, b: usize| total[a * D + b];
         for o in &case.diagnostics.observables {
             match o {
@@ -1783,7 +1809,7 @@ impl<'c, const D: usize> Simulation<'c, D> {
         for _ in 0..steps {
             self.advance()?;
             if self.is_sample_step() {
-                self.sample();
+                self.sample()?;
             }
             progress(self);
         }
@@ -1811,6 +1837,9 @@ fn profile_bin(y: f64, ly: f64, bins: usize) -> usize {
 pub struct Measurement {
     /// Scalar values by name.
     pub scalars: Vec<(String, f64)>,
+    /// Σ m|V|²/(degrees of freedom), V about the local mean velocity: k_BT of the fluid,
+    /// whether or not the case asked for the temperature (the heating detector reads it).
+    pub kinetic_temperature: f64,
     /// Binned u_x(y).
     pub profile: Option<Vec<f64>>,
 }

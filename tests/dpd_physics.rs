@@ -197,6 +197,40 @@ fn a_particle_with_a_runaway_kinetic_energy_is_named() {
     assert!((bound - (100.0 + 25.0 * 4.0 * std::f64::consts::PI)).abs() < 1e-9);
 }
 
+/// Blow-up detection (issue #18), heating: a thermostatted fluid whose kinetic temperature has
+/// passed HEATING_BOUND = 2 k_BT stops at the next sample with a diagnosis naming the
+/// temperature; at 1.8 k_BT it samples on. The velocities of an equilibrated step are scaled
+/// by √(T/T₀), so the measured temperature is known to round-off. Fails if the heating check
+/// is dropped (the hot sample succeeds) or if its bound is moved below 1.8 or above 2.2.
+#[test]
+fn a_fluid_heating_past_twice_its_temperature_is_stopped() {
+    let loaded = case_from_str(&small_dpd(3, 6.0, 0.0, 10, ""), "heating");
+    let comm = SerialComm::new();
+    let mut sim = Simulation::<3>::new(&loaded.case, &comm, 1).unwrap_or_else(|e| panic!("{e}"));
+    sim.advance().expect("a good step");
+    let t0 = sim.measure().kinetic_temperature;
+    assert!((t0 - 1.0).abs() < 0.2, "k_BT after one step {t0}");
+    for (target, stops) in [(1.8, false), (2.2, true)] {
+        let scale = (target / sim.measure().kinetic_temperature).sqrt();
+        for v in sim.particles.vel[..sim.particles.n_owned].iter_mut() {
+            v.iter_mut().for_each(|c| *c *= scale);
+        }
+        let t = sim.measure().kinetic_temperature;
+        assert!((t - target).abs() < 1e-9, "scaled to {t}");
+        match sim.sample() {
+            Ok(()) => assert!(!stops, "k_BT = {t} passed the heating check"),
+            Err(e) => {
+                assert!(stops, "k_BT = {t} stopped: {e}");
+                assert!(
+                    e.contains("kinetic temperature is 2.2000 k_BT")
+                        && e.contains(mesorheo::sim::UNSTABLE),
+                    "{e}"
+                );
+            }
+        }
+    }
+}
+
 /// The profile-unbiased temperature removes the whole linear shear profile, including its
 /// variation inside a bin: a lattice moving exactly with u_x = γ̇ (y − L_y/2) at k_BT = 0 reads
 /// k_BT = 0 and no kinetic normal stress (a constant bin mean would read m γ̇² Δ² / (12 D) ≈
