@@ -5,7 +5,8 @@
 //! A trial is an ordinary run of the case with `run.beyond_stability_limits = true` (so that
 //! `check`'s limits do not refuse it) for a fixed number of steps; it is *unstable* when a
 //! blow-up detector stops it (exit code 4: a non-finite or runaway particle, a DPD particle
-//! beyond 100 k_BT, a dumbbell outside its spring's domain, …) and *stable* when it completes.
+//! beyond 100 k_BT + a n_c, a DPD fluid hotter than 2 k_BT, a dumbbell outside its spring's
+//! domain, …) and *stable* when it completes.
 //! At each value x of the second parameter:
 //!
 //! 1. bracket: from the case's value v₀ of the knob, double while stable (or halve while
