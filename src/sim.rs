@@ -149,14 +149,46 @@ pub const UNSTABLE: &str = "the run is unstable";
 /// stability limit reaches it within a few steps of going wrong.
 pub const RUNAWAY_KT: f64 = 100.0;
 
-/// The kinetic temperature, in units of the thermostat's k_BT, beyond which a DPD fluid is
-/// heating without bound: checked at every sample (after the equilibration, so that a random
-/// start's release of potential energy may pass). A time step near the dissipative limit
+/// The kinetic temperature, in units of the thermostat's k_BT, beyond which an equilibrated DPD
+/// fluid is heating without bound: checked at every sample (after the equilibration), with an
+/// allowance for a random start's release of overlap energy ([`heating_bound_in_kt`]). A time step near the dissipative limit
 /// heats the fluid gradually — 2D ρ = 4, a = 25, γ = 18.9 (`cases/dpd_equilibrium_2d.toml`,
 /// 1000 steps): k_BT = 1.05, 1.17, 1.32, 1.62 at Δt = 0.040, 0.044, 0.046, 0.048, and a runaway
 /// particle at 0.052 — so no single particle need pass [`RUNAWAY_KT`] before the fluid
 /// is useless. Shear heating of a thermostatted fluid is a few per cent at γ̇ ~ 1.
 pub const HEATING_BOUND: f64 = 2.0;
+
+/// The heating bound of a DPD fluid at time t, in units of k_BT:
+///
+/// ```text
+/// HEATING_BOUND + (2/D) (n/2) ∫ φ(r) dV / k_BT · e^{−ω₀ t},   φ(r) = a r_c (1 − r/r_c)^{s̄+1}/(s̄+1)
+/// ∫ φ dV = 2π a r_c³ / ((s̄+1)(s̄+2)(s̄+3))          (2D)
+///        = 8π a r_c⁴ / ((s̄+1)(s̄+2)(s̄+3)(s̄+4))     (3D)
+/// ```
+///
+/// The second term is the temperature rise if the mean overlap energy of uniformly random
+/// positions (a random start) turned into heat at once (5.24 k_BT for the 3D a = 25, ρ = 3
+/// fluid), decaying at the thermostat's mean-field rate ω₀ = γΣw_D/(D m)
+/// ([`crate::stability::dpd_mean_field_rate`]; the kinetic energy relaxes at 2ω₀, so the bound
+/// decays more slowly than the heat it allows for).
+pub fn heating_bound_in_kt(
+    dpd: &crate::models::dpd::DpdCfg,
+    dimension: usize,
+    density: f64,
+    mass: f64,
+    time: f64,
+) -> f64 {
+    let (a, rc, s) = (dpd.a.abs(), dpd.cutoff, dpd.conservative_exponent);
+    let overlap = if dimension == 2 {
+        2.0 * std::f64::consts::PI * a * rc.powi(3) / ((s + 1.0) * (s + 2.0) * (s + 3.0))
+    } else {
+        8.0 * std::f64::consts::PI * a * rc.powi(4)
+            / ((s + 1.0) * (s + 2.0) * (s + 3.0) * (s + 4.0))
+    };
+    let start = (2.0 / dimension as f64) * 0.5 * density * overlap / dpd.kt;
+    let rate = crate::stability::dpd_mean_field_rate(dpd, dimension, density, mass);
+    HEATING_BOUND + start * (-rate * time).exp()
+}
 
 /// The runaway bound of a DPD fluid in units of k_BT: RUNAWAY_KT + a n_c / k_BT, where
 /// n_c = ρ V_d(r_c) is the mean number of neighbours within the cutoff. The second term is
@@ -1402,12 +1434,15 @@ impl<'c, const D: usize> Simulation<'c, D> {
         self.times.diagnostics += t0.elapsed().as_secs_f64();
         if let crate::config::FluidCfg::Dpd(dpd) = &self.case.fluid {
             let heated = values.kinetic_temperature / dpd.kt;
-            if heated.is_nan() || heated > HEATING_BOUND {
+            let density = self.total_particles as f64 / self.sim_box.volume();
+            let bound = heating_bound_in_kt(dpd, D, density, self.case.particles.mass, self.time());
+            if heated.is_nan() || heated > bound {
                 return Err(format!(
-                    "the fluid's kinetic temperature is {:.4} k_BT, more than {HEATING_BOUND} × \
-                     the thermostat's k_BT = {} (a fluid heating without bound), at step {}: \
-                     {UNSTABLE}; reduce the time step",
-                    heated, dpd.kt, self.step
+                    "the fluid's kinetic temperature is {heated:.4} k_BT, beyond {bound:.4} k_BT \
+                     ({HEATING_BOUND} × the thermostat's k_BT = {} plus what is left, under the \
+                     thermostat, of the overlap energy a random start can release): a fluid \
+                     heating without bound, at step {}: {UNSTABLE}; reduce the time step",
+                    dpd.kt, self.step
                 ));
             }
         }
