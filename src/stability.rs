@@ -1,19 +1,46 @@
 //! Time-step limits that `check` reports and the validation enforces.
 //!
-//! DPD (explicit in the velocity-dependent dissipative force):
+//! DPD (Groot–Warren velocity Verlet, explicit in the dissipative force), with the mean-field
+//! sums at number density n and mass m:
 //!
 //! ```text
-//! Σ_j w_D(r_ij) ≈ n ∫ w_D dV = n 4π r_c³ · 2 / ((s+1)(s+2)(s+3))     (3D)
-//!                            = n 2π r_c² / ((s+1)(s+2))               (2D)
-//! Δt_D = m / (γ Σ_j w_D)          relaxation of the relative velocity in one step
-//! ω²   = (a / r_c) N_c / (D m),   N_c = n V_D(r_c) neighbours,   Δt_C = 2 / ω  (Verlet)
+//! Σ_j w_D ≈ n ∫ w_D dV = n 8π r_c³ / ((s+1)(s+2)(s+3)) (3D),  n 2π r_c² / ((s+1)(s+2)) (2D)
+//! ω_E² = (a s̄ / r_c) N_c / (D m),  N_c = n V_D(r_c)   the cage (Einstein) frequency
+//! ω_D  = γ Σ_j w_D / m                                the friction rate
+//! Δt_C = α_D / ω_E                                    α₂ = 1.27, α₃ = 1.10
+//! Δt_D = c / ω_D,  c = c₀ g(a/k_BT) (0.65 / max(λ, 0.5))
+//!        c₀ = 1.055 (1 − 0.542/√(Σ_j w_D)) (× 1.04 in 3D)
+//!        g(x) = 3.08 − 2.08 e^{−x/12.1}
+//! random start, 2D, ω_D > 2.84 ω_E:  Δt_D ≤ c₀ / (ω_D − 2.84 ω_E)
+//! Δt ≤ (Δt_C⁻² + Δt_D⁻²)^{−1/2}
 //! ```
 //!
-//! Δt_D is the step at which the explicit update over-corrects the relative velocity of a
-//! particle and its neighbourhood; beyond Δt_C the conservative oscillation of a particle in
-//! its cage is unstable under velocity Verlet. Groot & Warren (1997) recommend Δt ≈ 0.04–0.06 at
-//! a = 25, γ = 4.5, ρ = 3 for k_BT within a few per cent: that accuracy limit is reported, not
-//! enforced (see the k_BT-vs-Δt curve in docs/validation.md).
+//! Every coefficient is measured: 66 stability maps points (`mesorheo stability`, 1000-step
+//! trials, 2D ρ = 2 and 4, 3D ρ = 3 and 5, a = 0…200, γ = 2…100, λ = 0.5 and 0.65, lattice and
+//! random starts; docs/validation.md "DPD stability: check against the measured map"), fitted so
+//! that no measured unstable step is accepted (the smallest margin is 4.6 %) while most of each
+//! stable range is. Why each part:
+//!
+//! - Δt_C: the stiffest mode of a particle's cage is a pair mode, ω_max² ≤ 2ω_E² (Gershgorin),
+//!   so velocity Verlet needs Δt < √2/ω_E; measured: α = 1.32 (2D) and 1.13 (3D) at a = 25,
+//!   up to 1.42 and 1.33 at a = 200 (the contact stiffness a/r_c overstates the softer cages).
+//! - Δt_D: the explicit friction of a mode with rate k is stable for kΔt < 2/λ (the
+//!   Groot–Warren predicted velocity; hence the 0.65/λ, measured 1.27–1.35 between λ = 0.65 and
+//!   0.5), and k is a local rate, not the mean ω_D: an ideal gas (a = 0) forms clusters whose
+//!   Σ_j w_D is several times the mean (c₀ < 1, smaller at low density where the relative
+//!   fluctuations are larger), while a repulsion a ≫ k_BT empties the close pairs that dominate
+//!   w_D (c up to ≈ 3c₀).
+//! - A random start is an ideal gas until the repulsion separates the overlaps, within about
+//!   1/ω_E; at large γ in 2D (ρ = 4: 12.6 neighbours, many overlaps) the first steps decide,
+//!   hence the random-start bound that relaxes as ω_E Δt grows. 3D random starts measured no
+//!   worse than lattice ones.
+//!
+//! Where this is conservative (accepts < 80 % of the measured stable range): the ideal gas at
+//! small γ (a = 0, γ = 4.5: 59–67 %; its clusters live fewer steps at large Δt, so c₀ measured
+//! at γ = 40 understates it there), and at a ≥ 25 with γ ≥ 40 in 3D and at ρ = 5 (67–78 %),
+//! where the fitted g saturates below the measured c. Groot & Warren (1997) recommend
+//! Δt ≈ 0.04–0.06 at a = 25, γ = 4.5, ρ = 3 for k_BT within a few per cent: that accuracy limit
+//! is reported, not enforced (see the k_BT-vs-Δt curve in docs/validation.md).
 //!
 //! SPH (the summation gas): the acoustic CFL limit Δt < 0.25 h / c (Monaghan 1992; spec
 //! `sph-maxwell.md` §1).
@@ -39,17 +66,25 @@
 use crate::models::dpd::DpdCfg;
 use crate::models::sph::SphCfg;
 
-/// Time-step limits of a DPD case.
+/// Time-step limits of a DPD case (module doc for the formulas and their measurement).
 #[derive(Clone, Copy, Debug)]
 pub struct DpdLimits {
-    /// Expected neighbours inside the cutoff.
+    /// Expected neighbours inside the cutoff, N_c.
     pub neighbours: f64,
     /// Σ_j w_D at the mean density.
     pub sum_wd: f64,
-    /// Dissipative stability limit Δt_D.
+    /// Cage frequency ω_E.
+    pub cage_frequency: f64,
+    /// Friction rate ω_D = γ Σ_j w_D / m.
+    pub friction_rate: f64,
+    /// The friction coefficient c of Δt_D = c/ω_D.
+    pub friction_coefficient: f64,
+    /// The dissipative part Δt_D (∞ under the exponential thermostat).
     pub dissipative: f64,
-    /// Conservative (Verlet) stability limit Δt_C.
+    /// The conservative (velocity-Verlet) part Δt_C.
     pub conservative: f64,
+    /// The limit `check` enforces, (Δt_C⁻² + Δt_D⁻²)^{−1/2}.
+    pub combined: f64,
 }
 
 /// Volume of the D-ball of radius r.
@@ -67,9 +102,32 @@ pub fn cfl_limit(smoothing_length: f64, sound_speed: f64) -> f64 {
     0.25 * smoothing_length / sound_speed
 }
 
+/// Measured coefficients of [`dpd_limits`] (module doc).
+mod dpd_fit {
+    pub const ALPHA_2D: f64 = 1.27;
+    pub const ALPHA_3D: f64 = 1.10;
+    pub const IDEAL_GAS_SCALE: f64 = 1.055;
+    pub const IDEAL_GAS_FLUCTUATION: f64 = 0.542;
+    pub const IDEAL_GAS_3D: f64 = 1.04;
+    pub const REPULSION_GAIN: f64 = 3.08;
+    pub const REPULSION_SCALE_KT: f64 = 12.1;
+    pub const RANDOM_START_RELIEF: f64 = 2.84;
+    pub const MEASURED_LAMBDA: f64 = 0.65;
+}
+
 /// Limits for the DPD fluid `d` in `dimension` dimensions at number density `n` and particle
-/// mass `m`.
-pub fn dpd_limits(d: &DpdCfg, dimension: usize, n: f64, m: f64) -> DpdLimits {
+/// mass `m`, integrated by Groot–Warren with `lambda` (`exponential`: the friction integrated
+/// exactly, no dissipative part), from uniformly random positions when `random_start`.
+pub fn dpd_limits(
+    d: &DpdCfg,
+    dimension: usize,
+    n: f64,
+    m: f64,
+    lambda: f64,
+    exponential: bool,
+    random_start: bool,
+) -> DpdLimits {
+    use dpd_fit::*;
     let s = d.weight_exponent;
     let rc = d.cutoff;
     let dim = dimension;
@@ -80,24 +138,68 @@ pub fn dpd_limits(d: &DpdCfg, dimension: usize, n: f64, m: f64) -> DpdLimits {
     };
     let neighbours = n * ball_volume(dim, rc);
     // The conservative force a (1 − r/r_c)^s̄ stiffens as a s̄/r_c near contact.
-    let omega2 = d.a * d.conservative_exponent / rc * neighbours / (dim as f64 * m);
+    let cage = (d.a.max(0.0) * d.conservative_exponent / rc * neighbours / (dim as f64 * m)).sqrt();
+    let alpha = if dim == 2 { ALPHA_2D } else { ALPHA_3D };
+    let conservative = if cage > 0.0 {
+        alpha / cage
+    } else {
+        f64::INFINITY
+    };
+    let friction_rate = d.gamma * sum_wd / m;
+    let ideal_gas = IDEAL_GAS_SCALE
+        * (1.0 - IDEAL_GAS_FLUCTUATION / sum_wd.sqrt()).max(0.1)
+        * if dim == 3 { IDEAL_GAS_3D } else { 1.0 };
+    let repulsion = REPULSION_GAIN
+        - (REPULSION_GAIN - 1.0) * (-d.a.max(0.0) / (REPULSION_SCALE_KT * d.kt)).exp();
+    let friction_coefficient = ideal_gas * repulsion * MEASURED_LAMBDA / lambda.max(0.5);
+    let mut dissipative = if exponential || friction_rate <= 0.0 {
+        f64::INFINITY
+    } else {
+        friction_coefficient / friction_rate
+    };
+    if random_start && dim == 2 && !exponential && friction_rate > RANDOM_START_RELIEF * cage {
+        dissipative = dissipative.min(ideal_gas / (friction_rate - RANDOM_START_RELIEF * cage));
+    }
     DpdLimits {
         neighbours,
         sum_wd,
-        dissipative: m / (d.gamma * sum_wd),
-        conservative: if omega2 > 0.0 {
-            2.0 / omega2.sqrt()
-        } else {
-            f64::INFINITY
-        },
+        cage_frequency: cage,
+        friction_rate,
+        friction_coefficient,
+        dissipative,
+        conservative,
+        combined: 1.0 / (conservative.powi(-2) + dissipative.powi(-2)).sqrt(),
     }
+}
+
+/// [`dpd_limits`] of a case whose fluid is DPD.
+pub fn dpd_limits_of(case: &crate::config::Case) -> Option<DpdLimits> {
+    let crate::config::FluidCfg::Dpd(d) = &case.fluid else {
+        return None;
+    };
+    let (lambda, exponential) = match &case.integrator {
+        crate::config::IntegratorCfg::GrootWarren(gw) => (
+            gw.lambda,
+            gw.thermostat == crate::config::Thermostat::Exponential,
+        ),
+        _ => (0.5, false),
+    };
+    Some(dpd_limits(
+        d,
+        case.dimension,
+        case.particles.density,
+        case.particles.mass,
+        lambda,
+        exponential,
+        case.particles.lattice == crate::config::Lattice::Random,
+    ))
 }
 
 /// The mean-field rate of the DPD friction, ω₀ = γ n [w_D]/(d m) = γ Σ_j w_D/(d m) (spec
 /// `dpd-physical-parameters.md` §10 A7): the velocity of a particle among neighbours at rest
 /// relaxes as e^{−ω₀t}.
 pub fn dpd_mean_field_rate(d: &DpdCfg, dimension: usize, n: f64, m: f64) -> f64 {
-    d.gamma * dpd_limits(d, dimension, n, m).sum_wd / (dimension as f64 * m)
+    d.gamma * dpd_limits(d, dimension, n, m, 0.5, false, false).sum_wd / (dimension as f64 * m)
 }
 
 /// Time-step limits of an SPH fluid, each with its name.

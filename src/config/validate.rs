@@ -360,29 +360,25 @@ pub fn validate(case: &Case, ix: &SpanIndex) -> Result<(), CaseError> {
     // Time-step stability (unless the case asks to run beyond the limits).
     match &case.fluid {
         _ if case.run.beyond_stability_limits => {}
-        FluidCfg::Dpd(dpd) => {
-            let (n, m) = (case.particles.density, case.particles.mass);
-            let limits = stability::dpd_limits(dpd, dim, n, m);
-            // The exponential thermostat integrates the mean-field friction exactly.
-            if dt > limits.dissipative && !exponential {
+        FluidCfg::Dpd(_) => {
+            if let Some(l) = stability::dpd_limits_of(case)
+                && dt > l.combined
+            {
+                let binding = if l.dissipative < l.conservative {
+                    "mostly the dissipative force's: use a smaller time step, a smaller γ, or \
+                     thermostat = \"exponential\" (which integrates the friction exactly)"
+                } else {
+                    "mostly the conservative force's (velocity Verlet in the cage of \
+                     neighbours): use a smaller time step or a softer a"
+                };
                 return err(
                     &["integrator", "dt"],
                     format!(
-                        "Δt = {} is beyond the explicit stability limit of the dissipative force, \
-                         Δt < m / (γ Σ_j w_D) ≈ {:.4e} for this density and γ; use a smaller time \
-                         step, or thermostat = \"exponential\" (which integrates the friction \
-                         exactly)",
-                        dt, limits.dissipative
-                    ),
-                );
-            }
-            if dt > limits.conservative {
-                return err(
-                    &["integrator", "dt"],
-                    format!(
-                        "Δt = {} is beyond the velocity-Verlet stability limit of the conservative force, \
-                         Δt < 2/ω ≈ {:.4e} (ω² = a N_c / (r_c D m)); use a smaller time step or a softer a",
-                        dt, limits.conservative
+                        "Δt = {dt} is beyond the measured stability limit of this DPD fluid, \
+                         Δt ≤ (Δt_C⁻² + Δt_D⁻²)^(−1/2) = {:.4e} with the conservative part \
+                         Δt_C = α/ω_E = {:.4e} and the dissipative part Δt_D = c/ω_D = {:.4e} \
+                         (see `mesorheo check`); the limit is {binding}",
+                        l.combined, l.conservative, l.dissipative
                     ),
                 );
             }
