@@ -201,10 +201,10 @@ fn a_particle_with_a_runaway_kinetic_energy_is_named() {
 /// passed its heating bound stops at the next sample with a diagnosis naming the temperature;
 /// 10 % below the bound it samples on. The bound is 2 k_BT plus the overlap energy of a random
 /// start, (2/D)(n/2)∫φ dV = n a π/45 = 5.236 k_BT for the 3D a = 25, ρ = 3 fluid (by hand),
-/// decaying as e^{−ω₀t}, ω₀ = γ n (8π/60)/3 = 1.885: at t = 0.04 (one step) 2 + 5.236 ×
-/// e^{−0.0754} = 6.856. The velocities are scaled by √(T/T₀), so the measured temperature is
+/// decaying as e^{−ω₀t/2}, ω₀ = γ n (8π/60)/3 = 1.885: at t = 0.04 (one step) 2 + 5.236 ×
+/// e^{−0.0377} = 7.042. The velocities are scaled by √(T/T₀), so the measured temperature is
 /// known to round-off. Fails if the heating check is dropped (the hot sample succeeds), if its
-/// bound drops the start's allowance (0.9 × 6.856 is then stopped) or keeps it undecayed.
+/// bound drops the start's allowance (0.9 × 7.042 is then stopped) or keeps it undecayed.
 #[test]
 fn a_fluid_heating_past_its_bound_is_stopped() {
     let loaded = case_from_str(&small_dpd(3, 6.0, 0.0, 10, ""), "heating");
@@ -215,7 +215,7 @@ fn a_fluid_heating_past_its_bound_is_stopped() {
     let omega0 = 4.5 * 3.0 * 8.0 * std::f64::consts::PI / 60.0 / 3.0;
     let start = 3.0 * 25.0 * std::f64::consts::PI / 45.0;
     assert!((bound(0.0) - 2.0 - start).abs() < 1e-12, "{}", bound(0.0));
-    assert!((bound(0.04) - 2.0 - start * (-omega0 * 0.04).exp()).abs() < 1e-12);
+    assert!((bound(0.04) - 2.0 - start * (-0.5 * omega0 * 0.04).exp()).abs() < 1e-12);
     assert!((bound(100.0) - 2.0).abs() < 1e-12, "{}", bound(100.0));
     let comm = SerialComm::new();
     let mut sim = Simulation::<3>::new(&loaded.case, &comm, 1).unwrap_or_else(|e| panic!("{e}"));
