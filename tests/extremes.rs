@@ -223,90 +223,6 @@ fn a_million_particles_on_one_rank_against_the_memory_check() {
     );
 }
 
-/// The DPD maps that `check`'s limit is fitted to (docs/validation.md "DPD stability: check
-/// against the measured maps"): CSV in docs/stability/, stock case, the fixed overrides of the
-/// map; the swept key is the CSV's first column.
-const DPD_MAPS: &[(&str, &str, &[&str])] = &[
-    ("dpd_gamma", "dpd_equilibrium_2d.toml", &[]),
-    ("dpd_a", "dpd_equilibrium_2d.toml", &[]),
-    (
-        "dpd_gamma_lattice",
-        "dpd_equilibrium_2d.toml",
-        &["particles.lattice=\"cubic\""],
-    ),
-    (
-        "dpd_a_lattice",
-        "dpd_equilibrium_2d.toml",
-        &["particles.lattice=\"cubic\""],
-    ),
-    (
-        "dpd_a_g40_lattice",
-        "dpd_equilibrium_2d.toml",
-        &["fluid.gamma=40", "particles.lattice=\"cubic\""],
-    ),
-    (
-        "dpd_a_g100_lattice",
-        "dpd_equilibrium_2d.toml",
-        &["fluid.gamma=100", "particles.lattice=\"cubic\""],
-    ),
-    ("dpd_a_g40", "dpd_equilibrium_2d.toml", &["fluid.gamma=40"]),
-    (
-        "dpd_a_g100",
-        "dpd_equilibrium_2d.toml",
-        &["fluid.gamma=100"],
-    ),
-    (
-        "dpd_a_g40_lambda05_lattice",
-        "dpd_equilibrium_2d.toml",
-        &[
-            "fluid.gamma=40",
-            "integrator.lambda=0.5",
-            "particles.lattice=\"cubic\"",
-        ],
-    ),
-    (
-        "dpd_a_g40_rho2_lattice",
-        "dpd_equilibrium_2d.toml",
-        &[
-            "fluid.gamma=40",
-            "particles.density=2.0",
-            "box.lengths=[20.0,20.0]",
-            "particles.lattice=\"cubic\"",
-        ],
-    ),
-    (
-        "dpd3_gamma_lattice",
-        "dpd_equilibrium_3d.toml",
-        &["particles.lattice=\"cubic\""],
-    ),
-    (
-        "dpd3_a_lattice",
-        "dpd_equilibrium_3d.toml",
-        &["particles.lattice=\"cubic\""],
-    ),
-    (
-        "dpd3_a_g40_lattice",
-        "dpd_equilibrium_3d.toml",
-        &["fluid.gamma=40", "particles.lattice=\"cubic\""],
-    ),
-    (
-        "dpd3_a_g100_lattice",
-        "dpd_equilibrium_3d.toml",
-        &["fluid.gamma=100", "particles.lattice=\"cubic\""],
-    ),
-    ("dpd3_a_g40", "dpd_equilibrium_3d.toml", &["fluid.gamma=40"]),
-    ("dpd3_a", "dpd_equilibrium_3d.toml", &[]),
-    (
-        "dpd3_a_g40_rho5_lattice",
-        "dpd_equilibrium_3d.toml",
-        &[
-            "fluid.gamma=40",
-            "particles.density=5.0",
-            "particles.lattice=\"cubic\"",
-        ],
-    ),
-];
-
 /// `check`'s DPD time-step limit against the measured stability maps (issue #18): at every
 /// measured point it refuses the smallest unstable step with a margin (limit ≤ 0.97 × the
 /// first unstable step; the bisection brackets the boundary to 3 %), and it accepts at least
@@ -318,8 +234,18 @@ const DPD_MAPS: &[(&str, &str, &[&str])] = &[
 #[test]
 fn check_refuses_every_measured_unstable_dpd_step() {
     let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+    let manifest = std::fs::read_to_string(root.join("docs/stability/dpd_maps.txt"))
+        .expect("docs/stability/dpd_maps.txt");
+    let maps: Vec<Vec<&str>> = manifest
+        .lines()
+        .filter(|l| !l.starts_with('#') && !l.trim().is_empty())
+        .map(|l| l.split('|').map(str::trim).collect())
+        .collect();
+    assert_eq!(maps.len(), 17, "the maps of docs/stability/dpd_maps.txt");
     let (mut points, mut conservative, mut worst) = (0, 0, f64::INFINITY);
-    for (name, case, fixed) in DPD_MAPS {
+    for map in &maps {
+        let (name, case) = (map[0], map[1]);
+        let fixed: Vec<&str> = map[4].split_whitespace().collect();
         let path = root.join("docs/stability").join(format!("{name}.csv"));
         let text =
             std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));

@@ -45,6 +45,9 @@ and writes plots to docs/ when matplotlib is available.
                  (~1.5 h; MESORHEO_TCAF_OUT=DIR reuses a finished run of the case)
   kt_vs_dt_low_mass  Nguyen's Table 3.1 (m = 0.01 Couette): k_BT against Δt for velocity Verlet,
                  explicit and with the exponential thermostat (~4 min)
+  dpd_stability  the DPD stability maps of docs/stability/dpd_maps.txt (`mesorheo stability`,
+                 1000-step trials): CSV and PNG to docs/stability/, and the tables of
+                 docs/validation.md "DPD: check against the measured maps" (~15 min on 2 cores)
   fuzz           the long fuzz of the stock case files through `mesorheo check` (the ignored test
                  tests/check_fuzz.rs::long_fuzz_through_check; MESORHEO_FUZZ_VARIANTS per case,
                  default here 100 000, ~7 min): no panic, no hang
@@ -1245,6 +1248,60 @@ blocks = 10
               f"{cells[1][1]} | {T8_THESIS_SETD[dt]:.4f} | {steps} |")
 
 
+def dpd_maps():
+    """The maps of docs/stability/dpd_maps.txt: [(name, case, over, options, fixed overrides)]."""
+    maps = []
+    with open(os.path.join(ROOT, "docs/stability/dpd_maps.txt")) as f:
+        for line in f:
+            if line.startswith("#") or not line.strip():
+                continue
+            name, case, over, options, fixed = [c.strip() for c in line.split("|")]
+            maps.append((name, case, over, options.split(), fixed.split()))
+    return maps
+
+
+def dpd_stability():
+    """Runs every DPD stability map (a serial child per trial) and prints, per map, the measured
+    bracket and `check`'s verdict at each point, then the summary over all points."""
+    import csv, shutil
+    out = os.path.join(ROOT, "docs/stability")
+    rows = []
+    for name, case, over, options, fixed in dpd_maps():
+        work = os.path.join(tempfile.gettempdir(), f"mesorheo_stability_{name}")
+        args = ["stability", f"cases/{case}", "--over", over, *options, "--steps", "1000",
+                "--tolerance", "0.03"]
+        for f in fixed:
+            args += ["--set", f]
+        print("mesorheo " + " ".join(args), file=sys.stderr)
+        # MESORHEO_STABILITY_TABLES_ONLY=1: the tables of the CSVs already in docs/stability/.
+        if not os.environ.get("MESORHEO_STABILITY_TABLES_ONLY"):
+            shutil.rmtree(work, ignore_errors=True)
+            args[1] = os.path.join(ROOT, args[1])
+            subprocess.run([BIN, *args, "--out", work, "-q"], env=ENV, check=False)
+            for ext in ("csv", "png"):
+                src = os.path.join(work, f"stability.{ext}")
+                if os.path.exists(src):
+                    shutil.copy(src, os.path.join(out, f"{name}.{ext}"))
+        with open(os.path.join(out, f"{name}.csv")) as f:
+            for r in csv.DictReader(f):
+                key = next(iter(r))
+                rows.append((name, f"{key} = {float(r[key]):.4g}", float(r["largest_stable"]),
+                             float(r["smallest_unstable"]), float(r["check_limit"])))
+    print("| map | point | largest stable Δt | smallest unstable | check's limit | check / unstable | check accepts |")
+    print("|---|---|---|---|---|---|---|")
+    for name, point, stable, unstable, limit in rows:
+        accepts = min(limit, stable) / stable
+        mark = "**" if accepts < 0.8 or limit >= unstable else ""
+        print(f"| {name} | {point} | {stable:.4g} | {unstable:.4g} | {limit:.4g} | "
+              f"{limit / unstable:.3f} | {mark}{100 * accepts:.0f} %{mark} |")
+    accepted = sorted(min(l, s) / s for _, _, s, _, l in rows)
+    print(f"\n{len(rows)} points: check refuses the unstable step at "
+          f"{sum(l < u for *_, u, l in rows)}; accepts ≥ 80 % of the stable range at "
+          f"{sum(a >= 0.8 for a in accepted)}; worst {100 * accepted[0]:.0f} %, median "
+          f"{100 * accepted[len(accepted) // 2]:.0f} %; largest check / unstable "
+          f"{max(l / u for *_, u, l in rows):.3f}")
+
+
 def launch_text(text, sets=(), ranks=1, threads=2):
     """launch() on a case given as text."""
     with tempfile.NamedTemporaryFile("w", suffix=".toml", delete=False) as f:
@@ -1259,7 +1316,7 @@ if __name__ == "__main__":
     todo = sys.argv[1:] or ["stock", "kt_vs_dt", "viscosity", "viscometric", "sph", "sph_convergence", "maxwell",
                             "inclusion", "maxwell_convergence", "maxwell_stability", "connffessit_shear",
                             "msph_channel", "weak_order", "fene_table", "transverse_current",
-                            "kt_vs_dt_low_mass", "fuzz"]
+                            "kt_vs_dt_low_mass", "dpd_stability", "fuzz"]
     targets = {"kt_vs_dt": kt_vs_dt, "viscosity": viscosity, "stock": stock,
                "viscometric": viscometric, "sph": sph, "sph_convergence": sph_convergence,
                "maxwell": maxwell, "inclusion": inclusion,
@@ -1267,7 +1324,7 @@ if __name__ == "__main__":
                "connffessit_shear": connffessit_shear, "msph_channel": msph_channel,
                "weak_order": weak_order, "fene_table": fene_table,
                "transverse_current": transverse_current, "kt_vs_dt_low_mass": kt_vs_dt_low_mass,
-               "fuzz": fuzz}
+               "dpd_stability": dpd_stability, "fuzz": fuzz}
     for name in todo:
         if name not in targets:
             sys.exit(f"unknown validation '{name}'; valid: {', '.join(targets)}")
