@@ -23,9 +23,8 @@ fn run(text: &str, ranks: usize) -> mesorheo::summary::Summary {
 /// (within 4.5 block errors) with the ideal-gas pressure n k_BT (within 4.5 errors). a = 10⁶ is
 /// refused at Δt = 0.04 naming the conservative force, and runs to the end with finite averages
 /// at a tenth of the limit. Its temperature is not k_BT: the random initial positions store ~a per
-/// overlapping pair, which the forces release as heat (k_BT ≈ 7·10⁴ after 300 steps); at half
-/// the limit that release throws a particle beyond the neighbour list's range within ~100
-/// steps, which the run reports as unstable.
+/// overlapping pair, which the forces release as heat (k_BT ≈ 7·10⁴ after 300 steps, within
+/// the heating bound's allowance for a random start).
 #[test]
 fn dpd_without_repulsion_and_with_a_huge_one() {
     let extra =
