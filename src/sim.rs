@@ -28,7 +28,7 @@ use crate::integrators::{
 };
 use crate::models::dpd::DpdModel;
 use crate::models::gather::FullList;
-use crate::models::interface::{FieldKind, ParticleModel, PassContext};
+use crate::models::interface::{FieldKind, ParticleModel, PassContext, StateBlowUp};
 use crate::models::pair_loop::{Virial, VirialScope};
 use crate::models::sph::SphModel;
 use crate::models::summation_gas::SummationGas;
@@ -134,6 +134,9 @@ pub struct Simulation<'c, const D: usize> {
     pool: rayon::ThreadPool,
     /// This rank was asked to stop (a signal); shared with the others in the next step.
     stop_requested_here: bool,
+    /// The blow-up this rank's models found in their particles' own state at this step (the
+    /// model's index and the particle), reduced with the displacement.
+    state_blow_up: Option<(usize, StateBlowUp)>,
     /// Some rank asked to stop during the last step (the same on every rank).
     stop_agreed: bool,
 }
@@ -596,6 +599,7 @@ impl<'c, const D: usize> Simulation<'c, D> {
             times: PhaseTimes::default(),
             pool,
             stop_requested_here: false,
+            state_blow_up: None,
             stop_agreed: false,
         };
         // The range the first list build needs; the attached models confirm or widen it.
@@ -1020,10 +1024,16 @@ impl<'c, const D: usize> Simulation<'c, D> {
             let t = Instant::now();
             self.step += 1;
             let (models, p, step) = (&self.models, &mut self.particles, self.step);
-            self.pool.install(|| {
-                for model in models {
-                    model.update_state(p, step);
+            self.state_blow_up = self.pool.install(|| {
+                let mut first: Option<(usize, StateBlowUp)> = None;
+                for (m, model) in models.iter().enumerate() {
+                    if let Some(b) = model.update_state(p, step)
+                        && first.is_none_or(|(_, f)| (b.gid, b.item) < (f.gid, f.item))
+                    {
+                        first = Some((m, b));
+                    }
                 }
+                first
             });
             self.times.particle_state += t.elapsed().as_secs_f64();
         }
@@ -1041,9 +1051,31 @@ impl<'c, const D: usize> Simulation<'c, D> {
             largest,
             if self.stop_requested_here { 1.0 } else { 0.0 },
             hottest,
+            // The lowest id of a particle whose own state blew up, negated for the maximum.
+            self.state_blow_up
+                .map_or(f64::NEG_INFINITY, |(_, b)| -(b.gid as f64)),
         ];
         self.comm.allreduce_max(&mut moved);
         self.stop_agreed = moved[1] > 0.0;
+        if moved[3] > f64::NEG_INFINITY {
+            let gid = -moved[3];
+            // The rank holding it tells the model and the numbers; the others learn them here.
+            let mut detail = match self.state_blow_up {
+                Some((m, b)) if b.gid as f64 == gid => [m as f64, b.item as f64, b.value],
+                _ => [f64::NEG_INFINITY; 3],
+            };
+            self.comm.allreduce_max(&mut detail);
+            let blow_up = StateBlowUp {
+                gid: gid as u64,
+                item: detail[1] as u64,
+                value: detail[2],
+            };
+            return Err(format!(
+                "{}, at step {}: {UNSTABLE}; reduce the time step",
+                self.models[detail[0] as usize].describe_state_blow_up(&blow_up),
+                self.step
+            ));
+        }
         if moved[0] > self.range() {
             // Decided on the globally reduced value, so every rank count stops alike; the rank
             // holding the particle names it (the largest id among ties).

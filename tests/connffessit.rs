@@ -118,3 +118,54 @@ fn uncorrected_gradient_estimates_are_counted_in_the_summary() {
         );
     }
 }
+
+/// Blow-up detection (issue #18) inside a particle scene: a connector of one particle's
+/// ensemble made not finite (NaN for Hookean, ∞ for FENE; the semi-implicit FENE scheme, the
+/// only one particle scenes allow, pulls a finite |Q|² ≥ b back inside, so only rounding to
+/// single precision can leave a finite one outside) stops the next step with a diagnosis
+/// naming the particle, the dumbbell and |Q|², "the run is unstable" (exit code 4 from
+/// `mesorheo run`). Fails if the ensemble's update stops reporting (the step then succeeds) or
+/// if the reduction drops the report.
+#[test]
+fn a_connector_outside_its_domain_stops_a_particle_scene() {
+    let base = stock_text("connffessit_shear_2d.toml");
+    let base = base[..base.find("[[reference]]").expect("references")]
+        .replace("per_particle = 100", "per_particle = 8");
+    for (spring, poison, expect) in [
+        ("", f64::NAN, "(not finite)"),
+        ("spring = \"fene\"\nb = 10.0\n", f64::INFINITY, "(not finite)"),
+    ] {
+        let text = base.replace(
+            "per_particle = 8\n",
+            &format!("per_particle = 8\n{spring}"),
+        );
+        let loaded = case_from_str(&text, "connffessit blow-up");
+        let comm = SerialComm::new();
+        let mut sim = Simulation::<2>::new(&loaded.case, &comm, 1).expect("set up");
+        sim.advance().expect("a good step");
+        let p = &mut sim.particles;
+        let k = p
+            .var
+            .iter()
+            .position(|f| f.name == CONNECTORS)
+            .expect("connectors");
+        let i = (0..p.n_owned).find(|&i| p.gid[i] == 40).expect("particle 40");
+        // Dumbbell 3: Q = (poison, poison).
+        match &mut p.var[k].data {
+            mesorheo::particles::VarData::Double(rows) => {
+                rows[i][6] = poison;
+                rows[i][7] = poison;
+            }
+            mesorheo::particles::VarData::Single(_) => panic!("double storage"),
+        }
+        let err = sim
+            .advance()
+            .expect_err(&format!("the blow-up is caught ({spring:?})"));
+        assert!(
+            err.contains("dumbbell 3 of particle 40 has |Q|²")
+                && err.contains(expect)
+                && err.contains(mesorheo::sim::UNSTABLE),
+            "{err}"
+        );
+    }
+}

@@ -23,10 +23,10 @@
 //! (tested), on any decomposition, however the particles migrate.
 
 use super::dumbbells::{
-    DumbbellParams, init_stream, kramers_stress, noise_stream, sample_equilibrium, step_ensemble,
+    DumbbellParams, init_stream, kramers_stress, noise_stream, sample_equilibrium, step_ensemble, outside_domain, Spring,
 };
 use super::homogeneous_flow::Flow;
-use super::interface::{FieldKind, FieldSpec, ParticleModel};
+use super::interface::{FieldKind, FieldSpec, ParticleModel, StateBlowUp};
 use super::sph::maxwell::{PolymerCfg, packed_index, packed_width};
 use crate::particles::{FieldFlags, Particles, Precision, VarData, tensor_rows};
 use rayon::prelude::*;
@@ -216,8 +216,11 @@ impl<const D: usize> ParticleModel<D> for DumbbellEnsemble<D> {
     }
 
     /// One step of every owned particle's ensemble, with κ frozen at the start of the step
-    /// (time (step − 1) Δt) and the noise of step − 1, as in a homogeneous-flow scene.
-    fn update_state(&self, p: &mut Particles<D>, step: u64) {
+    /// (time (step − 1) Δt) and the noise of step − 1, as in a homogeneous-flow scene. A
+    /// connector left outside the spring's domain (|Q|² ≥ b for FENE, not finite for either
+    /// spring; checked on what is stored, after any rounding to single precision) is returned,
+    /// the lowest particle id and dumbbell index first.
+    fn update_state(&self, p: &mut Particles<D>, step: u64) -> Option<StateBlowUp> {
         let n = step - 1;
         let (params, seed) = (self.params, self.seed);
         let imposed = match &self.kappa {
@@ -247,23 +250,28 @@ impl<const D: usize> ParticleModel<D> for DumbbellEnsemble<D> {
                 (None, None) => unreachable!("attach resolved the source"),
             }
         };
-        match &mut var[self.connectors].data {
-            VarData::Double(rows) => {
-                rows.par_iter_mut().enumerate().for_each(|(i, q)| {
+        let limit = self.domain_limit();
+        let gid = &*gid;
+        let blow_up = match &mut var[self.connectors].data {
+            VarData::Double(rows) => rows
+                .par_iter_mut()
+                .enumerate()
+                .filter_map(|(i, q)| {
                     if q.is_empty() {
-                        return;
+                        return None;
                     }
                     let mut noise = noise_stream(seed, gid[i], n, 0);
                     step_ensemble::<D>(q, &kappa_of(i), &params, &mut noise);
-                });
-            }
+                    outside_domain::<D, f64>(q, limit).map(|(k, q2)| (gid[i], k, q2))
+                })
+                .min_by_key(|v| (v.0, v.1)),
             VarData::Single(rows) => {
                 // Widened to f64, advanced with the same arithmetic, rounded back.
-                rows.par_iter_mut().enumerate().for_each_init(
-                    Vec::new,
-                    |wide: &mut Vec<f64>, (i, q)| {
+                rows.par_iter_mut()
+                    .enumerate()
+                    .map_init(Vec::new, |wide: &mut Vec<f64>, (i, q)| {
                         if q.is_empty() {
-                            return;
+                            return None;
                         }
                         wide.clear();
                         wide.extend(q.iter().map(|&x| f64::from(x)));
@@ -272,10 +280,48 @@ impl<const D: usize> ParticleModel<D> for DumbbellEnsemble<D> {
                         for (s, w) in q.iter_mut().zip(wide.iter()) {
                             *s = *w as f32;
                         }
-                    },
-                );
+                        outside_domain::<D, f32>(q, limit).map(|(k, q2)| (gid[i], k, q2))
+                    })
+                    .flatten()
+                    .min_by_key(|v| (v.0, v.1))
             }
-        }
+        };
         self.update_stress(p);
+        blow_up.map(|(gid, k, q2)| StateBlowUp {
+            gid,
+            item: k as u64,
+            value: if q2.is_finite() { q2 } else { f64::INFINITY },
+        })
+    }
+
+    fn describe_state_blow_up(&self, b: &StateBlowUp) -> String {
+        format!(
+            "dumbbell {} of particle {} has |Q|² = {:.6e}{} (the connector left the spring's \
+             domain{})",
+            b.item,
+            b.gid,
+            b.value,
+            match self.params.spring {
+                Spring::Fene { b: limit } if b.value.is_finite() => format!(" ≥ b = {limit}"),
+                _ => " (not finite)".into(),
+            },
+            if self.precision == Precision::Single {
+                "; or store the connectors in double precision"
+            } else {
+                ""
+            }
+        )
+    }
+}
+
+impl<const D: usize> DumbbellEnsemble<D> {
+    /// |Q|² at which a connector has left its spring's domain: b for FENE; for Hookean only a
+    /// value that is not finite (the flow in a particle scene is not known in advance, so no
+    /// runaway bound as in a homogeneous flow).
+    fn domain_limit(&self) -> f64 {
+        match self.params.spring {
+            Spring::Fene { b } => b,
+            Spring::Hookean => f64::INFINITY,
+        }
     }
 }

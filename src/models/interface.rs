@@ -193,9 +193,21 @@ pub trait ParticleModel<const D: usize>: Send + Sync {
     }
 
     /// Advances the owned particles' own state to `step`, after the integrator has moved them
-    /// (once per step). Runs on the rank's worker pool.
-    fn update_state(&self, particles: &mut Particles<D>, step: u64) {
+    /// (once per step). Runs on the rank's worker pool. Returns the owned particle of lowest
+    /// global id whose state left its domain (a blow-up), if any, for
+    /// [`Self::describe_state_blow_up`].
+    fn update_state(&self, particles: &mut Particles<D>, step: u64) -> Option<StateBlowUp> {
         let _ = (particles, step);
+        None
+    }
+
+    /// The diagnosis of a [`StateBlowUp`] (the same on every rank: built from the reduced
+    /// numbers), ending before the step and "the run is unstable".
+    fn describe_state_blow_up(&self, blow_up: &StateBlowUp) -> String {
+        format!(
+            "particle {}'s state {} reached {:.6e}",
+            blow_up.gid, blow_up.item, blow_up.value
+        )
     }
 
     /// Events this rank counted since the process started (a restart counts afresh) that the
@@ -204,4 +216,17 @@ pub trait ParticleModel<const D: usize>: Send + Sync {
     fn counted_warnings(&self) -> Vec<(u64, &'static str)> {
         Vec::new()
     }
+}
+
+/// A particle whose own state left its domain in [`ParticleModel::update_state`]: its global
+/// id, which item of its state (a dumbbell's index) and the offending value (+∞ when not
+/// finite).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct StateBlowUp {
+    /// Global particle id.
+    pub gid: u64,
+    /// Index of the item in the particle's state.
+    pub item: u64,
+    /// The value beyond the domain (+∞ for NaN or infinite).
+    pub value: f64,
 }

@@ -10,4 +10,6 @@ pub mod pair_loop;
 pub mod sph;
 pub mod summation_gas;
 
-pub use interface::{FieldKind, FieldSpec, ParticleModel, PassContext, PassOutput, PassSpec};
+pub use interface::{
+    FieldKind, FieldSpec, ParticleModel, PassContext, PassOutput, PassSpec, StateBlowUp,
+};
