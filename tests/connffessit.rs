@@ -133,12 +133,13 @@ fn a_connector_outside_its_domain_stops_a_particle_scene() {
         .replace("per_particle = 100", "per_particle = 8");
     for (spring, poison, expect) in [
         ("", f64::NAN, "(not finite)"),
-        ("spring = \"fene\"\nb = 10.0\n", f64::INFINITY, "(not finite)"),
+        (
+            "spring = \"fene\"\nb = 10.0\n",
+            f64::INFINITY,
+            "(not finite)",
+        ),
     ] {
-        let text = base.replace(
-            "per_particle = 8\n",
-            &format!("per_particle = 8\n{spring}"),
-        );
+        let text = base.replace("per_particle = 8\n", &format!("per_particle = 8\n{spring}"));
         let loaded = case_from_str(&text, "connffessit blow-up");
         let comm = SerialComm::new();
         let mut sim = Simulation::<2>::new(&loaded.case, &comm, 1).expect("set up");
@@ -149,7 +150,9 @@ fn a_connector_outside_its_domain_stops_a_particle_scene() {
             .iter()
             .position(|f| f.name == CONNECTORS)
             .expect("connectors");
-        let i = (0..p.n_owned).find(|&i| p.gid[i] == 40).expect("particle 40");
+        let i = (0..p.n_owned)
+            .find(|&i| p.gid[i] == 40)
+            .expect("particle 40");
         // Dumbbell 3: Q = (poison, poison).
         match &mut p.var[k].data {
             mesorheo::particles::VarData::Double(rows) => {

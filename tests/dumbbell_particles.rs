@@ -66,12 +66,17 @@ impl ParticleModel<3> for ConstantGradient {
             flags: FieldFlags::DERIVED,
         }]
     }
-    fn update_state(&self, p: &mut Particles<3>, step: u64) {
+    fn update_state(
+        &self,
+        p: &mut Particles<3>,
+        step: u64,
+    ) -> Option<mesorheo::models::StateBlowUp> {
         let k = p.extra_index("velocity_gradient").expect("registered");
         let kappa: Tensor<3> = FLOW.kappa::<3>((step - 1) as f64 * 0.04);
         for i in 0..p.n_owned {
             p.set_tensor(k, i, &kappa);
         }
+        None
     }
 }
 

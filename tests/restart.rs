@@ -191,7 +191,11 @@ impl<const D: usize> ParticleModel<D> for TensorAndArray {
         Ok(())
     }
 
-    fn update_state(&self, p: &mut Particles<D>, step: u64) {
+    fn update_state(
+        &self,
+        p: &mut Particles<D>,
+        step: u64,
+    ) -> Option<mesorheo::models::StateBlowUp> {
         let k = p.extra_index("tensor").expect("registered");
         let v = p
             .var
@@ -224,6 +228,7 @@ impl<const D: usize> ParticleModel<D> for TensorAndArray {
                 log[i].push(t as f32);
             }
         }
+        None
     }
 }
 

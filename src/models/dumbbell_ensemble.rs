@@ -23,7 +23,8 @@
 //! (tested), on any decomposition, however the particles migrate.
 
 use super::dumbbells::{
-    DumbbellParams, init_stream, kramers_stress, noise_stream, sample_equilibrium, step_ensemble, outside_domain, Spring,
+    DumbbellParams, Spring, init_stream, kramers_stress, noise_stream, outside_domain,
+    sample_equilibrium, step_ensemble,
 };
 use super::homogeneous_flow::Flow;
 use super::interface::{FieldKind, FieldSpec, ParticleModel, StateBlowUp};
