@@ -15,7 +15,7 @@
 //! Δt ≤ (Δt_C⁻² + Δt_D⁻²)^{−1/2}
 //! ```
 //!
-//! Every coefficient is measured: 66 stability maps points (`mesorheo stability`, 1000-step
+//! Every coefficient is measured: 66 points of 17 stability maps (`mesorheo stability`, 1000-step
 //! trials, 2D ρ = 2 and 4, 3D ρ = 3 and 5, a = 0…200, γ = 2…100, λ = 0.5 and 0.65, lattice and
 //! random starts; docs/stability/dpd_maps.txt, docs/validation.md "DPD: check against the
 //! measured maps"), fitted so that no measured unstable step is accepted (the limit is at most
@@ -42,9 +42,11 @@
 //! (67–78 %), where the measured c keeps growing with a past the fitted g; the 2D random start
 //! at γ = 100, a = 100 (75 %); 2D ρ = 2 at a = 100 (78 %); λ = 0.5 at a = 0 (79 %). One
 //! formula cannot follow all of them without accepting an unstable step elsewhere: the local
-//! structure that sets the friction limit is not known before the run. Groot & Warren (1997) recommend
-//! Δt ≈ 0.04–0.06 at a = 25, γ = 4.5, ρ = 3 for k_BT within a few per cent: that accuracy limit
-//! is reported, not enforced (see the k_BT-vs-Δt curve in docs/validation.md).
+//! structure that sets the friction limit is not known before the run.
+//!
+//! Groot & Warren (1997) recommend Δt ≈ 0.04–0.06 at a = 25, γ = 4.5, ρ = 3 for k_BT within a
+//! few per cent: that accuracy limit is reported, not enforced (see the k_BT-vs-Δt curve in
+//! docs/validation.md).
 //!
 //! SPH (the summation gas): the acoustic CFL limit Δt < 0.25 h / c (Monaghan 1992; spec
 //! `sph-maxwell.md` §1).

@@ -47,7 +47,7 @@ and writes plots to docs/ when matplotlib is available.
                  explicit and with the exponential thermostat (~4 min)
   dpd_stability  the DPD stability maps of docs/stability/dpd_maps.txt (`mesorheo stability`,
                  1000-step trials): CSV and PNG to docs/stability/, and the tables of
-                 docs/validation.md "DPD: check against the measured maps" (~15 min on 2 cores)
+                 docs/validation.md "Stability maps against `check`" (~15 min on 2 cores)
   fuzz           the long fuzz of the stock case files through `mesorheo check` (the ignored test
                  tests/check_fuzz.rs::long_fuzz_through_check; MESORHEO_FUZZ_VARIANTS per case,
                  default here 100 000, ~7 min): no panic, no hang
