@@ -134,14 +134,9 @@ pub fn dpd_limits(
     random_start: bool,
 ) -> DpdLimits {
     use dpd_fit::*;
-    let s = d.weight_exponent;
     let rc = d.cutoff;
     let dim = dimension;
-    let sum_wd = if dim == 2 {
-        n * 2.0 * std::f64::consts::PI * rc * rc / ((s + 1.0) * (s + 2.0))
-    } else {
-        n * 4.0 * std::f64::consts::PI * rc.powi(3) * 2.0 / ((s + 1.0) * (s + 2.0) * (s + 3.0))
-    };
+    let sum_wd = mean_field_sum_wd(d, dim, n);
     let neighbours = n * ball_volume(dim, rc);
     // The conservative force a (1 − r/r_c)^s̄ stiffens as a s̄/r_c near contact.
     let cage = (d.a.max(0.0) * d.conservative_exponent / rc * neighbours / (dim as f64 * m)).sqrt();
@@ -205,7 +200,18 @@ pub fn dpd_limits_of(case: &crate::config::Case) -> Option<DpdLimits> {
 /// `dpd-physical-parameters.md` §10 A7): the velocity of a particle among neighbours at rest
 /// relaxes as e^{−ω₀t}.
 pub fn dpd_mean_field_rate(d: &DpdCfg, dimension: usize, n: f64, m: f64) -> f64 {
-    d.gamma * dpd_limits(d, dimension, n, m, 0.5, false, false).sum_wd / (dimension as f64 * m)
+    d.gamma * mean_field_sum_wd(d, dimension, n) / (dimension as f64 * m)
+}
+
+/// Σ_j w_D of a particle among neighbours at the mean number density `n` (no correlations):
+/// n ∫ w_D dV = n 8π r_c³/((s+1)(s+2)(s+3)) in 3D, n 2π r_c²/((s+1)(s+2)) in 2D.
+pub fn mean_field_sum_wd(d: &DpdCfg, dimension: usize, n: f64) -> f64 {
+    let (s, rc) = (d.weight_exponent, d.cutoff);
+    if dimension == 2 {
+        n * 2.0 * std::f64::consts::PI * rc * rc / ((s + 1.0) * (s + 2.0))
+    } else {
+        n * 8.0 * std::f64::consts::PI * rc.powi(3) / ((s + 1.0) * (s + 2.0) * (s + 3.0))
+    }
 }
 
 /// Time-step limits of an SPH fluid, each with its name.
