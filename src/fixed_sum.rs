@@ -256,6 +256,51 @@ impl Scale {
     }
 }
 
+/// [`FixedSum`]s of `L` particles side by side (lane l is particle l of a group), so that a
+/// loop over the lanes vectorises: the same words, added in the same way, as `L` separate
+/// accumulators.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct LaneSums<const L: usize> {
+    high: [i64; L],
+    low: [i64; L],
+}
+
+impl<const L: usize> LaneSums<L> {
+    /// Every lane zero.
+    pub const ZERO: Self = Self {
+        high: [0; L],
+        low: [0; L],
+    };
+
+    /// The accumulator of lane `l`.
+    #[inline]
+    pub fn lane(&self, l: usize) -> FixedSum {
+        FixedSum {
+            high: self.high[l],
+            low: self.low[l],
+        }
+    }
+}
+
+impl Scale {
+    /// Adds `xs[l]` under this scale to lane l of `acc`, for every lane (as [`Self::split`]
+    /// and [`FixedSum::add_split`], in one loop the compiler vectorises). Returns false if a
+    /// term was not finite or beyond [`Self::max_term`]: the lanes' sums are then meaningless,
+    /// and the caller reports the term another way.
+    #[inline(always)]
+    pub fn add_lanes<const L: usize>(&self, xs: &[f64; L], acc: &mut LaneSums<L>) -> bool {
+        let mut all = true;
+        for l in 0..L {
+            let y = xs[l] * self.down;
+            all &= FixedSum::representable(y);
+            let s = Split::of(y);
+            acc.high[l] = acc.high[l].wrapping_add(s.high);
+            acc.low[l] = acc.low[l].wrapping_add(s.low);
+        }
+        all
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

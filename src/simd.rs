@@ -16,27 +16,43 @@ use std::sync::OnceLock;
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Isa {
     avx2: bool,
+    avx512: bool,
 }
 
 impl Isa {
     /// The baseline of the target (SSE2 on x86-64).
-    pub const PORTABLE: Self = Self { avx2: false };
+    pub const PORTABLE: Self = Self {
+        avx2: false,
+        avx512: false,
+    };
 
     /// AVX2, if this CPU has it.
     pub fn avx2() -> Option<Self> {
-        detected().then_some(Self { avx2: true })
+        detected().then_some(Self {
+            avx2: true,
+            avx512: false,
+        })
     }
 
-    /// What this process uses: AVX2 when the CPU has it, unless `MESORHEO_SIMD=portable`
-    /// (decided once).
+    /// AVX-512 (F, VL, DQ, BW, CD) and AVX2, if this CPU has them: the loops written for eight
+    /// lanes ([`crate::models::gather::LANES`]) use it; every other loop takes its AVX2 version.
+    pub fn avx512() -> Option<Self> {
+        (detected() && detected_avx512()).then_some(Self {
+            avx2: true,
+            avx512: true,
+        })
+    }
+
+    /// What this process uses: the widest of AVX-512 and AVX2 the CPU has, unless
+    /// `MESORHEO_SIMD` is `portable` or `avx2` (decided once).
     pub fn current() -> Self {
         static CHOICE: OnceLock<Isa> = OnceLock::new();
-        *CHOICE.get_or_init(|| {
-            let forced_portable = std::env::var("MESORHEO_SIMD").is_ok_and(|v| v == "portable");
-            match Self::avx2() {
-                Some(isa) if !forced_portable => isa,
-                _ => Self::PORTABLE,
-            }
+        *CHOICE.get_or_init(|| match std::env::var("MESORHEO_SIMD").as_deref() {
+            Ok("portable") => Self::PORTABLE,
+            Ok("avx2") => Self::avx2().unwrap_or(Self::PORTABLE),
+            _ => Self::avx512()
+                .or_else(Self::avx2)
+                .unwrap_or(Self::PORTABLE),
         })
     }
 
@@ -58,6 +74,12 @@ impl Isa {
     pub fn has_avx2(self) -> bool {
         self.avx2
     }
+
+    /// Whether the AVX-512 versions run (only ever true on a CPU that has the AVX-512 subsets
+    /// [`Self::avx512`] names).
+    pub fn has_avx512(self) -> bool {
+        self.avx512
+    }
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -67,5 +89,19 @@ fn detected() -> bool {
 
 #[cfg(not(target_arch = "x86_64"))]
 fn detected() -> bool {
+    false
+}
+
+#[cfg(target_arch = "x86_64")]
+fn detected_avx512() -> bool {
+    std::arch::is_x86_feature_detected!("avx512f")
+        && std::arch::is_x86_feature_detected!("avx512vl")
+        && std::arch::is_x86_feature_detected!("avx512dq")
+        && std::arch::is_x86_feature_detected!("avx512bw")
+        && std::arch::is_x86_feature_detected!("avx512cd")
+}
+
+#[cfg(not(target_arch = "x86_64"))]
+fn detected_avx512() -> bool {
     false
 }

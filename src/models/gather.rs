@@ -30,6 +30,69 @@ use rayon::prelude::*;
 pub struct FullList {
     offsets: Vec<usize>,
     neighbours: Vec<u32>,
+    lanes: LaneRows,
+}
+
+/// Particles per group of [`LaneRows`]: one AVX-512 register of doubles.
+pub const LANES: usize = 8;
+
+/// The rows of a [`FullList`] in groups of [`LANES`] owned particles, interleaved so that a
+/// loop can evaluate one neighbour of each of the group's particles at once (each vector lane
+/// walks its own particle's row, in the row's order).
+///
+/// Group g holds particles g·LANES … g·LANES + LANES − 1 (the last group repeats the last owned
+/// particle in its spare lanes). Its entries `group(g)[k · LANES + l]` are the k-th neighbour of
+/// its particle l, for k below the longest row of the group; past the end of a shorter row the
+/// entry is the particle itself, which is never its own neighbour, so a lane whose entry equals
+/// its particle adds nothing.
+#[derive(Clone, Debug, Default)]
+pub struct LaneRows {
+    starts: Vec<usize>,
+    index: Vec<u32>,
+    /// The largest index held (bounds every load through the rows).
+    max_index: u32,
+}
+
+impl LaneRows {
+    fn new(offsets: &[usize], neighbours: &[u32], n_owned: usize) -> Self {
+        let groups = n_owned.div_ceil(LANES);
+        let mut starts = Vec::with_capacity(groups + 1);
+        let mut index = Vec::with_capacity(neighbours.len() + neighbours.len() / 4);
+        starts.push(0);
+        for g in 0..groups {
+            let member = |l: usize| (g * LANES + l).min(n_owned - 1);
+            let row = |l: usize| &neighbours[offsets[member(l)]..offsets[member(l) + 1]];
+            let longest = (0..LANES).map(|l| row(l).len()).max().unwrap_or(0);
+            for k in 0..longest {
+                for l in 0..LANES {
+                    index.push(row(l).get(k).copied().unwrap_or(member(l) as u32));
+                }
+            }
+            starts.push(index.len());
+        }
+        let max_index = index.iter().copied().max().unwrap_or(0);
+        Self {
+            starts,
+            index,
+            max_index,
+        }
+    }
+
+    /// Number of groups.
+    pub fn groups(&self) -> usize {
+        self.starts.len().saturating_sub(1)
+    }
+
+    /// The entries of group `g`, [`LANES`] per neighbour rank k.
+    #[inline]
+    pub fn group(&self, g: usize) -> &[u32] {
+        &self.index[self.starts[g]..self.starts[g + 1]]
+    }
+
+    /// The largest particle index the rows hold (0 when empty).
+    pub fn max_index(&self) -> usize {
+        self.max_index as usize
+    }
 }
 
 impl FullList {
@@ -57,10 +120,17 @@ impl FullList {
                 fill[j as usize] += 1;
             }
         }
+        let lanes = LaneRows::new(&offsets, &neighbours, n_owned);
         Self {
             offsets,
             neighbours,
+            lanes,
         }
+    }
+
+    /// The same rows, [`LANES`] particles side by side.
+    pub fn lanes(&self) -> &LaneRows {
+        &self.lanes
     }
 
     /// Neighbours of owned particle `i`.

@@ -60,6 +60,7 @@
 //! where the force vanishes) and D to c₀².
 
 pub mod kernels;
+mod lanes;
 pub mod maxwell;
 pub mod mirror;
 pub mod msph;
@@ -74,6 +75,7 @@ use crate::models::interface::{
 };
 use crate::neighbour::NeighbourList;
 use crate::particles::{FieldFlags, Particles};
+use crate::simd::Isa;
 use crate::species::{Motion, Species};
 use crate::with_kernel;
 use kernels::{Kernel, KernelKind};
@@ -1190,6 +1192,20 @@ impl<const D: usize> SphModel<D> {
     /// Bounds of the exact sums. The scales exist to stop a blown-up run (a term not finite or
     /// absurdly large) with the pair named; the fixed-point sum resolves 2⁻¹⁰² of its scale, so
     /// a headroom of 10⁸ over a term's typical size still resolves it to ~10⁻²³.
+    /// Whether the momentum pass can gather its sums in lanes (`lanes.rs`): fluid only, the
+    /// pressure and Morris's term in pair form, nothing else accumulated. (The kernel checks
+    /// the same at run time and scatters when it does not hold.)
+    fn momentum_in_lanes(&self) -> bool {
+        self.passes.contains(&Pass::Momentum)
+            && !self.boundaries.any()
+            && self.inclusions.is_none()
+            && self.polymer_stress.is_none()
+            && self.xsph.is_none()
+            && self.traction_moment.is_none()
+            && self.cfg.derivatives == Derivatives::Sph
+            && (self.stress.is_none() || self.cfg.viscous_term == ViscousTerm::Morris)
+    }
+
     fn typical(&self) -> (f64, f64, f64) {
         let c0 = self.cfg.sound_speed;
         let rho0 = self.cfg.rest_density;
@@ -1647,7 +1663,13 @@ impl<const D: usize> SphModel<D> {
                     scales,
                     parities,
                 };
-                let r = scatter(&k, p, list, &mut self.scatter, &mut sums);
+                let gathered = self.momentum_in_lanes()
+                    && k.gather_lanes(Isa::current(), p, full.lanes(), &mut sums);
+                let r = if gathered {
+                    Ok(())
+                } else {
+                    scatter(&k, p, list, &mut self.scatter, &mut sums)
+                };
                 r.map(|()| {
                     let mf: [f64; D] = std::array::from_fn(|d| self.mass * self.body_force[d]);
                     let species = p.species.as_deref();
@@ -1865,9 +1887,12 @@ impl<const D: usize> ParticleModel<D> for SphModel<D> {
     }
 
     fn uses_full_list(&self) -> bool {
-        // Only the velocity-gradient passes gather (their terms carry 1/ρ_j, not symmetric);
-        // the density and momentum passes scatter from the half list.
-        self.passes.contains(&Pass::Gradient) || self.passes.contains(&Pass::MsphGradient)
+        // The velocity-gradient passes gather (their terms carry 1/ρ_j, not symmetric); the
+        // density pass scatters from the half list, and so does the momentum pass except in
+        // a fluid-only scheme, whose momentum sums are gathered in lanes (`lanes`).
+        self.passes.contains(&Pass::Gradient)
+            || self.passes.contains(&Pass::MsphGradient)
+            || self.momentum_in_lanes()
     }
 
     fn integrated_fields(&self) -> Vec<Integrated> {

@@ -1,0 +1,250 @@
+//! The momentum (and continuity) sums of the fluid-only weakly compressible scheme, gathered
+//! [`LANES`] particles at a time: the fast path of the momentum pass.
+//!
+//! ```text
+//! F_i   = Σ_j m² [ −(p_i/ρ_i² + p_j/ρ_j²) F_ij x_ij + 2η/(ρ_i ρ_j) F_ij v_ij ]
+//! dρ_i/dt = Σ_j m F_ij (v_ij · x_ij)                     F_ij = W′(r_ij)/r_ij
+//! ```
+//!
+//! (Morris's viscous term, optionally regularised by r²/(r² + 0.01h²); continuity optional.)
+//! These are the terms of `MomentumKernel::fluid_batch`, the same IEEE operations in the same
+//! order, accumulated in the same fixed-point words ([`crate::fixed_sum`]): the sums are the
+//! very bits that the scatter from the half list gives, so nothing downstream can tell the two
+//! paths apart (a unit test compares them on every instruction set).
+//!
+//! Why it is faster: the scatter evaluates each pair once but must compact the pairs within
+//! the support, gather both ends' data and add its words to both ends, one pair after another.
+//! Here each vector lane is one particle walking its own row of the full list
+//! ([`LaneRows`]): its own data stay in registers, one load per neighbour brings the other
+//! end, the pairs beyond the support are masked to zero instead of compacted, and the words are
+//! added to the lanes' accumulators without a store. Each pair is evaluated from both ends
+//! (twice the arithmetic), which the eight-wide AVX-512 lanes more than repay. Momentum is
+//! still conserved to the bit: the term from j's end is the exact negative of the term from
+//! i's end (x_ji = −x_ij, v_ji = −v_ij, the sums and products commute), and symmetric rounding
+//! gives it the negated words.
+
+use super::MomentumKernel;
+use super::kernels::Kernel;
+use crate::fixed_sum::LaneSums;
+use crate::models::gather::{LANES, LaneRows};
+use crate::particles::Particles;
+use crate::simd::Isa;
+use rayon::prelude::*;
+
+/// Accumulated quantities at most: D forces and the density rate.
+const MAX_WIDTH: usize = 4;
+
+impl<K: Kernel, const D: usize> MomentumKernel<'_, K, D> {
+    /// Whether [`Self::gather_lanes`] computes this pass: fluid particles only, pressure and
+    /// Morris's term in pair form, nothing else accumulated.
+    pub(super) fn lanes_apply(&self, p: &Particles<D>) -> bool {
+        !(self.boundaries.any()
+            || self.stress.is_some()
+            || self.polymer.is_some()
+            || p.species.is_some()
+            || self.xsph_eps_mass != 0.0
+            || !self.pairwise_stress)
+            && self.scales.len() == D + usize::from(self.continuity)
+            && self.scales.len() <= MAX_WIDTH
+    }
+
+    /// The sums [`crate::models::gather::scatter`] gives, gathered along `rows` (which must
+    /// be the rows of the current list) into `out` (n_owned × width), or false if
+    /// [`Self::lanes_apply`] does not hold, the rows do not fit the particles, or a term was
+    /// not representable (then `out` is meaningless, and the caller scatters, which names
+    /// the term).
+    pub(super) fn gather_lanes(
+        &self,
+        isa: Isa,
+        p: &Particles<D>,
+        rows: &LaneRows,
+        out: &mut Vec<f64>,
+    ) -> bool {
+        let n = p.n_owned;
+        let width = self.scales.len();
+        if !self.lanes_apply(p) || rows.groups() != n.div_ceil(LANES) || n == 0 {
+            return false;
+        }
+        // Every index a group loads must be a particle with its data: then the unchecked
+        // loads in `group` are in bounds.
+        let len = p.pos.len();
+        if rows.max_index() >= len
+            || p.vel.len() != len
+            || self.p_over_rho2.len() < len
+            || self.inv_density.len() < len
+        {
+            return false;
+        }
+        out.clear();
+        out.resize(n * width, 0.0);
+        let rc2 = self.kernel.support() * self.kernel.support();
+        let morris = self.two_eta_morris != 0.0;
+        let regular = self.regulariser != 0.0;
+        let avx512 = isa.has_avx512();
+        out.par_chunks_mut(LANES * width)
+            .enumerate()
+            .with_min_len(16)
+            .map(|(g, chunk)| {
+                let group = Group {
+                    kernel: self,
+                    p,
+                    rows,
+                    g,
+                    rc2,
+                };
+                #[cfg(target_arch = "x86_64")]
+                if avx512 {
+                    // SAFETY: an `Isa` has AVX-512 only when the CPU reports every subset that
+                    // `group_avx512` enables (`Isa::avx512`), the one requirement of a
+                    // target-feature function.
+                    return unsafe { group_avx512(&group, morris, regular, chunk) };
+                }
+                let _ = avx512;
+                group_portable(&group, morris, regular, chunk)
+            })
+            .reduce(|| true, |a, b| a && b)
+    }
+
+    /// One group's sums into `out` (its lanes × width, the last group's only as many lanes as
+    /// it has particles); false if a term was not representable.
+    #[inline(always)]
+    fn group<const MORRIS: bool, const REGULAR: bool, const CONTINUITY: bool>(
+        &self,
+        p: &Particles<D>,
+        rows: &LaneRows,
+        g: usize,
+        rc2: f64,
+        out: &mut [f64],
+    ) -> bool {
+        const L: usize = LANES;
+        let n = p.n_owned;
+        let own: [usize; L] = std::array::from_fn(|l| (g * L + l).min(n - 1));
+        let (pos, vel) = (&p.pos, &p.vel);
+        let xi: [[f64; L]; D] = std::array::from_fn(|d| std::array::from_fn(|l| pos[own[l]][d]));
+        let vi: [[f64; L]; D] = std::array::from_fn(|d| std::array::from_fn(|l| vel[own[l]][d]));
+        let p_i: [f64; L] = std::array::from_fn(|l| self.p_over_rho2[own[l]]);
+        let inv_i: [f64; L] = std::array::from_fn(|l| self.inv_density[own[l]]);
+        let own_u32: [u32; L] = std::array::from_fn(|l| own[l] as u32);
+        let (mass, mm) = (self.mass, self.mass * self.mass);
+        let (two_eta, regulariser, kernel) = (self.two_eta_morris, self.regulariser, &self.kernel);
+        let (p_over_rho2, inv_density) = (&self.p_over_rho2[..], &self.inv_density[..]);
+        let scales = &self.scales;
+        let mut sums = [LaneSums::<L>::ZERO; MAX_WIDTH];
+        let mut representable = true;
+        for entries in rows.group(g).chunks_exact(L) {
+            let mut x = [[0.0; L]; D];
+            let mut v = [[0.0; L]; D];
+            let mut r2 = [0.0; L];
+            let mut p_j = [0.0; L];
+            let mut inv_j = [0.0; L];
+            for l in 0..L {
+                let j = entries[l] as usize;
+                // SAFETY: j ≤ rows.max_index() < p.pos.len() = p.vel.len(), and the two
+                // per-particle arrays are at least that long (all checked by `gather_lanes`
+                // before any group runs).
+                let (xj, vj, pj, ij) = unsafe {
+                    (
+                        pos.get_unchecked(j),
+                        vel.get_unchecked(j),
+                        *p_over_rho2.get_unchecked(j),
+                        *inv_density.get_unchecked(j),
+                    )
+                };
+                let mut s = 0.0;
+                for d in 0..D {
+                    let xd = xi[d][l] - xj[d];
+                    x[d][l] = xd;
+                    s += xd * xd;
+                    v[d][l] = vi[d][l] - vj[d];
+                }
+                r2[l] = s;
+                p_j[l] = pj;
+                inv_j[l] = ij;
+            }
+            let mut f = [[0.0; L]; D];
+            let mut rate = [0.0; L];
+            for l in 0..L {
+                // Not `r2 < rc2`: a NaN distance is kept, and its term stops the gather.
+                #[allow(clippy::neg_cmp_op_on_partial_ord)]
+                let keep = !(r2[l] >= rc2) && entries[l] != own_u32[l];
+                let r = r2[l].sqrt();
+                let gw = kernel.dw_over_r(r);
+                let pressure = -(p_i[l] + p_j[l]) * gw;
+                let mut s = two_eta * (inv_i[l] * inv_j[l]) * gw;
+                if REGULAR {
+                    let rr = r * r;
+                    s = s * rr / (rr + regulariser);
+                }
+                let mut vdotx = 0.0;
+                for a in 0..D {
+                    let mut fa = pressure * x[a][l];
+                    if MORRIS {
+                        fa += s * v[a][l];
+                    }
+                    f[a][l] = if keep { mm * fa } else { 0.0 };
+                    vdotx += v[a][l] * x[a][l];
+                }
+                rate[l] = if keep { mass * gw * vdotx } else { 0.0 };
+            }
+            for a in 0..D {
+                representable &= scales[a].add_lanes(&f[a], &mut sums[a]);
+            }
+            if CONTINUITY {
+                representable &= scales[D].add_lanes(&rate, &mut sums[D]);
+            }
+        }
+        let width = scales.len();
+        for (l, row) in out.chunks_exact_mut(width).enumerate() {
+            for (q, o) in row.iter_mut().enumerate() {
+                *o = scales[q].value(&sums[q].lane(l));
+            }
+        }
+        representable
+    }
+}
+
+/// One group's work, for the compiled versions below.
+struct Group<'a, 'k, K, const D: usize> {
+    kernel: &'a MomentumKernel<'k, K, D>,
+    p: &'a Particles<D>,
+    rows: &'a LaneRows,
+    g: usize,
+    rc2: f64,
+}
+
+#[inline(always)]
+fn group_portable<K: Kernel, const D: usize>(
+    w: &Group<'_, '_, K, D>,
+    morris: bool,
+    regular: bool,
+    out: &mut [f64],
+) -> bool {
+    let Group {
+        kernel,
+        p,
+        rows,
+        g,
+        rc2,
+    } = *w;
+    match (morris, regular, kernel.continuity) {
+        (true, false, true) => kernel.group::<true, false, true>(p, rows, g, rc2, out),
+        (true, false, false) => kernel.group::<true, false, false>(p, rows, g, rc2, out),
+        (true, true, true) => kernel.group::<true, true, true>(p, rows, g, rc2, out),
+        (true, true, false) => kernel.group::<true, true, false>(p, rows, g, rc2, out),
+        (false, _, true) => kernel.group::<false, false, true>(p, rows, g, rc2, out),
+        (false, _, false) => kernel.group::<false, false, false>(p, rows, g, rc2, out),
+    }
+}
+
+/// [`group_portable`] compiled for AVX-512 (no FMA: the same IEEE operations, so the same
+/// bits as the portable build).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,avx512f,avx512vl,avx512dq,avx512bw,avx512cd")]
+fn group_avx512<K: Kernel, const D: usize>(
+    w: &Group<'_, '_, K, D>,
+    morris: bool,
+    regular: bool,
+    out: &mut [f64],
+) -> bool {
+    group_portable(w, morris, regular, out)
+}
