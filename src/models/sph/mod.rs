@@ -1192,11 +1192,13 @@ impl<const D: usize> SphModel<D> {
     /// Bounds of the exact sums. The scales exist to stop a blown-up run (a term not finite or
     /// absurdly large) with the pair named; the fixed-point sum resolves 2⁻¹⁰² of its scale, so
     /// a headroom of 10⁸ over a term's typical size still resolves it to ~10⁻²³.
-    /// Whether the momentum pass can gather its sums in lanes (`lanes.rs`): fluid only, the
+    /// Whether the momentum pass gathers its sums in lanes (`lanes.rs`): on a CPU with
+    /// AVX-512 (elsewhere the AVX2 scatter is faster than the portable lanes), fluid only, the
     /// pressure and Morris's term in pair form, nothing else accumulated. (The kernel checks
     /// the same at run time and scatters when it does not hold.)
     fn momentum_in_lanes(&self) -> bool {
-        self.passes.contains(&Pass::Momentum)
+        Isa::current().has_avx512()
+            && self.passes.contains(&Pass::Momentum)
             && !self.boundaries.any()
             && self.inclusions.is_none()
             && self.polymer_stress.is_none()
@@ -2168,6 +2170,15 @@ mod tests {
             (ViscousTerm::Morris, DensityMethod::Continuity),
         ] {
             let mut p = random_particles();
+            // Periodic images of the particles near x = 0 (ghosts: rows of the full list
+            // reach them only from their owned neighbours' end).
+            for i in 0..p.n_owned {
+                if p.pos[i][0] < 1.2 {
+                    let (g, mut x, v) = (p.gid[i], p.pos[i], p.vel[i]);
+                    x[0] += 4.0;
+                    p.push_ghost(g, x, v, 0);
+                }
+            }
             let model_cfg = cfg(viscous, density);
             let mut model = SphModel::<3>::new(&model_cfg, 0.05, &[4.0; 3], 0.2, None, None);
             for spec in model.fields() {
@@ -2175,7 +2186,7 @@ mod tests {
                     .expect("new field");
             }
             model.attach(&mut p, false).expect("attach");
-            for i in 0..p.n_owned {
+            for i in 0..p.len() {
                 p.extra[model.density].data[i] = 0.9 + 0.2 * key.uniform2(0, i as u32, 0).0;
                 if let Some(s) = model.stress {
                     for c in 0..9 {
@@ -2237,6 +2248,31 @@ mod tests {
                     scatter_on(isa, &momentum, &p, &list, &mut work, &mut scattered)
                         .expect("scatter");
                     assert_eq!(bits(&gathered), bits(&scattered), "{isa:?}");
+                }
+                // Gathered in lanes along the full rows (the fluid-only scheme: Morris's term
+                // with continuity; the nested summation's stress is not for the lanes), by
+                // the portable loops and, where the CPU has it, AVX-512: the same bits.
+                let avx512 = Isa::avx512();
+                if avx512.is_none() {
+                    let _ = Isa::avx2_for_test("sph lanes: AVX-512 (only the portable lanes)");
+                }
+                for isa in [Some(Isa::PORTABLE), avx512].into_iter().flatten() {
+                    let mut lanes = Vec::new();
+                    let done = momentum.gather_lanes(isa, &p, full.lanes(), &mut lanes);
+                    assert_eq!(done, viscous == ViscousTerm::Morris, "{isa:?}");
+                    if done {
+                        assert_eq!(bits(&gathered), bits(&lanes), "{isa:?}");
+                    }
+                }
+                // A term beyond its scale: the lanes decline, and the scatter names it.
+                let narrow = MomentumKernel {
+                    scales: vec![Scale::covering(1e-12); momentum.scales.len()],
+                    parities: momentum.parities.clone(),
+                    ..momentum
+                };
+                for isa in [Some(Isa::PORTABLE), avx512].into_iter().flatten() {
+                    let mut lanes = Vec::new();
+                    assert!(!narrow.gather_lanes(isa, &p, full.lanes(), &mut lanes));
                 }
             }
             let dk = DensityKernel {
