@@ -50,9 +50,7 @@ impl Isa {
         *CHOICE.get_or_init(|| match std::env::var("MESORHEO_SIMD").as_deref() {
             Ok("portable") => Self::PORTABLE,
             Ok("avx2") => Self::avx2().unwrap_or(Self::PORTABLE),
-            _ => Self::avx512()
-                .or_else(Self::avx2)
-                .unwrap_or(Self::PORTABLE),
+            _ => Self::avx512().or_else(Self::avx2).unwrap_or(Self::PORTABLE),
         })
     }
 

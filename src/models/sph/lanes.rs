@@ -127,7 +127,7 @@ impl<K: Kernel, const D: usize> MomentumKernel<'_, K, D> {
         let own_u32: [u32; L] = std::array::from_fn(|l| own[l] as u32);
         let (mass, mm) = (self.mass, self.mass * self.mass);
         let (two_eta, regulariser, kernel) = (self.two_eta_morris, self.regulariser, &self.kernel);
-        let (p_over_rho2, inv_density) = (&self.p_over_rho2[..], &self.inv_density[..]);
+        let (p_over_rho2, inv_density) = (self.p_over_rho2, self.inv_density);
         let scales = &self.scales;
         let mut sums = [LaneSums::<L>::ZERO; MAX_WIDTH];
         let mut representable = true;
