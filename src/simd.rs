@@ -1,13 +1,15 @@
 //! Run-time choice of the vector instruction set for the hot loops.
 //!
-//! The pair loop and the neighbour-list build are compiled twice: portable (SSE2 on x86-64) and
-//! with AVX2 enabled, chosen per run by what the CPU reports. Only AVX2 is enabled, not FMA, and
-//! Rust never contracts a·b + c into one rounding, so both versions perform the same IEEE
-//! operations and give the same bits (unit tests in `models::pair_loop` compare them); the AVX2
-//! one does four doubles per instruction where the compiler vectorises.
+//! The pair loops and the neighbour-list build are compiled twice: portable (SSE2 on x86-64) and
+//! with AVX2 enabled, chosen per run by what the CPU reports; the SPH momentum sums gathered in
+//! lanes (`models::sph::lanes`) also with AVX-512. FMA is never enabled, and Rust never
+//! contracts a·b + c into one rounding, so every version performs the same IEEE operations and
+//! gives the same bits (unit tests in `models::pair_loop` and `models::sph` compare them); the
+//! AVX2 one does four doubles per instruction where the compiler vectorises, the AVX-512 one
+//! eight.
 //!
-//! `MESORHEO_SIMD=portable` in the environment forces the portable version (for comparisons, or
-//! a CPU that misreports its features).
+//! `MESORHEO_SIMD=portable` or `MESORHEO_SIMD=avx2` in the environment caps the instruction set
+//! (for comparisons, or a CPU that misreports its features).
 
 use std::sync::OnceLock;
 
