@@ -539,10 +539,11 @@ fn dpd_report(case: &Case, d: &DpdCfg, density: f64, line: &mut impl FnMut(Strin
         )),
     }
     line(format!(
-        "time step Δt = {dt}: stability limit (Δt_C⁻² + Δt_D⁻²)^(−1/2) = {:.4} [{}] (measured, \
-         see docs/validation.md), with the conservative part Δt_C = α/ω_E = {:.4} (cage ω_E = \
-         {:.4}) and the dissipative part Δt_D = c/ω_D = {:.4} (ω_D = γΣw_D/m = {:.4}, c = {:.3}{}); \
-         Groot–Warren accuracy guide Δt ≤ 0.06 at a = 25 [{}]",
+        "time step Δt = {dt}: stability limit (Δt_C⁻ᵖ + Δt_D⁻ᵖ + Δt_F⁻ᵖ)^(−1/p) = {:.4} [{}] \
+         (measured, p = 2.93, see docs/validation.md), with the conservative part Δt_C = α/ω_E = \
+         {:.4} (cage ω_E = {:.4}), the dissipative part Δt_D = {:.4} (ω_D = γΣw_D/m = {:.4}, \
+         c = {:.3}{}) and the free-flight part Δt_F = 0.211 r_c/√(k_BT/m) = {:.4}; Groot–Warren \
+         accuracy guide Δt ≤ 0.06 at a = 25 [{}]",
         lim.combined,
         if dt <= lim.combined { "ok" } else { "VIOLATED" },
         lim.conservative,
@@ -555,6 +556,7 @@ fn dpd_report(case: &Case, d: &DpdCfg, density: f64, line: &mut impl FnMut(Strin
         } else {
             ""
         },
+        lim.free_flight,
         if dt <= 0.06 {
             "ok"
         } else {

@@ -89,7 +89,10 @@ pub struct DpdLimits {
     pub dissipative: f64,
     /// The conservative (velocity-Verlet) part Δt_C.
     pub conservative: f64,
-    /// The limit `check` enforces, (Δt_C⁻² + Δt_D⁻²)^{−1/2}.
+    /// The free-flight part Δt_F = 0.211 r_c / √(k_BT/m) (∞ under the exponential
+    /// thermostat).
+    pub free_flight: f64,
+    /// The limit `check` enforces, (Δt_C⁻ᵖ + Δt_D⁻ᵖ + Δt_F⁻ᵖ)^{−1/p}, p = 2.93.
     pub combined: f64,
 }
 
@@ -110,15 +113,19 @@ pub fn cfl_limit(smoothing_length: f64, sound_speed: f64) -> f64 {
 
 /// Measured coefficients of [`dpd_limits`] (module doc).
 mod dpd_fit {
-    pub const ALPHA_2D: f64 = 1.27;
-    pub const ALPHA_3D: f64 = 1.10;
-    pub const IDEAL_GAS_SCALE: f64 = 1.055;
-    pub const IDEAL_GAS_FLUCTUATION: f64 = 0.542;
-    pub const IDEAL_GAS_3D: f64 = 1.04;
-    pub const REPULSION_GAIN: f64 = 3.08;
-    pub const REPULSION_SCALE_KT: f64 = 12.1;
-    pub const RANDOM_START_RELIEF: f64 = 2.84;
+    pub const ALPHA_2D: f64 = 1.23;
+    pub const ALPHA_3D: f64 = 1.07;
+    pub const IDEAL_GAS_SCALE: f64 = 1.08;
+    pub const IDEAL_GAS_FLUCTUATION: f64 = 0.546;
+    pub const IDEAL_GAS_3D: f64 = 1.07;
+    pub const REPULSION_GAIN: f64 = 3.05;
+    pub const REPULSION_SCALE_KT: f64 = 14.6;
+    pub const RANDOM_START_RELIEF: f64 = 3.14;
     pub const MEASURED_LAMBDA: f64 = 0.65;
+    pub const THERMAL_RELIEF: f64 = 1.87;
+    pub const THERMAL_RELIEF_SCALE_KT: f64 = 22.4;
+    pub const FREE_FLIGHT: f64 = 0.211;
+    pub const NORM_EXPONENT: f64 = 2.93;
 }
 
 /// Limits for the DPD fluid `d` in `dimension` dimensions at number density `n` and particle
@@ -153,14 +160,27 @@ pub fn dpd_limits(
     let repulsion = REPULSION_GAIN
         - (REPULSION_GAIN - 1.0) * (-d.a.max(0.0) / (REPULSION_SCALE_KT * d.kt)).exp();
     let friction_coefficient = ideal_gas * repulsion * MEASURED_LAMBDA / lambda.max(0.5);
-    let mut dissipative = if exponential || friction_rate <= 0.0 {
+    // A thermal particle crosses v_th Δt / r_c of the cutoff in a step, which relieves the
+    // friction limit of a weakly repulsive fluid: Δt_D = c (1 + K v_th Δt_D / r_c) / ω_D.
+    let crossing_rate = (d.kt / m).sqrt() / rc;
+    let relief = THERMAL_RELIEF
+        * crossing_rate
+        * (-d.a.max(0.0) / (THERMAL_RELIEF_SCALE_KT * d.kt)).exp();
+    let mut dissipative = if exponential || friction_rate <= friction_coefficient * relief {
         f64::INFINITY
     } else {
-        friction_coefficient / friction_rate
+        friction_coefficient / (friction_rate - friction_coefficient * relief)
     };
     if random_start && dim == 2 && !exponential && friction_rate > RANDOM_START_RELIEF * cage {
         dissipative = dissipative.min(ideal_gas / (friction_rate - RANDOM_START_RELIEF * cage));
     }
+    // Measured only with the explicit friction (at γ ≤ 2.5 it binds before the friction does).
+    let free_flight = if exponential {
+        f64::INFINITY
+    } else {
+        FREE_FLIGHT / crossing_rate
+    };
+    let p = NORM_EXPONENT;
     DpdLimits {
         neighbours,
         sum_wd,
@@ -169,7 +189,9 @@ pub fn dpd_limits(
         friction_coefficient,
         dissipative,
         conservative,
-        combined: 1.0 / (conservative.powi(-2) + dissipative.powi(-2)).sqrt(),
+        free_flight,
+        combined: (conservative.powf(-p) + dissipative.powf(-p) + free_flight.powf(-p))
+            .powf(-1.0 / p),
     }
 }
 

@@ -364,7 +364,10 @@ pub fn validate(case: &Case, ix: &SpanIndex) -> Result<(), CaseError> {
             if let Some(l) = stability::dpd_limits_of(case)
                 && dt > l.combined
             {
-                let binding = if l.dissipative < l.conservative {
+                let binding = if l.free_flight < l.dissipative.min(l.conservative) {
+                    "mostly the free flight's (a thermal particle crossing the cutoff in too few \
+                     steps): use a smaller time step"
+                } else if l.dissipative < l.conservative {
                     "mostly the dissipative force's: use a smaller time step, a smaller γ, or \
                      thermostat = \"exponential\" (which integrates the friction exactly)"
                 } else {
@@ -375,10 +378,11 @@ pub fn validate(case: &Case, ix: &SpanIndex) -> Result<(), CaseError> {
                     &["integrator", "dt"],
                     format!(
                         "Δt = {dt} is beyond the measured stability limit of this DPD fluid, \
-                         Δt ≤ (Δt_C⁻² + Δt_D⁻²)^(−1/2) = {:.4e} with the conservative part \
-                         Δt_C = α/ω_E = {:.4e} and the dissipative part Δt_D = c/ω_D = {:.4e} \
-                         (see `mesorheo check`); the limit is {binding}",
-                        l.combined, l.conservative, l.dissipative
+                         Δt ≤ (Δt_C⁻ᵖ + Δt_D⁻ᵖ + Δt_F⁻ᵖ)^(−1/p) = {:.4e} (p = 2.93) with the \
+                         conservative part Δt_C = α/ω_E = {:.4e}, the dissipative part \
+                         Δt_D = {:.4e} and the free-flight part Δt_F = {:.4e} (see `mesorheo \
+                         check`); the limit is {binding}",
+                        l.combined, l.conservative, l.dissipative, l.free_flight
                     ),
                 );
             }
