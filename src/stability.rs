@@ -163,9 +163,8 @@ pub fn dpd_limits(
     // A thermal particle crosses v_th Δt / r_c of the cutoff in a step, which relieves the
     // friction limit of a weakly repulsive fluid: Δt_D = c (1 + K v_th Δt_D / r_c) / ω_D.
     let crossing_rate = (d.kt / m).sqrt() / rc;
-    let relief = THERMAL_RELIEF
-        * crossing_rate
-        * (-d.a.max(0.0) / (THERMAL_RELIEF_SCALE_KT * d.kt)).exp();
+    let relief =
+        THERMAL_RELIEF * crossing_rate * (-d.a.max(0.0) / (THERMAL_RELIEF_SCALE_KT * d.kt)).exp();
     let mut dissipative = if exponential || friction_rate <= friction_coefficient * relief {
         f64::INFINITY
     } else {

@@ -244,6 +244,8 @@ fn check_refuses_every_measured_unstable_dpd_step() {
         .collect();
     assert_eq!(maps.len(), 21, "the maps of docs/stability/dpd_maps.txt");
     let (mut points, mut conservative, mut worst) = (0, 0, f64::INFINITY);
+    // The first point whose printed limit is not the library's (judged after the physics).
+    let mut stale: Option<String> = None;
     for map in &maps {
         let (name, case) = (map[0], map[1]);
         let fixed: Vec<&str> = map[4].split_whitespace().collect();
@@ -275,13 +277,12 @@ fn check_refuses_every_measured_unstable_dpd_step() {
                 .combined;
             let parse = |k: usize| cells[k].parse::<f64>().expect("a number");
             let (s, u) = (parse(stable), parse(unstable));
-            assert!(
-                (parse(printed) - limit).abs() <= 1e-3 * limit,
-                "{name} {}={}: the CSV's check_limit {} is not the library's {limit:.6e}",
-                header[0],
-                cells[0],
-                cells[printed]
-            );
+            if (parse(printed) - limit).abs() > 1e-3 * limit && stale.is_none() {
+                stale = Some(format!(
+                    "{name} {}={}: the CSV's check_limit {} is not the library's {limit:.6e}",
+                    header[0], cells[0], cells[printed]
+                ));
+            }
             assert!(
                 limit <= 0.97 * u,
                 "{name} {}={}: check accepts {limit:.4e}, unstable at {u:.4e}",
@@ -301,4 +302,5 @@ fn check_refuses_every_measured_unstable_dpd_step() {
         conservative <= 10 && worst >= 0.58,
         "{conservative} conservative points, worst {worst:.2}"
     );
+    assert!(stale.is_none(), "{}", stale.unwrap_or_default());
 }
