@@ -120,7 +120,7 @@ mod dpd_fit {
     pub const IDEAL_GAS_3D: f64 = 1.07;
     pub const REPULSION_GAIN: f64 = 3.05;
     pub const REPULSION_SCALE_KT: f64 = 14.6;
-    pub const RANDOM_START_RELIEF: f64 = 3.14;
+    pub const RANDOM_START_RELIEF: f64 = 3.15;
     pub const MEASURED_LAMBDA: f64 = 0.65;
     pub const THERMAL_RELIEF: f64 = 1.87;
     pub const THERMAL_RELIEF_SCALE_KT: f64 = 22.4;
