@@ -115,17 +115,17 @@ pub fn cfl_limit(smoothing_length: f64, sound_speed: f64) -> f64 {
 mod dpd_fit {
     pub const ALPHA_2D: f64 = 1.17;
     pub const ALPHA_3D: f64 = 1.12;
-    pub const IDEAL_GAS_SCALE: f64 = 1.04;
-    pub const IDEAL_GAS_FLUCTUATION: f64 = 0.531;
-    pub const IDEAL_GAS_3D: f64 = 1.09;
-    pub const REPULSION_GAIN: f64 = 2.98;
-    pub const REPULSION_SCALE_KT: f64 = 14.1;
-    pub const RANDOM_START_RELIEF: f64 = 3.25;
+    pub const IDEAL_GAS_SCALE: f64 = 1.14;
+    pub const IDEAL_GAS_FLUCTUATION: f64 = 0.585;
+    pub const IDEAL_GAS_3D: f64 = 1.12;
+    pub const REPULSION_GAIN: f64 = 3.07;
+    pub const REPULSION_SCALE_KT: f64 = 17.3;
+    pub const RANDOM_START_RELIEF: f64 = 2.81;
     pub const MEASURED_LAMBDA: f64 = 0.65;
-    pub const THERMAL_RELIEF: f64 = 0.965;
-    pub const THERMAL_RELIEF_SCALE_KT: f64 = 22.1;
-    pub const FREE_FLIGHT: f64 = 0.207;
-    pub const NORM_EXPONENT: f64 = 3.03;
+    pub const THERMAL_RELIEF: f64 = 1.8;
+    pub const THERMAL_RELIEF_SCALE_KT: f64 = 31.0;
+    pub const FREE_FLIGHT: f64 = 0.211;
+    pub const NORM_EXPONENT: f64 = 2.85;
 }
 
 /// Limits for the DPD fluid `d` in `dimension` dimensions at number density `n` and particle
