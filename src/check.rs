@@ -540,12 +540,13 @@ fn dpd_report(case: &Case, d: &DpdCfg, density: f64, line: &mut impl FnMut(Strin
     }
     line(format!(
         "time step Δt = {dt}: stability limit (Δt_C⁻ᵖ + Δt_D⁻ᵖ + Δt_F⁻ᵖ)^(−1/p) = {:.4} [{}] \
-         (measured, p = 2.93, see docs/validation.md), with the conservative part Δt_C = α/ω_E = \
+         (measured, p = {}, see docs/validation.md), with the conservative part Δt_C = α/ω_E = \
          {:.4} (cage ω_E = {:.4}), the dissipative part Δt_D = {:.4} (ω_D = γΣw_D/m = {:.4}, \
-         c = {:.3}{}) and the free-flight part Δt_F = 0.211 r_c/√(k_BT/m) = {:.4}; Groot–Warren \
+         c = {:.3}{}) and the free-flight part Δt_F = {} r_c/√(k_BT/m) = {:.4}; Groot–Warren \
          accuracy guide Δt ≤ 0.06 at a = 25 [{}]",
         lim.combined,
         if dt <= lim.combined { "ok" } else { "VIOLATED" },
+        crate::stability::dpd_fit::NORM_EXPONENT,
         lim.conservative,
         lim.cage_frequency,
         lim.dissipative,
@@ -556,6 +557,7 @@ fn dpd_report(case: &Case, d: &DpdCfg, density: f64, line: &mut impl FnMut(Strin
         } else {
             ""
         },
+        crate::stability::dpd_fit::FREE_FLIGHT,
         lim.free_flight,
         if dt <= 0.06 {
             "ok"

@@ -378,11 +378,15 @@ pub fn validate(case: &Case, ix: &SpanIndex) -> Result<(), CaseError> {
                     &["integrator", "dt"],
                     format!(
                         "Δt = {dt} is beyond the measured stability limit of this DPD fluid, \
-                         Δt ≤ (Δt_C⁻ᵖ + Δt_D⁻ᵖ + Δt_F⁻ᵖ)^(−1/p) = {:.4e} (p = 2.93) with the \
+                         Δt ≤ (Δt_C⁻ᵖ + Δt_D⁻ᵖ + Δt_F⁻ᵖ)^(−1/p) = {:.4e} (p = {}) with the \
                          conservative part Δt_C = α/ω_E = {:.4e}, the dissipative part \
                          Δt_D = {:.4e} and the free-flight part Δt_F = {:.4e} (see `mesorheo \
                          check`); the limit is {binding}",
-                        l.combined, l.conservative, l.dissipative, l.free_flight
+                        l.combined,
+                        stability::dpd_fit::NORM_EXPONENT,
+                        l.conservative,
+                        l.dissipative,
+                        l.free_flight
                     ),
                 );
             }
