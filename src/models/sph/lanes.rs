@@ -40,12 +40,7 @@ impl<K: Kernel, const D: usize> MomentumKernel<'_, K, D> {
     /// Whether [`Self::gather_lanes`] computes this pass: fluid particles only, pressure and
     /// Morris's term in pair form, nothing else accumulated.
     pub(super) fn lanes_apply(&self, p: &Particles<D>) -> bool {
-        !(self.boundaries.any()
-            || self.stress.is_some()
-            || self.polymer.is_some()
-            || p.species.is_some()
-            || self.xsph_eps_mass != 0.0
-            || !self.pairwise_stress)
+        self.fluid_only(p)
             && self.scales.len() == D + usize::from(self.continuity)
             && self.scales.len() <= MAX_WIDTH
     }

@@ -753,13 +753,7 @@ impl<K: Kernel, const D: usize> SymmetricKernel<D> for MomentumKernel<'_, K, D> 
     /// weakly compressible scheme) in loops over the batch; anything else pair by pair.
     #[inline(always)]
     fn pair_batch(&self, p: &Particles<D>, batch: &PairBatch<D>, out: &mut BatchTerms) {
-        if self.boundaries.any()
-            || self.stress.is_some()
-            || self.polymer.is_some()
-            || p.species.is_some()
-            || self.xsph_eps_mass != 0.0
-            || !self.pairwise_stress
-        {
+        if !self.fluid_only(p) {
             pair_by_pair(self, p, batch, out);
             return;
         }
@@ -777,6 +771,19 @@ impl<K: Kernel, const D: usize> SymmetricKernel<D> for MomentumKernel<'_, K, D> 
 }
 
 impl<K: Kernel, const D: usize> MomentumKernel<'_, K, D> {
+    /// Whether every pair of this pass is a fluid–fluid pair with only the pressure, Morris's
+    /// term and the density rate (no walls, inclusions, stress fields or XSPH): the scheme that
+    /// [`Self::fluid_batch`] and the lanes (`lanes.rs`) compute in vector loops.
+    #[inline(always)]
+    fn fluid_only(&self, p: &Particles<D>) -> bool {
+        !(self.boundaries.any()
+            || self.stress.is_some()
+            || self.polymer.is_some()
+            || p.species.is_some()
+            || self.xsph_eps_mass != 0.0
+            || !self.pairwise_stress)
+    }
+
     /// [`GatherKernel::pair`] for a batch of fluid–fluid pairs without a stress field, in
     /// loops over the batch (the same operations in the same order: the same bits).
     #[inline(always)]
