@@ -259,10 +259,17 @@ impl Scale {
 /// [`FixedSum`]s of `L` particles side by side (lane l is particle l of a group), so that a
 /// loop over the lanes vectorises: the same words, added in the same way, as `L` separate
 /// accumulators.
+///
+/// To save two integer subtractions per term, a lane adds the raw bits of the two rounded
+/// values, `bits(y + MAGIC) = bits(MAGIC) + h` and `bits(r·2^52 + MAGIC) = bits(MAGIC) + l`
+/// (see [`round_to_i64`]), and [`Self::lane`] takes `terms · bits(MAGIC)` off each word once:
+/// in wrapping (mod 2^64) arithmetic that is exactly Σh and Σl.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct LaneSums<const L: usize> {
     high: [i64; L],
     low: [i64; L],
+    /// Terms added to every lane (each [`Scale::add_lanes`] adds one per lane).
+    terms: i64,
 }
 
 impl<const L: usize> LaneSums<L> {
@@ -270,33 +277,50 @@ impl<const L: usize> LaneSums<L> {
     pub const ZERO: Self = Self {
         high: [0; L],
         low: [0; L],
+        terms: 0,
     };
 
     /// The accumulator of lane `l`.
     #[inline]
     pub fn lane(&self, l: usize) -> FixedSum {
+        let offset = self.terms.wrapping_mul(MAGIC.to_bits() as i64);
         FixedSum {
-            high: self.high[l],
-            low: self.low[l],
+            high: self.high[l].wrapping_sub(offset),
+            low: self.low[l].wrapping_sub(offset),
         }
     }
 }
+
+/// |x · 2^24| must stay below this for |x| < [`FixedSum::MAX_TERM`] = 2^26.
+const MAX_SHIFTED: f64 = FixedSum::MAX_TERM * HIGH_SHIFT;
 
 impl Scale {
     /// Adds `xs[l]` under this scale to lane l of `acc`, for every lane (as [`Self::split`]
     /// and [`FixedSum::add_split`], in one loop the compiler vectorises). Returns false if a
     /// term was not finite or beyond [`Self::max_term`]: the lanes' sums are then meaningless,
     /// and the caller reports the term another way.
+    ///
+    /// The words are those of [`Split::of`]`(x · 2^−e)`, computed with one multiplication by
+    /// 2^(24−e) instead of two by 2^−e and 2^24: both products of x by a power of two, so
+    /// exact and equal, except where x · 2^−e is subnormal, whose words are zero either way.
     #[inline(always)]
-    pub fn add_lanes<const L: usize>(&self, xs: &[f64; L], acc: &mut LaneSums<L>) -> bool {
+    pub fn add_lanes<const L: usize>(
+        &self,
+        xs: &[f64; L],
+        acc: &mut LaneSums<L>,
+    ) -> bool {
         let mut all = true;
+        let down_high = self.down * HIGH_SHIFT;
         for l in 0..L {
-            let y = xs[l] * self.down;
-            all &= FixedSum::representable(y);
-            let s = Split::of(y);
-            acc.high[l] = acc.high[l].wrapping_add(s.high);
-            acc.low[l] = acc.low[l].wrapping_add(s.low);
+            let y = xs[l] * down_high;
+            all &= y.abs() < MAX_SHIFTED;
+            let shifted = y + MAGIC;
+            let r = y - (shifted - MAGIC);
+            let low = r * LOW_SHIFT + MAGIC;
+            acc.high[l] = acc.high[l].wrapping_add(shifted.to_bits() as i64);
+            acc.low[l] = acc.low[l].wrapping_add(low.to_bits() as i64);
         }
+        acc.terms += 1;
         all
     }
 }
@@ -446,5 +470,32 @@ mod tests {
         let mut b = FixedSum::ZERO;
         b.add_split(Scale::UNIT.split(1.25).expect("in range"));
         assert_eq!(a, b);
+    }
+
+    /// Lanes hold the words of [`Scale::split`] exactly, for terms of either sign across the
+    /// range (down to subnormal ones), many of them (the raw-bit offsets wrap many times),
+    /// and refuse what `split` refuses.
+    #[test]
+    fn lanes_add_the_words_of_split() {
+        for exponent in [-60, -20, 0, 7, 900] {
+            let scale = Scale::of_exponent(exponent);
+            let top = 0.99 * scale.max_term();
+            let mut lanes = LaneSums::<4>::ZERO;
+            let mut each = [FixedSum::ZERO; 4];
+            let mut x = [top, -0.37 * top, 3e-300, -top * 1e-19];
+            for _ in 0..3000 {
+                assert!(scale.add_lanes(&x, &mut lanes));
+                for (acc, &v) in each.iter_mut().zip(&x) {
+                    acc.add_split(scale.split(v).expect("in range"));
+                }
+                x = [-0.5 * x[1], x[0] * 0.999, -x[2], x[3] * 1.01];
+            }
+            for (l, acc) in each.iter().enumerate() {
+                assert_eq!(lanes.lane(l), *acc, "lane {l}, exponent {exponent}");
+            }
+            let mut refused = LaneSums::<4>::ZERO;
+            assert!(!scale.add_lanes(&[0.0, scale.max_term(), 0.0, 0.0], &mut refused));
+            assert!(!scale.add_lanes(&[f64::NAN, 0.0, 0.0, 0.0], &mut refused));
+        }
     }
 }
