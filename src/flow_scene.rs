@@ -71,6 +71,15 @@ pub fn available_memory() -> Option<f64> {
     Some(kb * 1024.0)
 }
 
+/// This process's peak resident memory in bytes (VmHWM of /proc/self/status; None where it is
+/// missing).
+pub fn peak_resident_memory() -> Option<f64> {
+    let text = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = text.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let kb: f64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kb * 1024.0)
+}
+
 /// Memory of this rank's ensembles: its id block × N_d × D × (8 or 4) bytes (× 2 with control
 /// variates).
 pub fn rank_memory(case: &FlowCase, ranks: usize, rank: usize) -> f64 {

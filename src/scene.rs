@@ -640,6 +640,8 @@ pub fn drive(
     }
     let steps_run = (scene.step() - first_step) as f64;
     let rate = |n: f64| n * steps_run / loop_seconds.max(1e-300);
+    let mut peak = [crate::flow_scene::peak_resident_memory().unwrap_or(-1.0)];
+    comm.allreduce_max(&mut peak);
     Ok(Summary {
         version: env!("CARGO_PKG_VERSION").to_owned(),
         case: report.case,
@@ -657,6 +659,7 @@ pub fn drive(
         loop_seconds,
         particle_steps_per_second: rate(report.particles as f64),
         dumbbell_steps_per_second: report.dumbbells.map(|n| rate(n as f64)),
+        peak_memory_mib: (peak[0] >= 0.0).then(|| peak[0] / (1024.0 * 1024.0)),
         observables: report.observables,
         velocity_profile: report.velocity_profile,
         density_profile: report.density_profile,

@@ -85,6 +85,10 @@ pub struct Summary {
     /// dumbbells × (steps run in this session) / loop_seconds (scenes with ensembles).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub dumbbell_steps_per_second: Option<f64>,
+    /// Peak resident memory of the largest rank's process, MiB (VmHWM; absent where /proc is
+    /// missing). In-process ranks (tests) share one process, so there it is the whole run's.
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub peak_memory_mib: Option<f64>,
     /// Time averages over the steady window.
     pub observables: BTreeMap<String, Estimate>,
     /// Binned mean velocity u_x(y) (sheared runs that ask for it).
