@@ -304,11 +304,7 @@ impl Scale {
     /// 2^(24−e) instead of two by 2^−e and 2^24: both products of x by a power of two, so
     /// exact and equal, except where x · 2^−e is subnormal, whose words are zero either way.
     #[inline(always)]
-    pub fn add_lanes<const L: usize>(
-        &self,
-        xs: &[f64; L],
-        acc: &mut LaneSums<L>,
-    ) -> bool {
+    pub fn add_lanes<const L: usize>(&self, xs: &[f64; L], acc: &mut LaneSums<L>) -> bool {
         let mut all = true;
         let down_high = self.down * HIGH_SHIFT;
         for l in 0..L {

@@ -229,13 +229,16 @@ fn a_million_particles_on_one_rank_against_the_memory_check() {
 /// peak), against `check::rank_memory` of the large box less the small one.
 /// The estimate must not fall short (`check` would let a run start that does not fit; it keeps a
 /// tenth of MemAvailable aside for the rest) and must not exceed 1.6× (a run refused that
-/// needs well under the budget). Measured 2026-11-26: DPD 3D 1.43×, SPH benchmark 1.40×,
-/// Maxwell SPH under Lees–Edwards shear 1.21×. Without the SPH model's fields and full lists
-/// (the estimate before this test) the Maxwell scene's is 0.93×: it fails.
+/// needs well under the budget). Measured 2026-11-26: DPD 3D 1.40×, SPH benchmark 1.39×,
+/// Maxwell SPH under Lees–Edwards shear 1.22×. Without the SPH model's fields and full lists
+/// (the estimate before this test) the Maxwell scene's is 0.94×: it fails.
 #[test]
 fn check_memory_estimate_covers_the_measured_peak() {
-    let stock_case_path =
-        |name: &str| std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("cases").join(name);
+    let stock_case_path = |name: &str| {
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("cases")
+            .join(name)
+    };
     let dir = tempfile::tempdir().expect("temp dir");
     let peak = |case: &str, sets: &[String], tag: &str| -> (f64, f64) {
         let out = dir.path().join(tag);
@@ -261,7 +264,9 @@ fn check_memory_estimate_covers_the_measured_peak() {
             )
         });
         let summary: serde_json::Value = serde_json::from_str(&text).expect("summary.json");
-        let measured = summary["peak_memory_mib"].as_f64().expect("peak_memory_mib");
+        let measured = summary["peak_memory_mib"]
+            .as_f64()
+            .expect("peak_memory_mib");
         let loaded = mesorheo::config::load_with_overrides(&stock_case_path(case), sets)
             .unwrap_or_else(|e| panic!("{e}"));
         let estimate = mesorheo::check::rank_memory(&loaded.case, 1) / (1024.0 * 1024.0);
@@ -279,9 +284,24 @@ fn check_memory_estimate_covers_the_measured_peak() {
         ]
     };
     let scenes: [(&str, &str, Vec<String>, Vec<String>); 3] = [
-        ("DPD 3D", "bench_dpd_32k.toml", vec![box_of(47.42, 3)], vec![box_of(4.742, 3)]),
-        ("SPH benchmark", "bench_sph_2d.toml", vec![box_of(6.0, 2)], vec![box_of(0.19, 2)]),
-        ("Maxwell SPH", "maxwell_shear_2d.toml", maxwell(6.0), maxwell(0.19)),
+        (
+            "DPD 3D",
+            "bench_dpd_32k.toml",
+            vec![box_of(47.42, 3)],
+            vec![box_of(4.742, 3)],
+        ),
+        (
+            "SPH benchmark",
+            "bench_sph_2d.toml",
+            vec![box_of(6.0, 2)],
+            vec![box_of(0.19, 2)],
+        ),
+        (
+            "Maxwell SPH",
+            "maxwell_shear_2d.toml",
+            maxwell(6.0),
+            maxwell(0.19),
+        ),
     ];
     for (name, case, big, small) in scenes {
         let (m_big, e_big) = peak(case, &big, &format!("{case}.big"));
