@@ -16,7 +16,8 @@ and writes plots to docs/ when matplotlib is available.
   maxwell        corotational Maxwell SPH: Lees–Edwards steady shear at the thesis's 12 De
                  (η and Ψ₁ against the corotational Jeffreys solution, docs/maxwell_shear.png),
                  and the channel relaxation of sin(πy), cases (a) and (b), linear variant and
-                 full model, against the linearised solution (~25 min on 2 cores)
+                 full model, against the linearised solution (~1.5 h on 2 cores; MESORHEO_MAXWELL_RUNS=DIR
+                 reads finished runs of the same settings from DIR/de_<De>/summary.json)
   inclusion      SPH rigid inclusions in Lees–Edwards shear: the Newtonian cell at R = 0.1, 0.15,
                  0.2 and Δ = 0.02, 0.01 (mean fluid stress against 1/(1 − πR²), composite
                  viscosity against dilute theory, torque against Stokes), and the Maxwell matrix
@@ -490,6 +491,8 @@ def maxwell():
     print("| De | β | η/η₀ | exact | error | Ψ₁γ̇/η₀ | exact | error | steps | wall s |")
     print("|---|---|---|---|---|---|---|---|---|---|")
 
+    reuse = os.environ.get("MESORHEO_MAXWELL_RUNS")
+
     def one(de):
         eta_s = solvent(de)
         dt = step(de, eta_s)
@@ -497,11 +500,19 @@ def maxwell():
         t_avg = max(8.0, 4.0 * 3.141592653589793)
         steps = int(round((t_eq + t_avg) / dt))
         eq = int(round(t_eq / dt))
-        s = run("maxwell_shear_2d.toml", [f"fluid.polymer.relaxation_time={de}", f"run.steps={steps}",
-                                          f"run.equilibration={eq}", "diagnostics.blocks=8",
-                                          f"fluid.viscosity={eta_s}", f"fluid.polymer.viscosity={eta0 - eta_s}",
-                                          f"integrator.dt={dt}", f"run.sample_every={max(1, round(0.01 / dt))}"],
-                threads=1)
+        sets = [f"fluid.polymer.relaxation_time={de}", f"run.steps={steps}", f"run.equilibration={eq}",
+                "diagnostics.blocks=8", f"fluid.viscosity={eta_s}", f"fluid.polymer.viscosity={eta0 - eta_s}",
+                f"integrator.dt={dt}", f"run.sample_every={max(1, round(0.01 / dt))}"]
+        if reuse:
+            # A finished run of exactly these settings, in DIR/de_<De>/summary.json.
+            with open(os.path.join(reuse, f"de_{de}", "summary.json")) as f:
+                s = json.load(f)
+            c = s["case"]
+            got = (c["fluid"]["polymer"]["relaxation_time"], c["fluid"]["viscosity"], c["integrator"]["dt"], s["steps"])
+            if got != (de, eta_s, dt, steps):
+                sys.exit(f"{reuse}/de_{de}: a run of (λ, η_s, Δt, steps) = {got}, not {(de, eta_s, dt, steps)}")
+        else:
+            s = run("maxwell_shear_2d.toml", sets, threads=1)
         return de, eta_s, steps, s
 
     from concurrent.futures import ThreadPoolExecutor
