@@ -63,21 +63,26 @@ fn fresh<'c, const D: usize>(
     Ok(e)
 }
 
-/// Bytes of MemAvailable on this node (None where /proc/meminfo is missing).
-pub fn available_memory() -> Option<f64> {
-    let text = std::fs::read_to_string("/proc/meminfo").ok()?;
-    let line = text.lines().find(|l| l.starts_with("MemAvailable:"))?;
+/// The value of the line `key:` of a /proc file given in kB, in bytes (None where the file or
+/// the line is missing).
+fn proc_bytes(file: &str, key: &str) -> Option<f64> {
+    let text = std::fs::read_to_string(file).ok()?;
+    let line = text
+        .lines()
+        .find(|l| l.strip_prefix(key).is_some_and(|r| r.starts_with(':')))?;
     let kb: f64 = line.split_whitespace().nth(1)?.parse().ok()?;
     Some(kb * 1024.0)
+}
+
+/// Bytes of MemAvailable on this node (None where /proc/meminfo is missing).
+pub fn available_memory() -> Option<f64> {
+    proc_bytes("/proc/meminfo", "MemAvailable")
 }
 
 /// This process's peak resident memory in bytes (VmHWM of /proc/self/status; None where it is
 /// missing).
 pub fn peak_resident_memory() -> Option<f64> {
-    let text = std::fs::read_to_string("/proc/self/status").ok()?;
-    let line = text.lines().find(|l| l.starts_with("VmHWM:"))?;
-    let kb: f64 = line.split_whitespace().nth(1)?.parse().ok()?;
-    Some(kb * 1024.0)
+    proc_bytes("/proc/self/status", "VmHWM")
 }
 
 /// Memory of this rank's ensembles: its id block × N_d × D × (8 or 4) bytes (× 2 with control

@@ -184,10 +184,10 @@ impl<K: Kernel, const D: usize> MomentumKernel<'_, K, D> {
                 rate[l] = if keep { mass * gw * vdotx } else { 0.0 };
             }
             for a in 0..D {
-                representable &= scales[a].add_lanes::<L>(&f[a], &mut sums[a]);
+                representable &= scales[a].add_lanes(&f[a], &mut sums[a]);
             }
             if CONTINUITY {
-                representable &= scales[D].add_lanes::<L>(&rate, &mut sums[D]);
+                representable &= scales[D].add_lanes(&rate, &mut sums[D]);
             }
         }
         let width = scales.len();
