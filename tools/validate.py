@@ -475,9 +475,12 @@ def maxwell():
     # The corotational Jeffreys flow curve σ/(η₀γ̇) = βDe + (1 − β)De/(1 + De²) falls between
     # De ≈ 1.02 and 9.8 when β = η_s/η₀ = 0.01: homogeneous shear there is mechanically
     # unstable (it bands), and a banded state, once formed, persists on the rising branch too
-    # (De = 12.8). β ≥ 1/9 makes the curve monotone; β = 1/8 (slope ≥ η₀/64) at De > 1.
+    # (De = 12.8). β ≥ 1/9 makes the curve monotone; β = 1/8 (slope ≥ η₀/64) at De ≥ 1. At
+    # De = 1 itself the slope with β = 0.01 is only 0.01 η₀: homogeneous shear is stable but
+    # barely, and the run of 2026-11-26 banded after t ≈ 20 (η −49 % at t ∈ [40, 56]; it was
+    # +0.03 % at t ∈ [8, 20.6]).
     def solvent(de):
-        return 0.01 * eta0 if de <= 1.0 else eta0 / 8
+        return 0.01 * eta0 if de < 1.0 else eta0 / 8
     def step(de, eta_s):
         eta_p = eta0 - eta_s
         elastic = 0.35 * 0.06 / (100.0 + eta_p / de) ** 0.5
@@ -491,9 +494,9 @@ def maxwell():
     # β = 0.01 averages t ∈ [40, 56]; at β = 1/8 the lattice does not melt and t ≥ max(8, 7λ)
     # (the start-up e^{−t/λ} below 10⁻³) suffices.
     def window(de):
-        return (40.0, 16.0) if de <= 1.0 else (max(8.0, 7.0 * de), max(8.0, 4.0 * 3.141592653589793))
+        return (40.0, 16.0) if de < 1.0 else (max(8.0, 7.0 * de), max(8.0, 4.0 * 3.141592653589793))
     print("### Corotational Maxwell SPH in Lees–Edwards steady shear (cases/maxwell_shear_2d.toml at each De)\n")
-    print("η_s = 0.1 (β = 1 %, Morris) at De ≤ 1, η_s = 1.25 (β = 1/8) at De > 1, η_p = 10 − η_s, γ̇ = 1, corrected velocity "
+    print("η_s = 0.1 (β = 1 %, Morris) at De < 1, η_s = 1.25 (β = 1/8) at De ≥ 1, η_p = 10 − η_s, γ̇ = 1, corrected velocity "
           "gradient; Δt = min(10⁻³, λ/25, 0.9 × the elastic-wave and viscous limits); averaged over t ∈ [40, 56] at β = 1 % (after the melted lattice's noise has decayed) and "
           "over max(8, 4π) time units after t = max(8, 7λ) at β = 1/8; each point on 1 thread, two at a time. Reference: the corotational Jeffreys fluid, "
           "η = η_s + η_p/(1+De²), Ψ₁γ̇ = 2η_pDe/(1+De²).\n")
@@ -584,7 +587,7 @@ def maxwell():
 
 def maxwell_convergence():
     eta_x, n1_x = 0.1 + 9.9 / 2, 9.9
-    print("### Maxwell shear at De = 1: error and cost against Δt and Δ (cases/maxwell_shear_2d.toml, plain gradient)\n")
+    print("### Maxwell shear at De = 1: error and cost against Δt and Δ (cases/maxwell_shear_2d.toml, corrected gradient)\n")
     print("η = η_s + η_p/(1+De²) = 5.05, N₁ = 2η_pλγ̇²/(1+De²) = 9.9; t ∈ [8, 16]. Lucy support 3Δ, "
           "skin Δ/2; cost in particle-steps and wall seconds (2 threads).\n")
     print("| sweep | Δ | particles | Δt | steps | η error | N₁ error | particle-steps | wall s |")
@@ -596,10 +599,7 @@ def maxwell_convergence():
         s = run("maxwell_shear_2d.toml", [f"particles.density={n*n}.0", f"particles.mass={1/(n*n)}",
                                           f"fluid.smoothing_length={3*delta}", f"neighbour.skin={delta/2}",
                                           f"integrator.dt={dt}", f"run.steps={steps}", f"run.equilibration={eq}",
-                                          f"run.sample_every={max(1, round(0.01 / dt))}",
-                                          # the table in docs/validation.md was measured with the
-                                          # plain gradient, the stock case's until 2026-11-26
-                                          'fluid.velocity_gradient="sph"'])
+                                          f"run.sample_every={max(1, round(0.01 / dt))}"])
         o = s["observables"]
         e_eta = o["viscosity"]["mean"] / eta_x - 1
         e_n1 = o["first_normal_stress_difference"]["mean"] / n1_x - 1
