@@ -5,6 +5,7 @@ and writes plots to docs/ when matplotlib is available.
   kt_vs_dt       k_BT and p of the Groot–Warren fluid vs Δt for λ = 0.5 and 0.65 (3D, ρ = 3)
   viscosity      η, N₁, N₂ of Lees–Edwards shear vs run length (stability of the estimate)
   stock          every stock case with a [[reference]] on 2 ranks: all checks must pass
+                 (MESORHEO_STOCK_ONLY=a.toml,b.toml: only those)
   viscometric    Hookean dumbbells in steady shear at Wi = 0.1, 1, 10, 2D and 3D: η_p = Gλ,
                  Ψ₁ = 2Gλ², Ψ₂ = 0 within 3 standard errors, with 3σ ≤ 1 % (~15 min on 2 cores)
   sph            SPH start-up Couette: the error at each time for the thesis's scheme and its
@@ -234,8 +235,10 @@ def stock():
     print("|---|---|---|---|---|---|---|---|---|", flush=True)
     slow, failed = [], []
     unreferenced = []
+    # MESORHEO_STOCK_ONLY=a.toml,b.toml reruns only those cases (to refresh their rows).
+    only = set(filter(None, os.environ.get("MESORHEO_STOCK_ONLY", "").split(",")))
     for case in sorted(os.listdir(os.path.join(ROOT, "cases"))):
-        if not case.endswith(".toml"):
+        if not case.endswith(".toml") or (only and case not in only):
             continue
         with open(os.path.join(ROOT, "cases", case)) as f:
             if "[[reference]]" not in f.read():
@@ -268,8 +271,9 @@ def stock():
     print(f"\nTotal wall time {total:.0f} s ({total / 60:.1f} min)"
           + (f"; over 5 min: {', '.join(f'{c} ({w:.0f} s)' for c, w in slow)}" if slow else "")
           + (f"; failed to run: {', '.join(failed)}" if failed else "") + ".\n")
-    print(f"Not run (no [[reference]]: benchmarks, or validated by their own `./run validate` target): "
-          f"{', '.join(unreferenced)}.\n")
+    if unreferenced:
+        print(f"Not run (no [[reference]]: benchmarks, or validated by their own `./run validate` target): "
+              f"{', '.join(unreferenced)}.\n")
 
 
 def startup_errors(summary):
@@ -649,7 +653,8 @@ def predicted_limit(case, sets):
 
 def maxwell_stability():
     print("### Largest stable Δt of the Maxwell fluid against De (cases/maxwell_shear_2d.toml)\n")
-    print("η_s = 0.1 (Morris), η_p = 9.9, p_b = 20, Lucy 0.06, Δ = 0.02, γ̇ = 1, kick–drift–kick. "
+    print(f"η_s = 0.1 (Morris), η_p = 9.9, p_b = 20, Lucy 0.06, Δ = 0.02, γ̇ = 1, kick–drift–kick, "
+          f"velocity gradient {os.environ.get('MESORHEO_MAXWELL_GRADIENT', 'corrected')}. "
           "Stable: 2000 steps run without a blow-up (a non-finite or out-of-range pair term, or a "
           "particle moving beyond the list's reach). Bisection in log Δt to 2 %, between Δt known "
           "to run and one known to fail; `run.beyond_stability_limits` lets Δt pass the limits.\n")
@@ -657,10 +662,10 @@ def maxwell_stability():
     print("|---|---|---|---|---|---|")
     rows = []
     for de in (0.0125, 0.05, 0.2, 1.0, 3.2, 12.8):
-        # The map in docs/validation.md was measured with the plain gradient, the stock case's
-        # until 2026-11-26.
+        # The stock case's corrected gradient; MESORHEO_MAXWELL_GRADIENT=sph maps the plain one.
         base = [f"fluid.polymer.relaxation_time={de}", "run.steps=2000", "run.equilibration=0",
-                "run.sample_every=100", "diagnostics.blocks=2", 'fluid.velocity_gradient="sph"']
+                "run.sample_every=100", "diagnostics.blocks=2",
+                f'fluid.velocity_gradient="{os.environ.get("MESORHEO_MAXWELL_GRADIENT", "corrected")}"']
         name, limit = predicted_limit("maxwell_shear_2d.toml", base)
         ok = lambda dt: try_run("maxwell_shear_2d.toml", base + [f"integrator.dt={dt}",
                                                                   "run.beyond_stability_limits=true"]) is not None
