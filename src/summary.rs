@@ -130,7 +130,7 @@ fn check_startup(
     series: Option<ProfileSeries<'_>>,
 ) -> Vec<Validation> {
     use crate::analytic::{
-        OldroydB, StartupFlow, couette, poiseuille, poiseuille_oldroyd_b, relaxation,
+        OldroydB, StartupFlow, couette, couette_oldroyd_b, poiseuille, poiseuille_oldroyd_b, relaxation,
     };
     let (crate::config::FluidCfg::Sph(s), Some(w)) = (&case.fluid, &case.walls) else {
         return Vec::new();
@@ -138,23 +138,31 @@ fn check_startup(
     let l = case.domain.lengths[w.axis.index()];
     let nu = s.viscosity / s.rest_density;
     let first = |v: &[f64]| v.first().copied().unwrap_or(0.0);
+    let oldroyd_b = s.polymer.as_ref().map(|poly| OldroydB {
+        density: s.rest_density,
+        solvent_viscosity: s.viscosity,
+        polymer_viscosity: poly.viscosity,
+        relaxation_time: poly.relaxation_time,
+    });
     let (u_at, scale): (Box<dyn Fn(f64, f64) -> f64>, f64) = match r.solution {
         StartupFlow::Couette => {
             let u = first(&w.upper_velocity);
-            (Box::new(move |y, t| couette(y, t, l, u, nu)), u.abs())
+            match oldroyd_b {
+                // With a polymer, the Oldroyd-B start-up: exact for the upper-convected model
+                // in unidirectional flow, O(De²) for the corotational one.
+                Some(fluid) => (
+                    Box::new(move |y, t| couette_oldroyd_b(y, t, l, u, &fluid)),
+                    u.abs(),
+                ),
+                None => (Box::new(move |y, t| couette(y, t, l, u, nu)), u.abs()),
+            }
         }
         StartupFlow::Poiseuille => {
             let f = first(&s.body_force);
-            match s.polymer.as_ref() {
+            match oldroyd_b {
                 // Oldroyd-B (UCM, Hookean dumbbells): the scale is the steady centre velocity
                 // or, while a slow fluid's plug overshoots it, the largest velocity reached.
-                Some(poly) => {
-                    let fluid = OldroydB {
-                        density: s.rest_density,
-                        solvent_viscosity: s.viscosity,
-                        polymer_viscosity: poly.viscosity,
-                        relaxation_time: poly.relaxation_time,
-                    };
+                Some(fluid) => {
                     let nu0 = (fluid.solvent_viscosity + fluid.polymer_viscosity) / fluid.density;
                     let u = move |y, t| poiseuille_oldroyd_b(y, t, l, f, &fluid);
                     let t_max = r.times.iter().copied().fold(0.0, f64::max);
