@@ -207,7 +207,10 @@ fn oldroyd_b_mode(t: f64, k: f64, a0: f64, slope0: f64, fluid: &OldroydB) -> f64
     if disc > 0.0 {
         let root = disc.sqrt();
         let (sp, sm) = ((-b + root) / (2.0 * lambda), (-b - root) / (2.0 * lambda));
-        let (cp, cm) = ((slope0 - sm * a0) / (sp - sm), (sp * a0 - slope0) / (sp - sm));
+        let (cp, cm) = (
+            (slope0 - sm * a0) / (sp - sm),
+            (sp * a0 - slope0) / (sp - sm),
+        );
         cp * (sp * t).exp() + cm * (sm * t).exp()
     } else if disc < 0.0 {
         // s_± = μ ± iω: a = e^{μt} (a(0) cos ωt + ((a′(0) − μa(0))/ω) sin ωt).
@@ -535,7 +538,10 @@ mod tests {
                 assert!((got - newtonian_s).abs() < 1e-9, "η_p = 0, t {t} y {y}");
                 let newtonian_0 = couette(y, t, 1.0, 1.0, 1.0);
                 let got = couette_oldroyd_b(y, t, 1.0, 1.0, &fast);
-                assert!((got - newtonian_0).abs() < 1e-4, "λ → 0, t {t} y {y}: {got} vs {newtonian_0}");
+                assert!(
+                    (got - newtonian_0).abs() < 1e-4,
+                    "λ → 0, t {t} y {y}: {got} vs {newtonian_0}"
+                );
             }
         }
     }

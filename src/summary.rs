@@ -130,7 +130,8 @@ fn check_startup(
     series: Option<ProfileSeries<'_>>,
 ) -> Vec<Validation> {
     use crate::analytic::{
-        OldroydB, StartupFlow, couette, couette_oldroyd_b, poiseuille, poiseuille_oldroyd_b, relaxation,
+        OldroydB, StartupFlow, couette, couette_oldroyd_b, poiseuille, poiseuille_oldroyd_b,
+        relaxation,
     };
     let (crate::config::FluidCfg::Sph(s), Some(w)) = (&case.fluid, &case.walls) else {
         return Vec::new();

@@ -665,7 +665,7 @@ pub const KEYS: &[KeyDoc] = &[
         "reference[].solution",
         "\"couette\" | \"poiseuille\" | \"viscoelastic_relaxation\"",
         "required (startup_profile)",
-        "The series solution (src/analytic.rs) of the case's channel, with its wall velocity, body force, η/ρ₀ and width. \"poiseuille\" of a polymer fluid (upper-convected Maxwell or Hookean dumbbells) is the Oldroyd-B start-up series with η_s = fluid.viscosity, η_p and λ.",
+        "The series solution (src/analytic.rs) of the case's channel, with its wall velocity, body force, η/ρ₀ and width. With a polymer, \"couette\" and \"poiseuille\" are the Oldroyd-B start-up series with η_s = fluid.viscosity, η_p and λ: exact for the upper-convected Maxwell fluid and Hookean dumbbells (N_d → ∞) in unidirectional flow, O(De²) from the corotational fluid's.",
     ),
     key(
         "reference[].positions",
