@@ -270,6 +270,11 @@ pub struct LaneSums<const L: usize> {
     low: [i64; L],
     /// Terms added to every lane (each [`Scale::add_lanes`] adds one per lane).
     terms: i64,
+    /// The largest |x · 2^(24−e)| added to each lane, as its bits: for non-negative floats
+    /// (NaN included) the order of the bits as integers is the order of the values, with NaN
+    /// above infinity, so one integer maximum per term replaces a comparison and a mask
+    /// operation, and [`Self::representable`] tests them all at the end.
+    largest: [u64; L],
 }
 
 impl<const L: usize> LaneSums<L> {
@@ -278,7 +283,15 @@ impl<const L: usize> LaneSums<L> {
         high: [0; L],
         low: [0; L],
         terms: 0,
+        largest: [0; L],
     };
+
+    /// Whether every term added so far was finite and within its scale's
+    /// [`Scale::max_term`] (otherwise the sums are meaningless).
+    #[inline]
+    pub fn representable(&self) -> bool {
+        self.largest.iter().all(|&b| b < MAX_SHIFTED.to_bits())
+    }
 
     /// The accumulator of lane `l`.
     #[inline]
@@ -297,7 +310,8 @@ const MAX_SHIFTED: f64 = FixedSum::MAX_TERM * HIGH_SHIFT;
 impl Scale {
     /// Adds `xs[l]` under this scale to lane l of `acc`, for every lane (as [`Self::split`]
     /// and [`FixedSum::add_split`], in one loop the compiler vectorises). Returns false if a
-    /// term was not finite or beyond [`Self::max_term`]: the lanes' sums are then meaningless,
+    /// term (this one or an earlier one) was not finite or beyond [`Self::max_term`]: the
+    /// lanes' sums are then meaningless,
     /// and the caller reports the term another way.
     ///
     /// The words are those of [`Split::of`]`(x · 2^−e)`, computed with one multiplication by
@@ -305,11 +319,30 @@ impl Scale {
     /// exact and equal, except where x · 2^−e is subnormal, whose words are zero either way.
     #[inline(always)]
     pub fn add_lanes<const L: usize>(&self, xs: &[f64; L], acc: &mut LaneSums<L>) -> bool {
-        let mut all = true;
-        let down_high = self.down * HIGH_SHIFT;
+        self.lane_factor().add(xs, acc);
+        acc.representable()
+    }
+
+    /// The factor 2^(24−e) of [`Self::add_lanes`], to take out of a loop over many terms.
+    #[inline(always)]
+    pub fn lane_factor(&self) -> LaneFactor {
+        LaneFactor(self.down * HIGH_SHIFT)
+    }
+}
+
+/// A [`Scale`]'s factor 2^(24−e), taken out of a loop: [`LaneFactor::add`] is
+/// [`Scale::add_lanes`] without reloading the scale.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LaneFactor(f64);
+
+impl LaneFactor {
+    /// As [`Scale::add_lanes`] under the scale this factor came from, with the check of the
+    /// terms left to [`LaneSums::representable`].
+    #[inline(always)]
+    pub fn add<const L: usize>(self, xs: &[f64; L], acc: &mut LaneSums<L>) {
         for l in 0..L {
-            let y = xs[l] * down_high;
-            all &= y.abs() < MAX_SHIFTED;
+            let y = xs[l] * self.0;
+            acc.largest[l] = acc.largest[l].max(y.abs().to_bits());
             let shifted = y + MAGIC;
             let r = y - (shifted - MAGIC);
             let low = r * LOW_SHIFT + MAGIC;
@@ -317,7 +350,6 @@ impl Scale {
             acc.low[l] = acc.low[l].wrapping_add(low.to_bits() as i64);
         }
         acc.terms += 1;
-        all
     }
 }
 
@@ -491,7 +523,15 @@ mod tests {
             }
             let mut refused = LaneSums::<4>::ZERO;
             assert!(!scale.add_lanes(&[0.0, scale.max_term(), 0.0, 0.0], &mut refused));
+            let mut refused = LaneSums::<4>::ZERO;
             assert!(!scale.add_lanes(&[f64::NAN, 0.0, 0.0, 0.0], &mut refused));
+            let mut refused = LaneSums::<4>::ZERO;
+            assert!(!scale.add_lanes(&[0.0, 0.0, f64::NEG_INFINITY, 0.0], &mut refused));
+            let mut refused = LaneSums::<4>::ZERO;
+            assert!(!scale.add_lanes(&[0.0, 0.0, 0.0, -scale.max_term()], &mut refused));
+            let mut kept = LaneSums::<4>::ZERO;
+            let below = scale.max_term() * (1.0 - f64::EPSILON);
+            assert!(kept.representable() && scale.add_lanes(&[below, -below, 0.0, 0.0], &mut kept));
         }
     }
 }

@@ -27,7 +27,7 @@
 
 use super::MomentumKernel;
 use super::kernels::Kernel;
-use crate::fixed_sum::LaneSums;
+use crate::fixed_sum::{LaneFactor, LaneSums};
 use crate::models::gather::{LANES, LaneRows};
 use crate::particles::Particles;
 use crate::simd::Isa;
@@ -126,8 +126,11 @@ impl<K: Kernel, const D: usize> MomentumKernel<'_, K, D> {
         let (two_eta, regulariser, kernel) = (self.two_eta_morris, self.regulariser, &self.kernel);
         let (p_over_rho2, inv_density) = (self.p_over_rho2, self.inv_density);
         let scales = &self.scales;
+        let width = scales.len();
+        // The scales' factors, loaded once (unused entries are never added to).
+        let factors: [LaneFactor; MAX_WIDTH] =
+            std::array::from_fn(|q| scales[q.min(width - 1)].lane_factor());
         let mut sums = [LaneSums::<L>::ZERO; MAX_WIDTH];
-        let mut representable = true;
         for entries in rows.group(g).chunks_exact(L) {
             let mut x = [[0.0; L]; D];
             let mut v = [[0.0; L]; D];
@@ -164,6 +167,9 @@ impl<K: Kernel, const D: usize> MomentumKernel<'_, K, D> {
                 // Not `r2 < rc2`: a NaN distance is kept, and its term stops the gather.
                 #[allow(clippy::neg_cmp_op_on_partial_ord)]
                 let keep = !(r2[l] >= rc2) && entries[l] != own_u32[l];
+                // All ones to keep a term, zero to drop it: an AND instead of a select, so
+                // that the terms stay in registers. A dropped term becomes +0, as with a select.
+                let mask = u64::from(keep).wrapping_neg();
                 let r = r2[l].sqrt();
                 let gw = kernel.dw_over_r(r);
                 let pressure = -(p_i[l] + p_j[l]) * gw;
@@ -178,19 +184,19 @@ impl<K: Kernel, const D: usize> MomentumKernel<'_, K, D> {
                     if MORRIS {
                         fa += s * v[a][l];
                     }
-                    f[a][l] = if keep { mm * fa } else { 0.0 };
+                    f[a][l] = f64::from_bits((mm * fa).to_bits() & mask);
                     vdotx += v[a][l] * x[a][l];
                 }
-                rate[l] = if keep { mass * gw * vdotx } else { 0.0 };
+                rate[l] = f64::from_bits((mass * gw * vdotx).to_bits() & mask);
             }
             for a in 0..D {
-                representable &= scales[a].add_lanes(&f[a], &mut sums[a]);
+                factors[a].add(&f[a], &mut sums[a]);
             }
             if CONTINUITY {
-                representable &= scales[D].add_lanes(&rate, &mut sums[D]);
+                factors[D].add(&rate, &mut sums[D]);
             }
         }
-        let width = scales.len();
+        let representable = sums[..width].iter().all(LaneSums::representable);
         for (l, row) in out.chunks_exact_mut(width).enumerate() {
             for (q, o) in row.iter_mut().enumerate() {
                 *o = scales[q].value(&sums[q].lane(l));
