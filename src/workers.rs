@@ -5,8 +5,21 @@ use crate::comm::Comm;
 
 /// This rank's `threads` rayon workers (0: all cores it may use). Collective: a rank that
 /// cannot start its threads stops every rank, so none waits for it in a later collective.
+///
+/// The calling thread (the rank's main thread, the one that talks to MPI) joins the pool as
+/// worker 0 when it can: `install` from it then runs the work in place, where a pool of
+/// other threads would hand it over and put the caller to sleep until it is done. On one
+/// thread that is two wake-ups per pass, about 7 % of a fluid-only SPH step
+/// (docs/performance.md); on more threads the caller works instead of waiting. A thread joins
+/// one pool in its life (rayon keeps it marked as that pool's worker), so a second simulation
+/// on the same thread, as in the tests, gets a pool of its own threads. Which threads do the
+/// work changes no bit (the determinism rules of DESIGN.md).
 pub fn worker_pool(comm: &dyn Comm, threads: usize) -> Result<rayon::ThreadPool, String> {
-    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build();
+    let builder = || rayon::ThreadPoolBuilder::new().num_threads(threads);
+    let pool = builder()
+        .use_current_thread()
+        .build()
+        .or_else(|_| builder().build());
     let mut failed = [if pool.is_err() { 1.0 } else { 0.0 }];
     comm.allreduce_max(&mut failed);
     match pool {
