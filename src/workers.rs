@@ -42,3 +42,33 @@ pub fn hash_words(words: &[u64]) -> u64 {
     }
     h
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rayon::prelude::*;
+
+    /// The first pool built on a thread runs `install` on that thread (no hand-over); a second
+    /// one on the same thread still works, on threads of its own; both compute the same.
+    #[test]
+    fn the_calling_thread_joins_its_first_pool_and_a_second_pool_still_works() {
+        std::thread::spawn(|| {
+            let comm = crate::comm::SerialComm::default();
+            let here = std::thread::current().id();
+            let sum = |pool: &rayon::ThreadPool| {
+                pool.install(|| (0..10_000u64).into_par_iter().map(|k| k * k).sum::<u64>())
+            };
+            let first = worker_pool(&comm, 1).expect("a pool");
+            assert_eq!(first.install(|| std::thread::current().id()), here);
+            assert_eq!(sum(&first), 333_283_335_000);
+            let second = worker_pool(&comm, 2).expect("a second pool");
+            assert_ne!(second.install(|| std::thread::current().id()), here);
+            assert_eq!(sum(&second), 333_283_335_000);
+            drop(first);
+            let third = worker_pool(&comm, 1).expect("a pool after the first is dropped");
+            assert_eq!(sum(&third), 333_283_335_000);
+        })
+        .join()
+        .expect("the test thread");
+    }
+}
