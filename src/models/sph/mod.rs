@@ -1606,12 +1606,19 @@ impl<const D: usize> SphModel<D> {
                 let density = &p.extra[self.density].data;
                 self.p_over_rho2.clear();
                 let background = self.cfg.background_pressure;
+                // One loop per equation of state, so that each vectorises (the same
+                // operations as the match inside the loop).
                 if background == 0.0 {
-                    self.p_over_rho2.extend(
-                        density
-                            .iter()
-                            .map(|&rho| SphCfg::pressure_over_rho2(eos, c2, rho0, rho)),
-                    );
+                    match eos {
+                        EquationOfState::Tait => self.p_over_rho2.extend(density.iter().map(
+                            |&rho| SphCfg::pressure_over_rho2(EquationOfState::Tait, c2, rho0, rho),
+                        )),
+                        EquationOfState::Quadratic => self.p_over_rho2.extend(
+                            density.iter().map(|&rho| {
+                                SphCfg::pressure_over_rho2(EquationOfState::Quadratic, c2, rho0, rho)
+                            }),
+                        ),
+                    }
                 } else {
                     self.p_over_rho2.extend(density.iter().map(|&rho| {
                         SphCfg::pressure_over_rho2(eos, c2, rho0, rho) + background / (rho * rho)
