@@ -18,7 +18,7 @@
 //! contribution to i is always c(i, j), computed on i's rank from i's copy and j's (ghost or
 //! owned) copy.
 
-use crate::fixed_sum::{FixedSum, Scale, Split};
+use crate::fixed_sum::{FixedSum, LaneFactor, LaneSums, Scale, Split};
 use crate::neighbour::NeighbourList;
 use crate::particles::Particles;
 use crate::simd::Isa;
@@ -302,6 +302,190 @@ pub fn gather<const D: usize, K: GatherKernel<D>>(
                 Ok(())
             },
         )
+}
+
+/// Most quantities [`gather_in_lanes`] accumulates (wider passes, MSPH's moments, use [`gather`]).
+const MAX_LANE_WIDTH: usize = 32;
+
+/// [`gather`] with [`LANES`] owned particles side by side along the rows of
+/// [`FullList::lanes`]: each lane evaluates its pair terms with the same [`GatherKernel::pair`]
+/// (one lane after another), and the terms of all lanes are split into their fixed-point words
+/// and added at once ([`LaneFactor::add`], which the compiler vectorises), where [`gather`]
+/// splits them one by one with a check each. The words are those of [`Scale::split`], so the
+/// sums are the very bits of [`gather`] (a unit test compares them).
+///
+/// Returns false, leaving `out` meaningless, when it does not apply (a pass wider than
+/// [`MAX_LANE_WIDTH`], a row too long to add without normalising, rows that are not these
+/// particles') or when a term was not representable: the caller then runs [`gather`], which
+/// names the term.
+pub fn gather_in_lanes<const D: usize, K: GatherKernel<D>>(
+    isa: Isa,
+    kernel: &K,
+    p: &Particles<D>,
+    full: &FullList,
+    out: &mut Vec<f64>,
+) -> bool {
+    let scales = kernel.scales();
+    let width = scales.len();
+    let n = p.n_owned;
+    let rows = full.lanes();
+    if width == 0
+        || width > MAX_LANE_WIDTH
+        || n == 0
+        || full.rows() != n
+        || rows.groups() != n.div_ceil(LANES)
+        || rows.max_index() >= p.len()
+        || (0..rows.groups()).any(|g| rows.group(g).len() / LANES >= NORMALISE_EVERY)
+    {
+        return false;
+    }
+    out.clear();
+    out.resize(n * width, 0.0);
+    let factors: Vec<LaneFactor> = scales.iter().map(Scale::lane_factor).collect();
+    let rc2 = kernel.cutoff() * kernel.cutoff();
+    let group = |g: usize, chunk: &mut [f64], scratch: &mut LaneScratch| -> bool {
+        #[cfg(target_arch = "x86_64")]
+        if isa.has_avx512() {
+            // SAFETY: an `Isa` has AVX-512 only when the CPU reports every subset that
+            // `lane_group_avx512` enables (`Isa::avx512`), the one requirement of a
+            // target-feature function.
+            return unsafe { lane_group_avx512(kernel, p, rows, &factors, rc2, g, chunk, scratch) };
+        }
+        #[cfg(target_arch = "x86_64")]
+        if isa.has_avx2() {
+            // SAFETY: as above, for the AVX2 subset (`Isa::avx2`).
+            return unsafe { lane_group_avx2(kernel, p, rows, &factors, rc2, g, chunk, scratch) };
+        }
+        let _ = isa;
+        lane_group(kernel, p, rows, &factors, rc2, g, chunk, scratch)
+    };
+    out.par_chunks_mut(LANES * width)
+        .enumerate()
+        .with_min_len(8)
+        .map_init(
+            || LaneScratch::new(width),
+            |scratch, (g, chunk)| group(g, chunk, scratch),
+        )
+        .reduce(|| true, |a, b| a && b)
+}
+
+/// Per-thread scratch of [`gather_in_lanes`].
+struct LaneScratch {
+    sums: Vec<LaneSums<LANES>>,
+    terms: Vec<[f64; LANES]>,
+    term: Vec<f64>,
+}
+
+impl LaneScratch {
+    fn new(width: usize) -> Self {
+        Self {
+            sums: vec![LaneSums::ZERO; width],
+            terms: vec![[0.0; LANES]; width],
+            term: vec![0.0; width],
+        }
+    }
+}
+
+/// One group of [`gather_in_lanes`]: its lanes' sums into `chunk` (lanes × width, the last
+/// group's only as many lanes as it has particles); false if a term was not representable.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn lane_group<const D: usize, K: GatherKernel<D>>(
+    kernel: &K,
+    p: &Particles<D>,
+    rows: &LaneRows,
+    factors: &[LaneFactor],
+    rc2: f64,
+    g: usize,
+    chunk: &mut [f64],
+    scratch: &mut LaneScratch,
+) -> bool {
+    let n = p.n_owned;
+    let width = factors.len();
+    let LaneScratch { sums, terms, term } = scratch;
+    sums.fill(LaneSums::ZERO);
+    let own: [usize; LANES] = std::array::from_fn(|l| (g * LANES + l).min(n - 1));
+    let active: [bool; LANES] = std::array::from_fn(|l| kernel.active(p, own[l]));
+    // The self terms (zero where there is none).
+    for l in 0..LANES {
+        let has = active[l] && kernel.self_term(p, own[l], term);
+        for q in 0..width {
+            terms[q][l] = if has { term[q] } else { 0.0 };
+        }
+    }
+    for (factor, (t, s)) in factors.iter().zip(terms.iter().zip(sums.iter_mut())) {
+        factor.add(t, s);
+    }
+    for entries in rows.group(g).chunks_exact(LANES) {
+        for l in 0..LANES {
+            let (i, j) = (own[l], entries[l] as usize);
+            let within = if active[l] && j != i {
+                separation_within(&p.pos[i], &p.pos[j], rc2)
+            } else {
+                None
+            };
+            match within {
+                Some((r_ij, r)) => {
+                    kernel.pair(p, i, j, &r_ij, r, term);
+                    for q in 0..width {
+                        terms[q][l] = term[q];
+                    }
+                }
+                None => {
+                    for t in terms.iter_mut() {
+                        t[l] = 0.0;
+                    }
+                }
+            }
+        }
+        for (factor, (t, s)) in factors.iter().zip(terms.iter().zip(sums.iter_mut())) {
+            factor.add(t, s);
+        }
+    }
+    for (l, row) in chunk.chunks_exact_mut(width).enumerate() {
+        for (q, o) in row.iter_mut().enumerate() {
+            *o = if active[l] {
+                kernel.scales()[q].value(&sums[q].lane(l))
+            } else {
+                0.0
+            };
+        }
+    }
+    sums.iter().all(LaneSums::representable)
+}
+
+/// [`lane_group`] compiled for AVX-512 (no FMA: the same IEEE operations, so the same bits).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,avx512f,avx512vl,avx512dq,avx512bw,avx512cd")]
+#[allow(clippy::too_many_arguments)]
+fn lane_group_avx512<const D: usize, K: GatherKernel<D>>(
+    kernel: &K,
+    p: &Particles<D>,
+    rows: &LaneRows,
+    factors: &[LaneFactor],
+    rc2: f64,
+    g: usize,
+    chunk: &mut [f64],
+    scratch: &mut LaneScratch,
+) -> bool {
+    lane_group(kernel, p, rows, factors, rc2, g, chunk, scratch)
+}
+
+/// [`lane_group`] compiled for AVX2 (no FMA).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[allow(clippy::too_many_arguments)]
+fn lane_group_avx2<const D: usize, K: GatherKernel<D>>(
+    kernel: &K,
+    p: &Particles<D>,
+    rows: &LaneRows,
+    factors: &[LaneFactor],
+    rc2: f64,
+    g: usize,
+    chunk: &mut [f64],
+    scratch: &mut LaneScratch,
+) -> bool {
+    lane_group(kernel, p, rows, factors, rc2, g, chunk, scratch)
 }
 
 /// A gather kernel whose every quantity has a parity under i ↔ j, c(j, i) = ±c(i, j) to the
@@ -707,5 +891,99 @@ mod tests {
         let err = gather(&narrow, &p, &full, &mut out).expect_err("1e9 is beyond 2048");
         assert_eq!((err.gid_i, err.gid_j, err.quantity), (4, 5, 1));
         assert!(err.to_string().contains("particles 4 and 5"), "{err}");
+    }
+
+    /// Terms of three magnitudes, a self term on some particles, some inactive.
+    struct Mixed {
+        scales: [Scale; 3],
+    }
+
+    impl GatherKernel<2> for Mixed {
+        fn scales(&self) -> &[Scale] {
+            &self.scales
+        }
+        fn cutoff(&self) -> f64 {
+            0.3
+        }
+        fn pair(
+            &self,
+            p: &Particles<2>,
+            i: usize,
+            j: usize,
+            x: &[f64; 2],
+            r: f64,
+            out: &mut [f64],
+        ) {
+            out[0] = x[0] * (1.0 + p.vel[j][0] - p.vel[i][1]);
+            out[1] = 1e-4 * r * p.gid[j] as f64;
+            out[2] = 1e5 * x[1] / r;
+        }
+        fn active(&self, p: &Particles<2>, i: usize) -> bool {
+            p.gid[i] % 7 != 0
+        }
+        fn self_term(&self, p: &Particles<2>, i: usize, out: &mut [f64]) -> bool {
+            out[0] = 0.1 * p.gid[i] as f64;
+            out[1] = 0.0;
+            out[2] = -1.0;
+            p.gid[i] % 3 == 0
+        }
+    }
+
+    /// The lanes give the very bits of the gather on every instruction set, and hand a term
+    /// beyond its scale back to the gather.
+    #[test]
+    fn lanes_gather_the_bits_of_the_gather() {
+        let mut p = Particles::<2>::default();
+        let mut state = 0x9E37_79B9_7F4A_7C15u64;
+        let mut next = || {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        // 203 particles (the last group is partial), clustered enough for long rows.
+        for g in 0..203u64 {
+            let (x, y, vx, vy) = (2.0 * next(), 2.0 * next(), next() - 0.5, next() - 0.5);
+            p.push_owned(g, [x, y], [vx, vy]);
+        }
+        let list = NeighbourList::build(&p, 0.3, 0.3);
+        let full = FullList::from_half(&list, p.n_owned);
+        let kernel = Mixed {
+            scales: [
+                Scale::covering(10.0),
+                Scale::covering(0.1),
+                Scale::covering(1e6),
+            ],
+        };
+        let mut expected = Vec::new();
+        gather(&kernel, &p, &full, &mut expected).expect("in range");
+        let mut isas = vec![Isa::PORTABLE];
+        isas.extend(Isa::avx2());
+        isas.extend(Isa::avx512());
+        for isa in isas {
+            let mut got = Vec::new();
+            assert!(
+                gather_in_lanes(isa, &kernel, &p, &full, &mut got),
+                "{isa:?}"
+            );
+            let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+            assert_eq!(bits(&got), bits(&expected), "{isa:?}");
+        }
+        assert!(expected.iter().any(|&x| x != 0.0));
+        let narrow = Mixed {
+            scales: [
+                Scale::covering(10.0),
+                Scale::covering(0.1),
+                Scale::covering(1e3),
+            ],
+        };
+        assert!(!gather_in_lanes(
+            Isa::current(),
+            &narrow,
+            &p,
+            &full,
+            &mut Vec::new()
+        ));
+        assert!(gather(&narrow, &p, &full, &mut Vec::new()).is_err());
     }
 }

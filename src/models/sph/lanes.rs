@@ -251,3 +251,186 @@ fn group_avx512<K: Kernel, const D: usize>(
 ) -> bool {
     group_portable(w, morris, regular, out)
 }
+
+impl<K: Kernel, const D: usize> super::GradientKernel<'_, K, D> {
+    /// The sums [`crate::models::gather::gather`] gives for the velocity-gradient pass (G_i,
+    /// and M_i when corrected), gathered along `rows` into `out` (n_owned × width), or false
+    /// when the pass has boundary particles (their seen velocities), the rows do not fit the
+    /// particles, or a term was not representable (then `out` is meaningless, and the caller
+    /// gathers pair by pair, which names the term). The arithmetic is `GradientKernel::pair`'s:
+    ///
+    /// ```text
+    /// s = (m/ρ_j) F_ij,   G_i += s (v_j − v_i) ⊗ x_ij,   M_i += (−s x_ij) ⊗ x_ij
+    /// ```
+    pub(super) fn gather_lanes(
+        &self,
+        isa: Isa,
+        p: &Particles<D>,
+        rows: &LaneRows,
+        out: &mut Vec<f64>,
+    ) -> bool {
+        let n = p.n_owned;
+        let width = self.scales.len();
+        let expected = if self.corrected { 2 * D * D } else { D * D };
+        if self.boundaries.any()
+            || width != expected
+            || width > MAX_GRADIENT_WIDTH
+            || rows.groups() != n.div_ceil(LANES)
+            || n == 0
+        {
+            return false;
+        }
+        let len = p.pos.len();
+        if rows.max_index() >= len || p.vel.len() != len || self.density.len() < len {
+            return false;
+        }
+        out.clear();
+        out.resize(n * width, 0.0);
+        let rc2 = self.kernel.support() * self.kernel.support();
+        let avx512 = isa.has_avx512();
+        out.par_chunks_mut(LANES * width)
+            .enumerate()
+            .with_min_len(16)
+            .map(|(g, chunk)| {
+                #[cfg(target_arch = "x86_64")]
+                if avx512 {
+                    // SAFETY: as in `MomentumKernel::gather_lanes`: an `Isa` has AVX-512 only
+                    // when the CPU reports every subset `gradient_group_avx512` enables.
+                    return unsafe { gradient_group_avx512(self, p, rows, g, rc2, chunk) };
+                }
+                let _ = avx512;
+                gradient_group_portable(self, p, rows, g, rc2, chunk)
+            })
+            .reduce(|| true, |a, b| a && b)
+    }
+
+    /// One group's gradient sums into `out`; false if a term was not representable.
+    #[inline(always)]
+    fn gradient_group<const CORRECTED: bool>(
+        &self,
+        p: &Particles<D>,
+        rows: &LaneRows,
+        g: usize,
+        rc2: f64,
+        out: &mut [f64],
+    ) -> bool {
+        const L: usize = LANES;
+        let n = p.n_owned;
+        let own: [usize; L] = std::array::from_fn(|l| (g * L + l).min(n - 1));
+        let (pos, vel, density) = (&p.pos, &p.vel, self.density);
+        let xi: [[f64; L]; D] = std::array::from_fn(|d| std::array::from_fn(|l| pos[own[l]][d]));
+        let vi: [[f64; L]; D] = std::array::from_fn(|d| std::array::from_fn(|l| vel[own[l]][d]));
+        let own_u32: [u32; L] = std::array::from_fn(|l| own[l] as u32);
+        let (mass, kernel, scales) = (self.mass, &self.kernel, &self.scales);
+        let width = scales.len();
+        let factors: [LaneFactor; MAX_GRADIENT_WIDTH] =
+            std::array::from_fn(|q| scales[q.min(width - 1)].lane_factor());
+        let mut sums = [LaneSums::<L>::ZERO; MAX_GRADIENT_WIDTH];
+        for entries in rows.group(g).chunks_exact(L) {
+            let mut x = [[0.0; L]; D];
+            let mut dv = [[0.0; L]; D];
+            let mut r2 = [0.0; L];
+            let mut rho_j = [0.0; L];
+            for l in 0..L {
+                let j = entries[l] as usize;
+                // SAFETY: j ≤ rows.max_index() < p.pos.len() = p.vel.len() ≤ density.len(),
+                // all checked by `gather_lanes` before any group runs.
+                let (xj, vj, rho) = unsafe {
+                    (
+                        pos.get_unchecked(j),
+                        vel.get_unchecked(j),
+                        *density.get_unchecked(j),
+                    )
+                };
+                let mut s = 0.0;
+                for d in 0..D {
+                    let xd = xi[d][l] - xj[d];
+                    x[d][l] = xd;
+                    s += xd * xd;
+                    dv[d][l] = vj[d] - vi[d][l];
+                }
+                r2[l] = s;
+                rho_j[l] = rho;
+            }
+            let mut coeff = [0.0; L];
+            for l in 0..L {
+                // Not `r2 < rc2`: a NaN distance is kept, and its term stops the gather.
+                #[allow(clippy::neg_cmp_op_on_partial_ord)]
+                let keep = !(r2[l] >= rc2) && entries[l] != own_u32[l];
+                let mask = u64::from(keep).wrapping_neg();
+                let s = mass / rho_j[l] * kernel.dw_over_r(r2[l].sqrt());
+                // A dropped pair's every term is s·(…)·(…) = +0 or −0 with s = ±0: +0 words.
+                coeff[l] = f64::from_bits(s.to_bits() & mask);
+            }
+            for a in 0..D {
+                let mut d = [0.0; L];
+                for l in 0..L {
+                    d[l] = coeff[l] * dv[a][l];
+                }
+                for b in 0..D {
+                    let mut t = [0.0; L];
+                    for l in 0..L {
+                        t[l] = d[l] * x[b][l];
+                    }
+                    factors[a * D + b].add(&t, &mut sums[a * D + b]);
+                }
+            }
+            if CORRECTED {
+                for c in 0..D {
+                    let mut d = [0.0; L];
+                    for l in 0..L {
+                        d[l] = -coeff[l] * x[c][l];
+                    }
+                    for b in 0..D {
+                        let mut t = [0.0; L];
+                        for l in 0..L {
+                            t[l] = d[l] * x[b][l];
+                        }
+                        let q = D * D + c * D + b;
+                        factors[q].add(&t, &mut sums[q]);
+                    }
+                }
+            }
+        }
+        let representable = sums[..width].iter().all(LaneSums::representable);
+        for (l, row) in out.chunks_exact_mut(width).enumerate() {
+            for (q, o) in row.iter_mut().enumerate() {
+                *o = scales[q].value(&sums[q].lane(l));
+            }
+        }
+        representable
+    }
+}
+
+/// Gradient sums at most: G and M in 3D.
+const MAX_GRADIENT_WIDTH: usize = 18;
+
+#[inline(always)]
+fn gradient_group_portable<K: Kernel, const D: usize>(
+    k: &super::GradientKernel<'_, K, D>,
+    p: &Particles<D>,
+    rows: &LaneRows,
+    g: usize,
+    rc2: f64,
+    out: &mut [f64],
+) -> bool {
+    if k.corrected {
+        k.gradient_group::<true>(p, rows, g, rc2, out)
+    } else {
+        k.gradient_group::<false>(p, rows, g, rc2, out)
+    }
+}
+
+/// [`gradient_group_portable`] compiled for AVX-512 (no FMA: the same bits).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,avx512f,avx512vl,avx512dq,avx512bw,avx512cd")]
+fn gradient_group_avx512<K: Kernel, const D: usize>(
+    k: &super::GradientKernel<'_, K, D>,
+    p: &Particles<D>,
+    rows: &LaneRows,
+    g: usize,
+    rc2: f64,
+    out: &mut [f64],
+) -> bool {
+    gradient_group_portable(k, p, rows, g, rc2, out)
+}

@@ -68,7 +68,7 @@ pub mod msph;
 use crate::fixed_sum::Scale;
 use crate::models::gather::{
     BATCH, BatchTerms, FullList, GatherKernel, PairBatch, Parity, ScatterBuffers, SymmetricKernel,
-    gather, pair_by_pair, scatter,
+    gather, gather_in_lanes, pair_by_pair, scatter,
 };
 use crate::models::interface::{
     FieldKind, FieldSpec, Integrated, ParticleModel, PassContext, PassOutput, PassSpec,
@@ -1581,7 +1581,16 @@ impl<const D: usize> SphModel<D> {
                     corrected,
                     scales,
                 };
-                let r = gather(&k, p, full, &mut sums);
+                // Fluid only, with AVX-512: the vector lanes; otherwise the generic lanes
+                // (scalar pair terms, vector fixed-point words); failing both, pair by pair.
+                let isa = Isa::current();
+                let r = if (isa.has_avx512() && k.gather_lanes(isa, p, full.lanes(), &mut sums))
+                    || gather_in_lanes(isa, &k, p, full, &mut sums)
+                {
+                    Ok(())
+                } else {
+                    gather(&k, p, full, &mut sums)
+                };
                 r.map(|()| {
                     if corrected {
                         self.uncorrected_gradients +=
@@ -1610,14 +1619,21 @@ impl<const D: usize> SphModel<D> {
                 // operations as the match inside the loop).
                 if background == 0.0 {
                     match eos {
-                        EquationOfState::Tait => self.p_over_rho2.extend(density.iter().map(
-                            |&rho| SphCfg::pressure_over_rho2(EquationOfState::Tait, c2, rho0, rho),
-                        )),
-                        EquationOfState::Quadratic => self.p_over_rho2.extend(
-                            density.iter().map(|&rho| {
-                                SphCfg::pressure_over_rho2(EquationOfState::Quadratic, c2, rho0, rho)
-                            }),
-                        ),
+                        EquationOfState::Tait => {
+                            self.p_over_rho2.extend(density.iter().map(|&rho| {
+                                SphCfg::pressure_over_rho2(EquationOfState::Tait, c2, rho0, rho)
+                            }))
+                        }
+                        EquationOfState::Quadratic => {
+                            self.p_over_rho2.extend(density.iter().map(|&rho| {
+                                SphCfg::pressure_over_rho2(
+                                    EquationOfState::Quadratic,
+                                    c2,
+                                    rho0,
+                                    rho,
+                                )
+                            }))
+                        }
                     }
                 } else {
                     self.p_over_rho2.extend(density.iter().map(|&rho| {
@@ -2288,6 +2304,39 @@ mod tests {
                     let mut lanes = Vec::new();
                     assert!(!narrow.gather_lanes(isa, &p, full.lanes(), &mut lanes));
                 }
+            }
+            // The velocity-gradient pass (plain and corrected) in its vector lanes, portable
+            // and AVX-512, and in the generic lanes: the gather's bits.
+            let full = FullList::from_half(&list, p.n_owned);
+            let bits = |x: &[f64]| x.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+            for corrected in [false, true] {
+                let width = if corrected { 18 } else { 9 };
+                let k = GradientKernel {
+                    kernel,
+                    mass: 0.05,
+                    density,
+                    boundaries: Boundaries::default(),
+                    corrected,
+                    scales: vec![Scale::covering(1e3); width],
+                };
+                let mut gathered = Vec::new();
+                gather(&k, &p, &full, &mut gathered).expect("gather");
+                assert!(gathered.iter().any(|&x| x != 0.0));
+                for isa in [Some(Isa::PORTABLE), Isa::avx2(), Isa::avx512()]
+                    .into_iter()
+                    .flatten()
+                {
+                    let mut lanes = Vec::new();
+                    assert!(k.gather_lanes(isa, &p, full.lanes(), &mut lanes), "{isa:?}");
+                    assert_eq!(bits(&gathered), bits(&lanes), "vector lanes {isa:?}");
+                    assert!(gather_in_lanes(isa, &k, &p, &full, &mut lanes), "{isa:?}");
+                    assert_eq!(bits(&gathered), bits(&lanes), "generic lanes {isa:?}");
+                }
+                let narrow = GradientKernel {
+                    scales: vec![Scale::covering(1e-9); width],
+                    ..k
+                };
+                assert!(!narrow.gather_lanes(Isa::current(), &p, full.lanes(), &mut Vec::new()));
             }
             let dk = DensityKernel {
                 kernel,
