@@ -24,6 +24,17 @@
 //! still conserved to the bit: the term from j's end is the exact negative of the term from
 //! i's end (x_ji = −x_ij, v_ji = −v_ij, the sums and products commute), and symmetric rounding
 //! gives it the negated words.
+//!
+//! The velocity-gradient pass of the nested summation (the thesis's two-pass scheme) has its
+//! lanes too, `GradientKernel::gather_lanes`, with `GradientKernel::pair`'s arithmetic:
+//!
+//! ```text
+//! G_i = Σ_j (m/ρ_j) F_ij (v_j − v_i) ⊗ x_ij          M_i = Σ_j (m/ρ_j) F_ij (−x_ij) ⊗ x_ij
+//! ```
+//!
+//! (M_i with the corrected gradient). They run in fluid-only scenes on CPUs with AVX-512;
+//! elsewhere the pass takes the generic lanes of [`crate::models::gather::gather_in_lanes`]
+//! (scalar pair terms, vector fixed-point words), and those failing, the gather pair by pair.
 
 use super::MomentumKernel;
 use super::kernels::Kernel;
@@ -36,11 +47,25 @@ use rayon::prelude::*;
 /// Accumulated quantities at most: D forces and the density rate.
 const MAX_WIDTH: usize = 4;
 
+/// Stress components per particle at most (D² in 3D).
+const MAX_STRESS: usize = 9;
+
 impl<K: Kernel, const D: usize> MomentumKernel<'_, K, D> {
-    /// Whether [`Self::gather_lanes`] computes this pass: fluid particles only, pressure and
-    /// Morris's term in pair form, nothing else accumulated.
+    /// Whether [`Self::gather_lanes`] computes this pass: fluid particles only, pressure,
+    /// Morris's term and the nested summation's stress (given as σ̄/ρ² per particle) in pair
+    /// form, nothing else accumulated.
     pub(super) fn lanes_apply(&self, p: &Particles<D>) -> bool {
-        self.fluid_only(p)
+        let stress = match (self.stress, self.stress_over_rho2) {
+            (None, _) => true,
+            (Some(_), Some(s)) => s.len() >= p.len() * D * D && D * D <= MAX_STRESS,
+            (Some(_), None) => false,
+        };
+        !(self.boundaries.any()
+            || self.polymer.is_some()
+            || p.species.is_some()
+            || self.xsph_eps_mass != 0.0
+            || !self.pairwise_stress)
+            && stress
             && self.scales.len() == D + usize::from(self.continuity)
             && self.scales.len() <= MAX_WIDTH
     }
@@ -105,7 +130,12 @@ impl<K: Kernel, const D: usize> MomentumKernel<'_, K, D> {
     /// One group's sums into `out` (its lanes × width, the last group's only as many lanes as
     /// it has particles); false if a term was not representable.
     #[inline(always)]
-    fn group<const MORRIS: bool, const REGULAR: bool, const CONTINUITY: bool>(
+    fn group<
+        const MORRIS: bool,
+        const REGULAR: bool,
+        const CONTINUITY: bool,
+        const STRESS: bool,
+    >(
         &self,
         p: &Particles<D>,
         rows: &LaneRows,
@@ -122,6 +152,16 @@ impl<K: Kernel, const D: usize> MomentumKernel<'_, K, D> {
         let p_i: [f64; L] = std::array::from_fn(|l| self.p_over_rho2[own[l]]);
         let inv_i: [f64; L] = std::array::from_fn(|l| self.inv_density[own[l]]);
         let own_u32: [u32; L] = std::array::from_fn(|l| own[l] as u32);
+        let stress = self.stress_over_rho2.unwrap_or(&[]);
+        let s_i: [[f64; L]; MAX_STRESS] = std::array::from_fn(|c| {
+            std::array::from_fn(|l| {
+                if STRESS && c < D * D {
+                    stress[own[l] * D * D + c]
+                } else {
+                    0.0
+                }
+            })
+        });
         let (mass, mm) = (self.mass, self.mass * self.mass);
         let (two_eta, regulariser, kernel) = (self.two_eta_morris, self.regulariser, &self.kernel);
         let (p_over_rho2, inv_density) = (self.p_over_rho2, self.inv_density);
@@ -137,8 +177,16 @@ impl<K: Kernel, const D: usize> MomentumKernel<'_, K, D> {
             let mut r2 = [0.0; L];
             let mut p_j = [0.0; L];
             let mut inv_j = [0.0; L];
+            let mut s_j = [[0.0; L]; MAX_STRESS];
             for l in 0..L {
                 let j = entries[l] as usize;
+                if STRESS {
+                    for c in 0..D * D {
+                        // SAFETY: j < p.pos.len() (as below) and `lanes_apply` checked that
+                        // σ̄/ρ² holds D² numbers for each of those particles.
+                        s_j[c][l] = unsafe { *stress.get_unchecked(j * D * D + c) };
+                    }
+                }
                 // SAFETY: j ≤ rows.max_index() < p.pos.len() = p.vel.len(), and the two
                 // per-particle arrays are at least that long (all checked by `gather_lanes`
                 // before any group runs).
@@ -181,6 +229,14 @@ impl<K: Kernel, const D: usize> MomentumKernel<'_, K, D> {
                 let mut vdotx = 0.0;
                 for a in 0..D {
                     let mut fa = pressure * x[a][l];
+                    if STRESS {
+                        // (σ̄_i/ρ_i² + σ̄_j/ρ_j²) · x_ij, row a, in `pair`'s order.
+                        let mut t = 0.0;
+                        for b in 0..D {
+                            t += (s_i[a * D + b][l] + s_j[a * D + b][l]) * x[b][l];
+                        }
+                        fa += gw * t;
+                    }
                     if MORRIS {
                         fa += s * v[a][l];
                     }
@@ -229,13 +285,30 @@ fn group_portable<K: Kernel, const D: usize>(
         g,
         rc2,
     } = *w;
+    if kernel.stress.is_some() {
+        group_with::<K, D, true>(kernel, p, rows, g, rc2, (morris, regular), out)
+    } else {
+        group_with::<K, D, false>(kernel, p, rows, g, rc2, (morris, regular), out)
+    }
+}
+
+#[inline(always)]
+fn group_with<K: Kernel, const D: usize, const STRESS: bool>(
+    kernel: &MomentumKernel<'_, K, D>,
+    p: &Particles<D>,
+    rows: &LaneRows,
+    g: usize,
+    rc2: f64,
+    (morris, regular): (bool, bool),
+    out: &mut [f64],
+) -> bool {
     match (morris, regular, kernel.continuity) {
-        (true, false, true) => kernel.group::<true, false, true>(p, rows, g, rc2, out),
-        (true, false, false) => kernel.group::<true, false, false>(p, rows, g, rc2, out),
-        (true, true, true) => kernel.group::<true, true, true>(p, rows, g, rc2, out),
-        (true, true, false) => kernel.group::<true, true, false>(p, rows, g, rc2, out),
-        (false, _, true) => kernel.group::<false, false, true>(p, rows, g, rc2, out),
-        (false, _, false) => kernel.group::<false, false, false>(p, rows, g, rc2, out),
+        (true, false, true) => kernel.group::<true, false, true, STRESS>(p, rows, g, rc2, out),
+        (true, false, false) => kernel.group::<true, false, false, STRESS>(p, rows, g, rc2, out),
+        (true, true, true) => kernel.group::<true, true, true, STRESS>(p, rows, g, rc2, out),
+        (true, true, false) => kernel.group::<true, true, false, STRESS>(p, rows, g, rc2, out),
+        (false, _, true) => kernel.group::<false, false, true, STRESS>(p, rows, g, rc2, out),
+        (false, _, false) => kernel.group::<false, false, false, STRESS>(p, rows, g, rc2, out),
     }
 }
 

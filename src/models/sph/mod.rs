@@ -727,6 +727,10 @@ struct MomentumKernel<'a, K, const D: usize> {
     p_over_rho2: &'a [f64],
     /// σ̄ (D² per particle) with the nested summation.
     stress: Option<&'a [f64]>,
+    /// σ̄/ρ² (D² per particle, each σ̄ component divided by ρ·ρ), for the lanes
+    /// ([`Self::gather_lanes`]) of the nested summation: the very quotients the pair term
+    /// forms, formed once per particle.
+    stress_over_rho2: Option<&'a [f64]>,
     /// The polymer stress τ (packed, [`packed_width`] per particle).
     polymer: Option<&'a [f64]>,
     /// 2η (Morris's term), or 0.
@@ -1057,6 +1061,7 @@ pub struct SphModel<const D: usize> {
     values: Vec<f64>,
     p_over_rho2: Vec<f64>,
     inv_density: Vec<f64>,
+    stress_over_rho2: Vec<f64>,
     sums: Vec<f64>,
     scatter: ScatterBuffers,
 }
@@ -1154,6 +1159,7 @@ impl<const D: usize> SphModel<D> {
             values: Vec::new(),
             p_over_rho2: Vec::new(),
             inv_density: Vec::new(),
+            stress_over_rho2: Vec::new(),
             sums: Vec::new(),
             scatter: ScatterBuffers::default(),
         }
@@ -1196,13 +1202,11 @@ impl<const D: usize> SphModel<D> {
             || ((cfg.polymer.is_some() || inclusions) && cfg.viscosity > 0.0)
     }
 
-    /// Bounds of the exact sums. The scales exist to stop a blown-up run (a term not finite or
-    /// absurdly large) with the pair named; the fixed-point sum resolves 2⁻¹⁰² of its scale, so
-    /// a headroom of 10⁸ over a term's typical size still resolves it to ~10⁻²³.
     /// Whether the momentum pass gathers its sums in lanes (`lanes.rs`): on a CPU with
     /// AVX-512 (elsewhere the AVX2 scatter is faster than the portable lanes), fluid only, the
-    /// pressure and Morris's term in pair form, nothing else accumulated. (The kernel checks
-    /// the same at run time and scatters when it does not hold.)
+    /// pressure, Morris's term and the nested summation's stress in pair form, nothing else
+    /// accumulated. (The kernel checks the same at run time and scatters when it does not
+    /// hold.)
     fn momentum_in_lanes(&self) -> bool {
         Isa::current().has_avx512()
             && self.passes.contains(&Pass::Momentum)
@@ -1212,7 +1216,6 @@ impl<const D: usize> SphModel<D> {
             && self.xsph.is_none()
             && self.traction_moment.is_none()
             && self.cfg.derivatives == Derivatives::Sph
-            && (self.stress.is_none() || self.cfg.viscous_term == ViscousTerm::Morris)
     }
 
     fn typical(&self) -> (f64, f64, f64) {
@@ -1548,6 +1551,9 @@ impl<const D: usize> SphModel<D> {
         list: &NeighbourList<D>,
         full: &FullList,
     ) -> Result<(), crate::models::gather::PairError> {
+        // Bounds of the exact sums. The scales exist to stop a blown-up run (a term not finite
+        // or absurdly large) with the pair named; the fixed-point sum resolves 2⁻¹⁰² of its
+        // scale, so a headroom of 10⁸ over a term's typical size still resolves it to ~10⁻²³.
         const HEADROOM: f64 = 1e8;
         let (density_scale, gradient_scale, momentum_scale) = self.typical();
         let mut sums = std::mem::take(&mut self.sums);
@@ -1643,6 +1649,20 @@ impl<const D: usize> SphModel<D> {
                 self.inv_density.clear();
                 self.inv_density
                     .extend(density.iter().map(|&rho| 1.0 / rho));
+                let lanes = self.momentum_in_lanes();
+                self.stress_over_rho2.clear();
+                if let Some(stress) = self
+                    .stress
+                    .filter(|_| lanes && self.cfg.viscous_term == ViscousTerm::NestedSummation)
+                {
+                    let stress = &p.extra[stress].data;
+                    self.stress_over_rho2.extend(
+                        stress
+                            .chunks_exact(D * D)
+                            .zip(density)
+                            .flat_map(|(s, &rho)| s.iter().map(move |&c| c / (rho * rho))),
+                    );
+                }
                 let continuity = self.rate.is_some();
                 let xsph_first = D + usize::from(continuity);
                 let moment_first = xsph_first + if self.xsph.is_some() { D } else { 0 };
@@ -1678,6 +1698,8 @@ impl<const D: usize> SphModel<D> {
                         .stress
                         .filter(|_| self.cfg.viscous_term == ViscousTerm::NestedSummation)
                         .map(|s| p.extra[s].data.as_slice()),
+                    stress_over_rho2: (!self.stress_over_rho2.is_empty())
+                        .then_some(self.stress_over_rho2.as_slice()),
                     polymer: self.polymer_stress.map(|s| p.extra[s].data.as_slice()),
                     two_eta_morris: match self.cfg.viscous_term {
                         ViscousTerm::Morris => 2.0 * self.cfg.viscosity,
@@ -1695,8 +1717,7 @@ impl<const D: usize> SphModel<D> {
                     scales,
                     parities,
                 };
-                let gathered = self.momentum_in_lanes()
-                    && k.gather_lanes(Isa::current(), p, full.lanes(), &mut sums);
+                let gathered = lanes && k.gather_lanes(Isa::current(), p, full.lanes(), &mut sums);
                 let r = if gathered {
                     Ok(())
                 } else {
@@ -2233,6 +2254,15 @@ mod tests {
             let kernel = kernels::WendlandC2::new(0.6, 3);
             let continuity = density_is_continuity(&model_cfg);
             let inv_density: Vec<f64> = density.iter().map(|r| 1.0 / r).collect();
+            // σ̄/ρ² per particle, as the pass forms it for the lanes.
+            let stress_over_rho2: Option<Vec<f64>> = model.stress.map(|s| {
+                p.extra[s]
+                    .data
+                    .chunks_exact(9)
+                    .zip(density)
+                    .flat_map(|(s, &rho)| s.iter().map(move |&c| c / (rho * rho)))
+                    .collect()
+            });
             for regulariser in [0.0036, 0.0] {
                 let momentum = MomentumKernel {
                     kernel,
@@ -2241,6 +2271,7 @@ mod tests {
                     inv_density: &inv_density,
                     p_over_rho2: &p_over_rho2,
                     stress: model.stress.map(|s| p.extra[s].data.as_slice()),
+                    stress_over_rho2: stress_over_rho2.as_deref(),
                     polymer: None,
                     two_eta_morris: if viscous == ViscousTerm::Morris {
                         0.6
@@ -2280,19 +2311,31 @@ mod tests {
                     assert_eq!(bits(&gathered), bits(&scattered), "{isa:?}");
                 }
                 // Gathered in lanes along the full rows (the fluid-only scheme: Morris's term
-                // with continuity; the nested summation's stress is not for the lanes), by
-                // the portable loops and, where the CPU has it, AVX-512: the same bits.
+                // with continuity, or the nested summation's stress), by the portable loops
+                // and, where the CPU has it, AVX-512: the same bits.
                 let avx512 = Isa::avx512();
                 if avx512.is_none() {
                     let _ = Isa::avx2_for_test("sph lanes: AVX-512 (only the portable lanes)");
                 }
                 for isa in [Some(Isa::PORTABLE), avx512].into_iter().flatten() {
                     let mut lanes = Vec::new();
-                    let done = momentum.gather_lanes(isa, &p, full.lanes(), &mut lanes);
-                    assert_eq!(done, viscous == ViscousTerm::Morris, "{isa:?}");
-                    if done {
-                        assert_eq!(bits(&gathered), bits(&lanes), "{isa:?}");
-                    }
+                    assert!(momentum.gather_lanes(isa, &p, full.lanes(), &mut lanes));
+                    assert_eq!(bits(&gathered), bits(&lanes), "{isa:?}");
+                }
+                // Without σ̄/ρ² the nested summation's lanes decline (the pass scatters).
+                if momentum.stress.is_some() {
+                    let without = MomentumKernel {
+                        stress_over_rho2: None,
+                        scales: momentum.scales.clone(),
+                        parities: momentum.parities.clone(),
+                        ..momentum
+                    };
+                    assert!(!without.gather_lanes(
+                        Isa::PORTABLE,
+                        &p,
+                        full.lanes(),
+                        &mut Vec::new()
+                    ));
                 }
                 // A term beyond its scale: the lanes decline, and the scatter names it.
                 let narrow = MomentumKernel {
