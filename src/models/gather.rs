@@ -919,13 +919,13 @@ mod tests {
             out[2] = 1e5 * x[1] / r;
         }
         fn active(&self, p: &Particles<2>, i: usize) -> bool {
-            p.gid[i] % 7 != 0
+            !p.gid[i].is_multiple_of(7)
         }
         fn self_term(&self, p: &Particles<2>, i: usize, out: &mut [f64]) -> bool {
             out[0] = 0.1 * p.gid[i] as f64;
             out[1] = 0.0;
             out[2] = -1.0;
-            p.gid[i] % 3 == 0
+            p.gid[i].is_multiple_of(3)
         }
     }
 
