@@ -40,6 +40,29 @@ fn coupled_run_is_bitwise_on_1_to_4_ranks_and_1_2_threads() {
     assert_all_equal("connffessit shear", &d);
 }
 
+/// Ensembles and their stress migrate with their particle: the coupled run to step 1000, in
+/// which particles cross the slab faces of 2 ranks (the first at step 896, where a particle
+/// arrives on rank 0), is the same bits on 1 and 2 ranks. The polymer stress τ_p is formed from
+/// the connectors before the step's migration; when it was a field that stayed behind, the
+/// arriving particle came without it and the 2-rank run differed from step 896 on (the 80-step
+/// test above has no migration).
+#[test]
+fn coupled_run_is_bitwise_on_1_and_2_ranks_across_migrations() {
+    let text = stock_text("connffessit_shear_2d.toml")
+        .replace("steps = 12000", "steps = 1000")
+        .replace("equilibration = 6000", "equilibration = 0")
+        .replace("per_particle = 100", "per_particle = 8");
+    assert!(text.contains("steps = 1000\n") && text.contains("per_particle = 8\n"));
+    let text = &text[..text.find("[[reference]]").expect("references")];
+    let loaded = case_from_str(text, "connffessit migrations");
+    let digest = |ranks: usize| {
+        mesorheo::driver::run_in_process(&loaded, ranks, 1, None)
+            .unwrap_or_else(|e| panic!("{ranks} ranks: {e}"))
+            .state_digest
+    };
+    assert_eq!(digest(2), digest(1));
+}
+
 #[test]
 fn wall_particles_carry_no_dumbbells() {
     let text = stock_text("sph_couette_2d.toml")

@@ -165,7 +165,15 @@ impl<const D: usize> ParticleModel<D> for DumbbellEnsemble<D> {
             FieldSpec {
                 name: POLYMER_STRESS,
                 kind: FieldKind::Values(packed_width(D)),
-                flags: FieldFlags::DERIVED,
+                // Formed from the connectors in `update_state`, which runs before the step's
+                // neighbour rebuild: a particle that migrates then must carry its τ_p to its
+                // new rank, where the momentum pass reads it. (As a derived field it arrived
+                // without it, and its neighbours' forces differed from a one-rank run's.) Not
+                // checkpointed: `attach` forms it again from the connectors.
+                flags: FieldFlags {
+                    migrates: true,
+                    ..FieldFlags::DERIVED
+                },
             },
         ]
     }
