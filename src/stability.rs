@@ -124,19 +124,25 @@ pub fn cfl_limit(smoothing_length: f64, sound_speed: f64) -> f64 {
 
 /// Measured coefficients of [`dpd_limits`] (module doc).
 pub(crate) mod dpd_fit {
-    pub const ALPHA_2D: f64 = 1.17;
-    pub const ALPHA_3D: f64 = 1.12;
-    pub const IDEAL_GAS_SCALE: f64 = 1.14;
-    pub const IDEAL_GAS_FLUCTUATION: f64 = 0.585;
-    pub const IDEAL_GAS_3D: f64 = 1.12;
-    pub const REPULSION_GAIN: f64 = 3.07;
-    pub const REPULSION_SCALE_KT: f64 = 17.3;
-    pub const RANDOM_START_RELIEF: f64 = 2.81;
+    pub const ALPHA_2D: f64 = 1.35;
+    pub const ALPHA_3D: f64 = 1.13;
+    pub const IDEAL_GAS_SCALE: f64 = 0.997;
+    pub const IDEAL_GAS_FLUCTUATION: f64 = 0.605;
+    pub const IDEAL_GAS_3D: f64 = 1.05;
+    pub const REPULSION_GAIN_2D: f64 = 3.81;
+    pub const REPULSION_GAIN_3D: f64 = 4.64;
+    pub const REPULSION_SCALE_KT: f64 = 17.1;
+    pub const THERMAL_RELIEF_2D: f64 = 5.96;
+    pub const THERMAL_RELIEF_3D: f64 = 5.98;
+    pub const THERMAL_RELIEF_SCALE_KT: f64 = 6.17;
+    pub const RELIEF_EXPONENT: f64 = 0.634;
+    pub const RANDOM_START_RELIEF: f64 = 3.4;
+    pub const RANDOM_START_THERMAL: f64 = 1.0;
     pub const MEASURED_LAMBDA: f64 = 0.65;
-    pub const THERMAL_RELIEF: f64 = 1.8;
-    pub const THERMAL_RELIEF_SCALE_KT: f64 = 31.0;
-    pub const FREE_FLIGHT: f64 = 0.211;
-    pub const NORM_EXPONENT: f64 = 2.85;
+    pub const FREE_FLIGHT_2D: f64 = 0.17;
+    pub const FREE_FLIGHT_3D: f64 = 0.196;
+    pub const NORM_EXPONENT: f64 = 2.09;
+    pub const FREE_FLIGHT_EXPONENT: f64 = 2.95;
 }
 
 /// Limits for the DPD fluid `d` in `dimension` dimensions at number density `n` and particle
@@ -168,29 +174,48 @@ pub fn dpd_limits(
     let ideal_gas = IDEAL_GAS_SCALE
         * (1.0 - IDEAL_GAS_FLUCTUATION / sum_wd.sqrt()).max(0.1)
         * if dim == 3 { IDEAL_GAS_3D } else { 1.0 };
-    let repulsion = REPULSION_GAIN
-        - (REPULSION_GAIN - 1.0) * (-d.a.max(0.0) / (REPULSION_SCALE_KT * d.kt)).exp();
-    let friction_coefficient = ideal_gas * repulsion * MEASURED_LAMBDA / lambda.max(0.5);
+    let gain = if dim == 2 {
+        REPULSION_GAIN_2D
+    } else {
+        REPULSION_GAIN_3D
+    };
+    let repulsion = gain - (gain - 1.0) * (-d.a.max(0.0) / (REPULSION_SCALE_KT * d.kt)).exp();
+    let lambda_factor = MEASURED_LAMBDA / lambda.max(0.5);
+    let friction_coefficient = ideal_gas * repulsion * lambda_factor;
     // A thermal particle crosses v_th Δt / r_c of the cutoff in a step, which relieves the
-    // friction limit of a weakly repulsive fluid: Δt_D = c (1 + K v_th Δt_D / r_c) / ω_D.
+    // friction limit of a weakly repulsive fluid: ω_D Δt_D = c (1 + (K Δt_D)^q).
     let crossing_rate = (d.kt / m).sqrt() / rc;
-    let relief =
-        THERMAL_RELIEF * crossing_rate * (-d.a.max(0.0) / (THERMAL_RELIEF_SCALE_KT * d.kt)).exp();
-    let mut dissipative = if exponential || friction_rate <= friction_coefficient * relief {
+    let relief = if dim == 2 {
+        THERMAL_RELIEF_2D
+    } else {
+        THERMAL_RELIEF_3D
+    } * crossing_rate
+        * (-d.a.max(0.0) / (THERMAL_RELIEF_SCALE_KT * d.kt)).exp();
+    let mut dissipative = if exponential {
         f64::INFINITY
     } else {
-        friction_coefficient / (friction_rate - friction_coefficient * relief)
+        relieved_friction_limit(friction_rate, friction_coefficient, relief)
     };
-    if random_start && dim == 2 && !exponential && friction_rate > RANDOM_START_RELIEF * cage {
-        dissipative = dissipative.min(ideal_gas / (friction_rate - RANDOM_START_RELIEF * cage));
+    if random_start && dim == 2 && !exponential {
+        // Until the repulsion separates the overlaps, the start is an ideal gas whose friction
+        // the cage opposes.
+        dissipative = dissipative.min(relieved_friction_limit(
+            friction_rate - RANDOM_START_RELIEF * cage,
+            ideal_gas * lambda_factor,
+            relief * RANDOM_START_THERMAL,
+        ));
     }
     // Measured only with the explicit friction (at γ ≤ 2.5 it binds before the friction does).
     let free_flight = if exponential {
         f64::INFINITY
+    } else if dim == 2 {
+        FREE_FLIGHT_2D / crossing_rate
     } else {
-        FREE_FLIGHT / crossing_rate
+        FREE_FLIGHT_3D / crossing_rate
     };
     let p = NORM_EXPONENT;
+    let cage_and_friction = (conservative.powf(-p) + dissipative.powf(-p)).powf(-1.0 / p);
+    let p2 = FREE_FLIGHT_EXPONENT;
     DpdLimits {
         neighbours,
         sum_wd,
@@ -200,9 +225,36 @@ pub fn dpd_limits(
         dissipative,
         conservative,
         free_flight,
-        combined: (conservative.powf(-p) + dissipative.powf(-p) + free_flight.powf(-p))
-            .powf(-1.0 / p),
+        combined: (cage_and_friction.powf(-p2) + free_flight.powf(-p2)).powf(-1.0 / p2),
     }
+}
+
+/// The smallest Δt > 0 with `rate` Δt = `coefficient` (1 + (`relief` Δt)^q), q =
+/// `RELIEF_EXPONENT` ≤ 1 (so the root is unique: the left side overtakes the concave right
+/// side once), by bisection to 10⁻¹²; ∞ when `rate` ≤ 0 (no friction mode to destabilise).
+fn relieved_friction_limit(rate: f64, coefficient: f64, relief: f64) -> f64 {
+    let q = dpd_fit::RELIEF_EXPONENT;
+    if rate.is_nan() || coefficient.is_nan() || rate <= 0.0 || coefficient <= 0.0 {
+        return f64::INFINITY;
+    }
+    let excess = |t: f64| rate * t - coefficient * (1.0 + (relief * t).powf(q));
+    let (mut lo, mut hi) = (0.0, coefficient / rate);
+    while excess(hi) <= 0.0 {
+        lo = hi;
+        hi *= 2.0;
+        if !hi.is_finite() {
+            return f64::INFINITY;
+        }
+    }
+    while hi - lo > 1e-12 * hi {
+        let mid = 0.5 * (lo + hi);
+        if excess(mid) > 0.0 {
+            hi = mid;
+        } else {
+            lo = mid;
+        }
+    }
+    lo
 }
 
 /// [`dpd_limits`] of a case whose fluid is DPD.

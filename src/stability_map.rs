@@ -134,6 +134,28 @@ fn toml_number(v: f64) -> String {
     }
 }
 
+/// The override that sets the second parameter to `x`: a float (`toml_number`) unless the key
+/// takes an integer (e.g. `seed`, to measure the spread over seeds) and `x` is whole, when the
+/// float form is refused and the integer form is read.
+fn over_assignment(req: &StabilityRequest, x: f64) -> String {
+    let float = format!("{}={}", req.over, toml_number(x));
+    if x.fract() != 0.0 || x.abs() >= 2f64.powi(53) {
+        return float;
+    }
+    let reads = |assignment: &str| {
+        let mut o = req.set.clone();
+        o.push(assignment.to_string());
+        o.push("run.beyond_stability_limits=true".into());
+        crate::config::load_scene(&req.case, &o).is_ok()
+    };
+    let integer = format!("{}={}", req.over, x as i64);
+    if !reads(&float) && reads(&integer) {
+        integer
+    } else {
+        float
+    }
+}
+
 /// The knob's value in the case (with the fixed overrides), read from the case text.
 fn case_value(req: &StabilityRequest, overrides: &[String]) -> Result<f64, String> {
     // The case's own value may be beyond check's limits under these overrides.
@@ -221,7 +243,7 @@ pub fn run_stability(req: &StabilityRequest) -> Result<Vec<MapRow>, String> {
     let mut trial = 0usize;
     for (k, &x) in req.over_values.iter().enumerate() {
         let mut fixed = req.set.clone();
-        fixed.push(format!("{}={}", req.over, toml_number(x)));
+        fixed.push(over_assignment(req, x));
         let start = case_value(req, &fixed)?;
         let mut runs = 0usize;
         let mut last_diagnosis = String::new();
@@ -494,6 +516,32 @@ mod tests {
         assert_eq!(toml_number(2.0), "2.0");
         assert_eq!(toml_number(0.015), "0.015");
         assert_eq!(toml_number(1e-7), "1e-7");
+    }
+
+    #[test]
+    fn an_integer_key_gets_an_integer_and_a_float_key_a_float() {
+        let request = |over: &str| StabilityRequest {
+            case: PathBuf::from(concat!(
+                env!("CARGO_MANIFEST_DIR"),
+                "/cases/dpd_equilibrium_2d.toml"
+            )),
+            vary: "integrator.dt".into(),
+            over: over.into(),
+            over_values: vec![],
+            steps: 10,
+            tolerance: 0.05,
+            set: vec![],
+            threads: 1,
+            out: PathBuf::new(),
+            exe: PathBuf::new(),
+            python: None,
+            progress: false,
+            child_env: None,
+        };
+        // `seed` is a u64: the float form is refused, so the spread over seeds can be mapped.
+        assert_eq!(over_assignment(&request("seed"), 3.0), "seed=3");
+        assert_eq!(over_assignment(&request("fluid.gamma"), 3.0), "fluid.gamma=3.0");
+        assert_eq!(over_assignment(&request("fluid.gamma"), 4.5), "fluid.gamma=4.5");
     }
 
     #[test]

@@ -347,7 +347,7 @@ fn check_refuses_every_measured_unstable_dpd_step() {
         .filter(|l| !l.starts_with('#') && !l.trim().is_empty())
         .map(|l| l.split('|').map(str::trim).collect())
         .collect();
-    assert_eq!(maps.len(), 26, "the maps of docs/stability/dpd_maps.txt");
+    assert_eq!(maps.len(), 32, "the maps of docs/stability/dpd_maps.txt");
     let (mut points, mut conservative, mut worst) = (0, 0, f64::INFINITY);
     // The first point whose printed limit is not the library's (judged after the physics).
     let mut stale: Option<String> = None;
@@ -402,9 +402,9 @@ fn check_refuses_every_measured_unstable_dpd_step() {
             points += 1;
         }
     }
-    assert_eq!(points, 101, "the maps of docs/stability");
+    assert_eq!(points, 137, "the maps of docs/stability");
     assert!(
-        conservative <= 14 && worst >= 0.59,
+        conservative <= 11 && worst >= 0.72,
         "{conservative} conservative points, worst {worst:.2}"
     );
     assert!(stale.is_none(), "{}", stale.unwrap_or_default());

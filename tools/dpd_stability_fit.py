@@ -1,25 +1,34 @@
 #!/usr/bin/env python3
 """The fit behind `check`'s DPD time-step limit (src/stability.rs, `dpd_limits`).
 
-Reads the measured stability maps (docs/stability/dpd_maps.txt and the CSVs beside it) and the
-blow-ups of the γ × Δt study (docs/studies/dpd_gamma_dt.csv), evaluates the limit with the
-coefficients of src/stability.rs (parsed from its `dpd_fit` module, so the two cannot drift),
-and prints the score: the points whose limit passes 0.97 × the first unstable step (must be
-none), the points where the limit accepts < 80 % of the stable range, the worst and the median
-fraction. `--search N` runs N steps of the random search that produced the coefficients (each
-step perturbs 1–4 of them, rounds to 3 significant digits, and keeps the result if it accepts
-no unstable step and scores better: fewer points below 80 %, then a better worst point, then a
-better median). `tests/extremes.rs` checks the same numbers against the library itself.
+Reads the measured stability maps (docs/stability/dpd_maps.txt and the CSVs beside it, including
+the maps over seeds that measure the scatter of a limit) and the blow-ups of the γ × Δt study
+(docs/studies/dpd_gamma_dt.csv), evaluates the limit with the coefficients of src/stability.rs
+(parsed from its `dpd_fit` module, so the two cannot drift), and prints the score: the points
+whose limit passes 0.97 × the first unstable step (must be none), the points where the limit
+accepts < 80 % of the stable range, the worst and the median fraction.
 
-    python3 tools/dpd_stability_fit.py [--table] [--search N --seed S]
+`--fit N` runs N generations of the differential evolution (scipy's, best/1/bin) that
+produced the coefficients: it minimises a smooth count of the points below 80 % minus twice the
+worst fraction, with a penalty above any feasible cost on an accepted unstable step (0.5 % is kept for the
+rounding), over the box `BOUNDS`; the result
+is rounded to 3 significant digits and scored again. `tests/extremes.rs` checks the same numbers
+against the library itself.
+
+`--update-csv` rewrites the `check_*` columns of the maps' CSVs with the coefficients of
+src/stability.rs (the measured columns are untouched), so the tables of docs/validation.md
+(`MESORHEO_STABILITY_TABLES_ONLY=1 ./run validate dpd_stability`) print the current limit.
+
+    python3 tools/dpd_stability_fit.py [--table] [--fit N --seed S] [--update-csv]
 """
 import argparse
 import csv
 import json
 import math
-import random
 import re
 from pathlib import Path
+
+import numpy as np
 
 ROOT = Path(__file__).resolve().parent.parent
 STOCK = {  # the stock cases' DPD parameters (m = r_c = k_BT = 1, s = 2, s̄ = 1)
@@ -27,6 +36,17 @@ STOCK = {  # the stock cases' DPD parameters (m = r_c = k_BT = 1, s = 2, s̄ = 1
     "dpd_equilibrium_3d.toml": dict(dim=3, n=3.0, a=25.0, gamma=4.5, lam=0.65, random=True),
 }
 MARGIN = 0.97  # the bisection brackets the boundary to 3 %
+# The search box of --fit (MEASURED_LAMBDA is the λ of the maps, not fitted).
+BOUNDS = dict(
+    ALPHA_2D=(0.9, 1.6), ALPHA_3D=(0.9, 1.6),
+    IDEAL_GAS_SCALE=(0.6, 2.0), IDEAL_GAS_FLUCTUATION=(0.0, 0.9), IDEAL_GAS_3D=(0.7, 1.6),
+    REPULSION_GAIN_2D=(1.5, 5.0), REPULSION_GAIN_3D=(1.5, 5.0), REPULSION_SCALE_KT=(3.0, 80.0),
+    THERMAL_RELIEF_2D=(0.0, 40.0), THERMAL_RELIEF_3D=(0.0, 40.0),
+    THERMAL_RELIEF_SCALE_KT=(1.0, 200.0), RELIEF_EXPONENT=(0.3, 1.0),
+    RANDOM_START_RELIEF=(1.0, 5.0), RANDOM_START_THERMAL=(0.0, 1.0),
+    FREE_FLIGHT_2D=(0.15, 0.3), FREE_FLIGHT_3D=(0.15, 0.3),
+    NORM_EXPONENT=(1.5, 10.0), FREE_FLIGHT_EXPONENT=(1.5, 10.0),
+)
 
 
 def coefficients():
@@ -51,12 +71,13 @@ def points():
                 p[key] = float(v)
             elif k == "particles.lattice":
                 p["random"] = False
+        knob = over.split("=")[0]
         with open(ROOT / f"docs/stability/{name}.csv", newline="") as f:
             for row in csv.DictReader(f):
-                knob = over.split("=")[0]
                 q = dict(p, name=name, stable=float(row["largest_stable"]),
                          unstable=float(row["smallest_unstable"]))
-                q["a" if knob == "fluid.a" else "gamma"] = float(row[knob])
+                if knob in ("fluid.a", "fluid.gamma"):  # a map over seeds keeps the physics
+                    q["a" if knob == "fluid.a" else "gamma"] = float(row[knob])
                 out.append(q)
     # The study's blow-ups (1500-step runs of the stock 2D case): only the unstable side.
     study = {}
@@ -71,77 +92,151 @@ def points():
     return out
 
 
-def limit(p, c):
-    """`dpd_limits(..).combined` of src/stability.rs (explicit thermostat, m = r_c = k_BT = 1)."""
-    dim, n, a, gamma, lam = p["dim"], p["n"], max(p["a"], 0.0), p["gamma"], p["lam"]
-    sum_wd = n * 2 * math.pi / 12 if dim == 2 else n * 8 * math.pi / 60
-    neighbours = n * (math.pi if dim == 2 else 4 / 3 * math.pi)
-    cage = math.sqrt(a * neighbours / dim)
-    alpha = c["ALPHA_2D"] if dim == 2 else c["ALPHA_3D"]
-    conservative = alpha / cage if cage > 0 else math.inf
-    friction = gamma * sum_wd
-    ideal = (c["IDEAL_GAS_SCALE"] * max(1 - c["IDEAL_GAS_FLUCTUATION"] / math.sqrt(sum_wd), 0.1)
-             * (c["IDEAL_GAS_3D"] if dim == 3 else 1.0))
-    g = c["REPULSION_GAIN"] - (c["REPULSION_GAIN"] - 1) * math.exp(-a / c["REPULSION_SCALE_KT"])
-    coef = ideal * g * c["MEASURED_LAMBDA"] / max(lam, 0.5)
-    relief = c["THERMAL_RELIEF"] * math.exp(-a / c["THERMAL_RELIEF_SCALE_KT"])
-    dissipative = coef / (friction - coef * relief) if friction > coef * relief else math.inf
-    if p["random"] and dim == 2 and friction > c["RANDOM_START_RELIEF"] * cage:
-        dissipative = min(dissipative, ideal / (friction - c["RANDOM_START_RELIEF"] * cage))
-    free = c["FREE_FLIGHT"]
-    e = c["NORM_EXPONENT"]
-    return (conservative ** -e + dissipative ** -e + free ** -e) ** (-1 / e)
+def arrays(pts):
+    col = lambda k: np.array([float(p[k]) for p in pts])
+    return dict(dim=col("dim"), n=col("n"), a=np.maximum(col("a"), 0.0), gamma=col("gamma"),
+                lam=col("lam"), random=np.array([bool(p["random"]) for p in pts]),
+                stable=np.array([np.nan if p["stable"] is None else p["stable"] for p in pts]),
+                unstable=col("unstable"))
 
 
-def score(c, pts):
-    fractions = []
-    for p in pts:
-        lim = limit(p, c)
-        if lim > MARGIN * p["unstable"]:
-            return None
-        if p["stable"] is not None:
-            fractions.append(min(lim, p["stable"]) / p["stable"])
-    fractions.sort()
-    low = sum(f < 0.8 for f in fractions)
-    return (low, -fractions[0], -fractions[len(fractions) // 2])
+def relief_root(rate, coef, relief, q):
+    """The smallest Δt > 0 with rate Δt = coef (1 + (relief Δt)^q), by bisection (∞ where
+    rate ≤ 0; q ≤ 1 makes the root unique)."""
+    lo, hi = np.zeros_like(rate), np.full_like(rate, 1e-6)
+    ok = rate > 0
+    f = lambda t: rate * t - coef * (1 + (relief * t) ** q)
+    for _ in range(80):  # bracket by doubling
+        grow = ok & (f(hi) <= 0)
+        if not grow.any():
+            break
+        lo, hi = np.where(grow, hi, lo), np.where(grow, 2 * hi, hi)
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        up = f(mid) > 0
+        lo, hi = np.where(up, lo, mid), np.where(up, mid, hi)
+    return np.where(ok, lo, np.inf)
+
+
+def limit(x, c):
+    """`dpd_limits(..).combined` of src/stability.rs (explicit thermostat, m = r_c = k_BT = 1)
+    at every point of `x` (from `arrays`)."""
+    d2 = x["dim"] == 2
+    a, n, lam = x["a"], x["n"], x["lam"]
+    with np.errstate(divide="ignore"):
+        sum_wd = np.where(d2, n * 2 * math.pi / 12, n * 8 * math.pi / 60)
+        neighbours = n * np.where(d2, math.pi, 4 / 3 * math.pi)
+        cage = np.sqrt(a * neighbours / x["dim"])
+        alpha = np.where(d2, c["ALPHA_2D"], c["ALPHA_3D"])
+        conservative = np.where(cage > 0, alpha / np.where(cage > 0, cage, 1.0), np.inf)
+        friction = x["gamma"] * sum_wd
+        ideal = (c["IDEAL_GAS_SCALE"]
+                 * np.maximum(1 - c["IDEAL_GAS_FLUCTUATION"] / np.sqrt(sum_wd), 0.1)
+                 * np.where(d2, 1.0, c["IDEAL_GAS_3D"]))
+        gain = np.where(d2, c["REPULSION_GAIN_2D"], c["REPULSION_GAIN_3D"])
+        lam_factor = c["MEASURED_LAMBDA"] / np.maximum(lam, 0.5)
+        coef = ideal * (gain - (gain - 1) * np.exp(-a / c["REPULSION_SCALE_KT"])) * lam_factor
+        relief = (np.where(d2, c["THERMAL_RELIEF_2D"], c["THERMAL_RELIEF_3D"])
+                  * np.exp(-a / c["THERMAL_RELIEF_SCALE_KT"]))
+        q = c["RELIEF_EXPONENT"]
+        dissipative = relief_root(friction, coef, relief, q)
+        rs = x["random"] & d2
+        start = relief_root(np.where(rs, friction - c["RANDOM_START_RELIEF"] * cage, 0.0),
+                            ideal * lam_factor, relief * c["RANDOM_START_THERMAL"], q)
+        dissipative = np.minimum(dissipative, start)
+        free = np.where(d2, c["FREE_FLIGHT_2D"], c["FREE_FLIGHT_3D"])
+        p, p2 = c["NORM_EXPONENT"], c["FREE_FLIGHT_EXPONENT"]
+        inner = (conservative ** -p + dissipative ** -p) ** (-1 / p)
+        return (inner ** -p2 + free ** -p2) ** (-1 / p2)
+
+
+def evaluate(x, c):
+    """(limit / (0.97 × unstable) at every point, accepted fraction at every map point)."""
+    lim = limit(x, c)
+    st = ~np.isnan(x["stable"])
+    return lim / (MARGIN * x["unstable"]), np.minimum(lim[st], x["stable"][st]) / x["stable"][st]
+
+
+def describe(x, c):
+    excess, frac = evaluate(x, c)
+    if excess.max() > 1:
+        return f"accepts an unstable step ({excess.max():.3f} × 0.97 × the first unstable)"
+    return (f"{int((frac < 0.8).sum())} below 80 %, worst {frac.min():.3f}, "
+            f"median {np.median(frac):.3f}")
+
+
+def fit(x, c0, generations, seed):
+    keys = list(BOUNDS)
+    lo = np.array([BOUNDS[k][0] for k in keys])
+    hi = np.array([BOUNDS[k][1] for k in keys])
+
+    def cost(v):
+        c = dict(c0, **dict(zip(keys, v)))
+        excess, frac = evaluate(x, c)
+        soft_count = (1 / (1 + np.exp((frac - 0.8) / 0.01))).sum()
+        # Infeasible (an unstable step accepted, with 0.5 % left for the rounding) costs more
+        # than any feasible point.
+        over = max(0.0, math.log(excess.max() / 0.995))
+        return soft_count - 2 * frac.min() + (1000 * over + 200 if over > 0 else 0)
+
+    # scipy is needed only here (it is not a dependency of the project: `pip install scipy`).
+    from scipy.optimize import differential_evolution
+
+    result = differential_evolution(cost, list(zip(lo, hi)), seed=seed, maxiter=generations,
+                                    popsize=20, tol=1e-9, polish=False)
+    best = result.x
+    return dict(c0, **{k: float(f"{v:.3g}") for k, v in zip(keys, best)})
+
+
+def update_csv(c):
+    """Rewrites the check columns of every map's CSV with the limit of coefficients `c`."""
+    for line in (ROOT / "docs/stability/dpd_maps.txt").read_text().splitlines():
+        if line.startswith("#") or not line.strip():
+            continue
+        name = line.split("|")[0].strip()
+        path = ROOT / f"docs/stability/{name}.csv"
+        with open(path, newline="") as f:
+            reader = csv.DictReader(f)
+            fields, rows = reader.fieldnames, list(reader)
+        pts = [p for p in points() if p["name"] == name]
+        assert len(pts) == len(rows), name
+        for row, lim in zip(rows, limit(arrays(pts), c)):
+            stable, unstable = float(row["largest_stable"]), float(row["smallest_unstable"])
+            row["check_limit"] = f"{lim:.6e}"
+            row["check_refuses_unstable"] = str(int(lim < unstable))
+            row["check_accepts_fraction"] = f"{min(lim / stable, 1.0):.4f}"
+        with open(path, "w", newline="") as f:
+            w = csv.DictWriter(f, fieldnames=fields, lineterminator="\n")
+            w.writeheader()
+            w.writerows(rows)
 
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--table", action="store_true", help="print every point")
-    ap.add_argument("--search", type=int, default=0, help="random-search steps")
+    ap.add_argument("--fit", type=int, default=0, help="generations of the evolution")
     ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--update-csv", action="store_true",
+                    help="rewrite the check columns of the maps' CSVs")
     args = ap.parse_args()
     pts = points()
-    best = coefficients()
-    s = score(best, pts)
-    n_maps = sum(p["stable"] is not None for p in pts)
-    print(f"{n_maps} map points + {len(pts) - n_maps} study blow-ups; src/stability.rs: ", end="")
-    print("accepts an unstable step" if s is None else
-          f"{s[0]} below 80 %, worst {-s[1]:.3f}, median {-s[2]:.3f}")
+    x = arrays(pts)
+    c = coefficients()
+    n_maps = int((~np.isnan(x["stable"])).sum())
+    print(f"{n_maps} map points + {len(pts) - n_maps} study blow-ups; src/stability.rs: "
+          f"{describe(x, c)}")
     if args.table:
-        for p in pts:
-            lim = limit(p, best)
-            frac = "" if p["stable"] is None else f"{min(lim, p['stable']) / p['stable']:.2f}"
-            print(f"{p['name']:28s} a={p['a']:6.1f} γ={p['gamma']:7.3f} limit={lim:.4g} "
-                  f"limit/unstable={lim / p['unstable']:.3f} accepts={frac}")
-    if args.search:
-        rng = random.Random(args.seed)
-        keys = [k for k in best if k != "MEASURED_LAMBDA"]
-        for _ in range(args.search):
-            c = dict(best)
-            for k in rng.sample(keys, rng.randint(1, 4)):
-                if k == "THERMAL_RELIEF":
-                    c[k] = max(0.0, c[k] + rng.gauss(0, 0.5))
-                elif k == "NORM_EXPONENT":
-                    c[k] = min(8.0, max(1.5, c[k] + rng.gauss(0, 0.3)))
-                else:
-                    c[k] *= math.exp(rng.gauss(0, 0.05))
-            c = {k: float(f"{v:.3g}") for k, v in c.items()}
-            t = score(c, pts)
-            if t is not None and (s is None or t < s):
-                best, s = c, t
-        print("best found:", s, json.dumps(best))
+        lim = limit(x, c)
+        for p, l in zip(pts, lim):
+            frac = "" if p["stable"] is None else f"{min(l, p['stable']) / p['stable']:.2f}"
+            print(f"{p['name']:28s} d={p['dim']} a={p['a']:6.1f} γ={p['gamma']:7.3f} "
+                  f"limit={l:.4g} limit/unstable={l / p['unstable']:.3f} accepts={frac}")
+    if args.update_csv:
+        update_csv(c)
+    if args.fit:
+        best = fit(x, c, args.fit, args.seed)
+        print("best found:", describe(x, best))
+        print(json.dumps(best))
 
 
 if __name__ == "__main__":
