@@ -565,8 +565,8 @@ fn dpd_report(case: &Case, d: &DpdCfg, density: f64, line: &mut impl FnMut(Strin
         )),
     }
     line(format!(
-        "time step Δt = {dt}: stability limit ((Δt_C⁻ᵖ + Δt_D⁻ᵖ)^(q/p) + Δt_F⁻q)^(−1/q) = {:.4} \
-         [{}] (measured, p = {}, q = {}, see docs/validation.md), with the conservative part \
+        "time step Δt = {dt}: stability limit ((Δt_C⁻ᵖ + Δt_D⁻ᵖ)^(p′/p) + Δt_F^(−p′))^(−1/p′) = {:.4} \
+         [{}] (measured, p = {}, p′ = {}, see docs/validation.md), with the conservative part \
          Δt_C = α/ω_E = {:.4} (cage ω_E = {:.4}), the dissipative part Δt_D = {:.4} \
          (ω_D = γΣw_D/m = {:.4}, c = {:.3}{}) and the free-flight part Δt_F = {} r_c/√(k_BT/m) \
          = {:.4}; Groot–Warren accuracy guide Δt ≤ 0.06 at a = 25 [{}]",

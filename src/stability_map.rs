@@ -540,8 +540,14 @@ mod tests {
         };
         // `seed` is a u64: the float form is refused, so the spread over seeds can be mapped.
         assert_eq!(over_assignment(&request("seed"), 3.0), "seed=3");
-        assert_eq!(over_assignment(&request("fluid.gamma"), 3.0), "fluid.gamma=3.0");
-        assert_eq!(over_assignment(&request("fluid.gamma"), 4.5), "fluid.gamma=4.5");
+        assert_eq!(
+            over_assignment(&request("fluid.gamma"), 3.0),
+            "fluid.gamma=3.0"
+        );
+        assert_eq!(
+            over_assignment(&request("fluid.gamma"), 4.5),
+            "fluid.gamma=4.5"
+        );
     }
 
     #[test]

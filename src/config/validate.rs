@@ -378,7 +378,7 @@ pub fn validate(case: &Case, ix: &SpanIndex) -> Result<(), CaseError> {
                     &["integrator", "dt"],
                     format!(
                         "Δt = {dt} is beyond the measured stability limit of this DPD fluid, \
-                         Δt ≤ ((Δt_C⁻ᵖ + Δt_D⁻ᵖ)^(q/p) + Δt_F⁻q)^(−1/q) = {:.4e} (p = {}, q = {}) with the \
+                         Δt ≤ ((Δt_C⁻ᵖ + Δt_D⁻ᵖ)^(p′/p) + Δt_F^(−p′))^(−1/p′) = {:.4e} (p = {}, p′ = {}) with the \
                          conservative part Δt_C = α/ω_E = {:.4e}, the dissipative part \
                          Δt_D = {:.4e} and the free-flight part Δt_F = {:.4e} (see `mesorheo \
                          check`); the limit is {binding}",
