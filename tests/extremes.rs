@@ -337,8 +337,9 @@ fn check_memory_estimate_covers_the_measured_peak() {
 /// change of a coefficient is judged against the measurement, and the `check_limit` column
 /// the docs' tables print must be the library's (to 10⁻³; tools/dpd_stability_fit.py, which
 /// wrote it, mirrors the library). Fails without the thermal relief in the random-start bound
-/// (22 points below 80 %), with α₂ = √2 (accepts an unstable step at 2D ρ = 3, a = 40,
-/// γ = 10), or without the free-flight part (accepts unstable steps of the ideal gas at γ = 1).
+/// (22 points below 80 %, worst 52 %), with α₂ = √2 (accepts 0.1016 at 2D a = 25, γ = 2,
+/// lattice, unstable at 0.1038), or without the free-flight part (accepts 0.1057 at a = 25,
+/// γ = 2, random start, unstable at 0.1060; the ideal gas at γ = 1, 10 × its unstable step).
 #[test]
 fn check_refuses_every_measured_unstable_dpd_step() {
     let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
