@@ -17,9 +17,7 @@
 
 use crate::comm::{Comm, U64Op};
 use crate::config::{Case, FluidCfg, IntegratorCfg, Lattice, Observable, VelocityProfile};
-use crate::diagnostics::{
-    DENSITY_PROFILE_PREFIX, SHEAR_STRESS_PROFILE_PREFIX, STRESS_PARTS, Series, tensor_components,
-};
+use crate::diagnostics::{DENSITY_PROFILE_PREFIX, SHEAR_STRESS_PROFILE_PREFIX, Series};
 use crate::domain::{HaloPlan, Slab, send_leavers, wrap_owned};
 use crate::fixed_sum::FixedSum;
 use crate::geometry::{GRADIENT, SimBox};
@@ -581,13 +579,7 @@ impl<'c, const D: usize> Simulation<'c, D> {
             restarted,
             virial: None,
             shear_virial_profile: None,
-            // SPH measures its stress from the particles' fields, never from a pair virial:
-            // a virial recomputation would also rewrite the rates the next step integrates.
-            virial_scope: if matches!(case.fluid, crate::config::FluidCfg::Sph(_)) {
-                VirialScope::Off
-            } else {
-                virial_scope(&case.diagnostics.observables)
-            },
+            virial_scope: virial_scope(&case.diagnostics.observables),
             step: 0,
             skin: case.neighbour.skin,
             total_particles: total,
@@ -991,10 +983,13 @@ impl<'c, const D: usize> Simulation<'c, D> {
         {
             return v.clone();
         }
-        let saved = self.particles.force.clone();
+        // The forces and every per-particle field the passes write (densities, gradients, the
+        // rates the next step integrates), restored after: the recomputation sees the current
+        // velocities, which a velocity-dependent rate (an SPH polymer stress) must not keep.
+        let saved = (self.particles.force.clone(), self.particles.extra.clone());
         // The same forces were computed successfully by the step itself.
         let _ = self.compute_forces(self.virial_scope);
-        self.particles.force = saved;
+        (self.particles.force, self.particles.extra) = saved;
         self.virial.as_ref().map_or_else(zero, |(_, v)| v.clone())
     }
 
@@ -1643,25 +1638,21 @@ impl<'c, const D: usize> Simulation<'c, D> {
             let w = &second[dd + D + k * dd..dd + D + (k + 1) * dd];
             parts.push(w.iter().map(|x| x / volume).collect());
         }
-        let mut total: Vec<f64> = (0..dd).map(|i| parts.iter().map(|p| p[i]).sum()).collect();
-        // SPH: the stress is the particles' own (the pressure tensor's deviatoric part is −σ̄;
-        // validation admits only the observables that need nothing else).
-        let mut trace = f64::NAN;
-        if matches!(case.fluid, crate::config::FluidCfg::Sph(_))
-            && case.diagnostics.observables.iter().any(|o| {
+        // The momentum flux: kinetic part plus every model's pair virial (for SPH, the pair
+        // forces of the momentum equation: `crate::models::sph::momentum_flux`).
+        let total: Vec<f64> = (0..dd).map(|i| parts.iter().map(|p| p[i]).sum()).collect();
+        // SPH: the particles' own constitutive stress σ̄ (viscous + polymer), when asked.
+        let constitutive = case
+            .diagnostics
+            .observables
+            .iter()
+            .any(|o| {
                 matches!(
                     o,
-                    Observable::Viscosity
-                        | Observable::FirstNormalStressDifference
-                        | Observable::SecondNormalStressDifference
-                        | Observable::PolymerStressTrace
+                    Observable::ConstitutiveStress | Observable::PolymerStressTrace
                 )
             })
-        {
-            let (mean, t) = self.sph_mean_stress();
-            total = mean.iter().map(|s| -s).collect();
-            trace = t;
-        }
+            .then(|| self.sph_mean_stress());
         let trace_k: f64 = (0..D).map(|a| kinetic[a * D + a]).sum();
         // k_BT = Σ m V²/(degrees of freedom the local-mean subtraction leaves): unbiased for
         // any bin occupancy (N·D − B·D would overstate k_BT by the interpolation's share,
@@ -1681,8 +1672,9 @@ impl<'c, const D: usize> Simulation<'c, D> {
                 )),
                 Observable::Stress => {
                     let all: Vec<&Vec<f64>> = std::iter::once(&total).chain(parts.iter()).collect();
-                    for (part, tensor) in STRESS_PARTS.iter().zip(all) {
-                        for (a, b, c) in tensor_components(D) {
+                    let names = crate::config::observables::stress_parts(case);
+                    for (part, tensor) in names.iter().zip(all) {
+                        for (a, b, c) in crate::config::observables::stress_components(case) {
                             out.scalars
                                 .push((format!("stress_{part}_{c}"), tensor[a * D + b]));
                         }
@@ -1715,7 +1707,22 @@ impl<'c, const D: usize> Simulation<'c, D> {
                     out.scalars.push(("wall_shear_stress_upper".into(), upper));
                 }
                 Observable::PolymerStressTrace => {
+                    let trace = constitutive.as_ref().map_or(f64::NAN, |c| c.1);
                     out.scalars.push(("polymer_stress_trace".into(), trace));
+                }
+                Observable::ConstitutiveStress => {
+                    // σ̄ = −P: η = σ̄_xy/γ̇, N₁ = σ̄_xx − σ̄_yy, N₂ = σ̄_yy − σ̄_zz.
+                    let s = constitutive.as_ref().map_or(&[][..], |c| &c.0[..]);
+                    let c = |a: usize, b: usize| s.get(a * D + b).copied().unwrap_or(f64::NAN);
+                    let values = [
+                        c(0, 1) / self.sim_box.shear_rate,
+                        c(0, 0) - c(1, 1),
+                        c(1, 1) - c(2, 2),
+                    ];
+                    let names = crate::config::observables::constitutive_names(D);
+                    for (name, v) in names.iter().zip(values) {
+                        out.scalars.push(((*name).into(), v));
+                    }
                 }
                 Observable::CompositeViscosity => {
                     let (stress, torque) = self.composite_stress();
@@ -1932,6 +1939,7 @@ fn virial_scope(observables: &[Observable]) -> VirialScope {
         | Observable::WallShearStress
         | Observable::DensityProfile
         | Observable::PolymerStressTrace
+        | Observable::ConstitutiveStress
         | Observable::CompositeViscosity
         | Observable::TransverseCurrentViscosity => VirialScope::Off,
     };

@@ -1,8 +1,11 @@
 //! Rigid fixed inclusions in SPH (`[inclusions]`) against exact and Stokes results, and the
 //! engine's invariants:
 //!
-//! - the stock Newtonian cell passes its references: the mean fluid stress 1/(1 − πR²) of ηγ̇
-//!   (exact for no-slip on a fixed inclusion) and the torque −2πηR²γ̇ of Stokes flow;
+//! - the stock Newtonian cell passes its references: the cell's effective viscosity (the
+//!   momentum flux) and the torque against the Stokes solution of the same Lees–Edwards cell
+//!   (`tools/stokes_inclusion_cell.py`), and the mean fluid stress 1/(1 − πR²) of ηγ̇ (exact for
+//!   no-slip on a fixed inclusion);
+//! - those Stokes numbers are the independent solver's (run here when Python is given);
 //! - the shear rate near the top of the cylinder follows the Stokes single-inclusion solution
 //!   (3γ̇ at the surface);
 //! - a sheared cell with an inclusion gives the same bits on 1–4 ranks × 1–2 threads.
@@ -134,4 +137,56 @@ fn time_step_limit_can_be_lifted_for_stability_studies() {
     );
     let lifted = text.replace("[run]", "[run]\nbeyond_stability_limits = true");
     common::case_from_str(&lifted, "dt_lifted.toml");
+}
+
+/// The stock cell's Stokes references are the independent solver's numbers
+/// (`tools/stokes_inclusion_cell.py`, written from the equations, not from `src/`): the cell's
+/// effective viscosity and the torque at R = 0.1, averaged over the image offset, to 10⁻⁶.
+/// Skipped (with a note) when no Python is given, unless MESORHEO_REQUIRE_PYTHON is set
+/// (`./run test` sets both; its own self-test runs there too).
+#[test]
+fn stokes_references_of_the_stock_cell_come_from_the_independent_solver() {
+    let Ok(python) = std::env::var("MESORHEO_PYTHON") else {
+        assert!(
+            std::env::var("MESORHEO_REQUIRE_PYTHON").is_err(),
+            "MESORHEO_PYTHON is not set"
+        );
+        eprintln!("skipped the Stokes-cell comparison: set MESORHEO_PYTHON (./run test does)");
+        return;
+    };
+    let tool =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tools/stokes_inclusion_cell.py");
+    let o = std::process::Command::new(python)
+        .arg(tool)
+        .args(["--json", "--radius", "0.1"])
+        .output()
+        .expect("run the Stokes-cell solver");
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let out: serde_json::Value = serde_json::from_slice(&o.stdout).expect("JSON");
+    let row = &out["rows"][0];
+    assert_eq!(row["R"].as_f64(), Some(0.1));
+    let case = stock_case("inclusion_newtonian_2d.toml").case;
+    let reference = |observable: &str| {
+        case.reference
+            .iter()
+            .find_map(|r| match r {
+                mesorheo::config::ReferenceCfg::Value(v) if v.observable == observable => {
+                    Some(v.value)
+                }
+                _ => None,
+            })
+            .unwrap_or_else(|| panic!("no reference on {observable}"))
+    };
+    for (observable, key) in [
+        ("viscosity", "eta_eff_avg"),
+        ("inclusion_torque", "torque_avg"),
+    ] {
+        let solver = row[key].as_f64().expect("number");
+        let quoted = reference(observable);
+        eprintln!("{observable}: case {quoted}, solver {solver}");
+        assert!(
+            (quoted / solver - 1.0).abs() < 1e-6,
+            "{observable}: the case quotes {quoted}, the solver gives {solver}"
+        );
+    }
 }

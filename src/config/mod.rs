@@ -386,12 +386,21 @@ pub enum Observable {
     Pressure,
     /// Full pressure tensor components (kinetic + conservative + dissipative + random).
     Stress,
-    /// η = −⟨P_xy⟩ / γ̇ (needs shear).
+    /// η = −⟨P_xy⟩ / γ̇ (needs shear), P the momentum flux: kinetic part plus the pair forces'
+    /// virial (every fluid kind; for SPH `crate::models::sph::momentum_flux`, whose P_xy is
+    /// the x-momentum crossing planes y = const).
     Viscosity,
     /// N₁ = σ_xx − σ_yy = P_yy − P_xx (needs shear).
     FirstNormalStressDifference,
     /// N₂ = σ_yy − σ_zz = P_zz − P_yy (needs shear, 3D).
     SecondNormalStressDifference,
+    /// The SPH fluid particles' own constitutive stress σ̄ = η_s (G + Gᵀ − (2/d) tr G I) + τ
+    /// (the thesis's unweighted particle mean, Eq. 3.18; needs an SPH fluid in a sheared box):
+    /// `viscosity_constitutive`, `first_normal_stress_difference_constitutive` and, in 3D,
+    /// `second_normal_stress_difference_constitutive`. It holds whatever the pair forces do
+    /// (the corrected gradient is exact for a linear field): compare it with the flux-based
+    /// `viscosity` to see the coupling at work.
+    ConstitutiveStress,
     /// Total peculiar momentum Σ m (v − γ̇ (y − L_y/2) x̂).
     Momentum,
     /// Binned mean velocity u_x(y) (needs shear, or walls).
@@ -441,6 +450,7 @@ impl Observable {
             Observable::Viscosity => "viscosity",
             Observable::FirstNormalStressDifference => "first_normal_stress_difference",
             Observable::SecondNormalStressDifference => "second_normal_stress_difference",
+            Observable::ConstitutiveStress => "constitutive_stress",
             Observable::Momentum => "momentum",
             Observable::VelocityProfile => "velocity_profile",
             Observable::WallShearStress => "wall_shear_stress",

@@ -15,8 +15,47 @@ pub fn tensor_components(dimension: usize) -> Vec<(usize, usize, String)> {
     out
 }
 
-/// Contributions of the stress tensor.
+/// The components of the `stress` observable: the upper triangle for central pair forces
+/// (a symmetric tensor), every component for SPH, whose Morris viscous force (along v_ij) and
+/// inclusion couples make the momentum flux non-symmetric (`stress_*_xy` is the x-momentum
+/// crossing planes y = const, `stress_*_yx` the y-momentum crossing planes x = const).
+pub fn stress_components(case: &Case) -> Vec<(usize, usize, String)> {
+    match case.fluid {
+        super::FluidCfg::Sph(_) => {
+            let names = ["x", "y", "z"];
+            let d = case.dimension;
+            (0..d)
+                .flat_map(|a| (0..d).map(move |b| (a, b, format!("{}{}", names[a], names[b]))))
+                .collect()
+        }
+        _ => tensor_components(case.dimension),
+    }
+}
+
+/// Contributions of the stress tensor of a DPD (or any pairwise-central) fluid.
 pub const STRESS_PARTS: [&str; 5] = ["total", "kinetic", "conservative", "dissipative", "random"];
+
+/// Contributions of the stress tensor of an SPH fluid (`crate::models::sph::momentum_flux`).
+pub const SPH_STRESS_PARTS: [&str; 5] = ["total", "kinetic", "pressure", "viscous", "polymer"];
+
+/// The contributions the `stress` observable of this case reports.
+pub fn stress_parts(case: &Case) -> [&'static str; 5] {
+    match case.fluid {
+        super::FluidCfg::Sph(_) => SPH_STRESS_PARTS,
+        _ => STRESS_PARTS,
+    }
+}
+
+/// The names of the constitutive viscometric functions ([`Observable::ConstitutiveStress`]) in
+/// `dimension` dimensions.
+pub fn constitutive_names(dimension: usize) -> &'static [&'static str] {
+    const NAMES: [&str; 3] = [
+        "viscosity_constitutive",
+        "first_normal_stress_difference_constitutive",
+        "second_normal_stress_difference_constitutive",
+    ];
+    if dimension == 3 { &NAMES } else { &NAMES[..2] }
+}
 
 /// Every scalar observable name the case produces (for references and the summary).
 pub fn scalar_names(case: &Case) -> Vec<String> {
@@ -25,8 +64,8 @@ pub fn scalar_names(case: &Case) -> Vec<String> {
     for o in &case.diagnostics.observables {
         match o {
             Observable::Stress => {
-                for part in STRESS_PARTS {
-                    for (_, _, c) in tensor_components(dim) {
+                for part in stress_parts(case) {
+                    for (_, _, c) in stress_components(case) {
                         out.push(format!("stress_{part}_{c}"));
                     }
                 }
@@ -37,6 +76,9 @@ pub fn scalar_names(case: &Case) -> Vec<String> {
                 }
             }
             Observable::VelocityProfile => {}
+            Observable::ConstitutiveStress => {
+                out.extend(constitutive_names(dim).iter().map(|s| s.to_string()));
+            }
             Observable::WallShearStress => {
                 out.push("wall_shear_stress_lower".to_owned());
                 out.push("wall_shear_stress_upper".to_owned());

@@ -488,6 +488,7 @@ pub fn validate(case: &Case, ix: &SpanIndex) -> Result<(), CaseError> {
             Observable::Viscosity
                 | Observable::FirstNormalStressDifference
                 | Observable::SecondNormalStressDifference
+                | Observable::ConstitutiveStress
                 | Observable::VelocityProfile
         );
         let walled_profile = *o == Observable::VelocityProfile
@@ -514,9 +515,8 @@ pub fn validate(case: &Case, ix: &SpanIndex) -> Result<(), CaseError> {
                 | Observable::FirstNormalStressDifference
                 | Observable::SecondNormalStressDifference
         );
-        // SPH measures the viscometric functions from the particles' own stress σ̄ (viscous
-        // stress of the nested summation + polymer stress), which must then be the whole
-        // deviatoric stress.
+        // The SPH constitutive stress σ̄ (viscous stress of the nested summation + polymer
+        // stress) must be the whole deviatoric stress to be a viscometric measurement.
         let sph_stress = match &case.fluid {
             FluidCfg::Sph(s) => {
                 s.viscous_term == crate::models::sph::ViscousTerm::NestedSummation
@@ -525,19 +525,26 @@ pub fn validate(case: &Case, ix: &SpanIndex) -> Result<(), CaseError> {
             }
             _ => false,
         };
-        let viscometric = matches!(
-            o,
-            Observable::Viscosity
-                | Observable::FirstNormalStressDifference
-                | Observable::SecondNormalStressDifference
-        );
-        if viscometric && matches!(case.fluid, FluidCfg::Sph(_)) && !sph_stress {
+        if *o == Observable::ConstitutiveStress && !sph_stress {
+            return Err(ix.error(
+                &[k("diagnostics"), k("observables"), Segment::Index(i)],
+                "\"constitutive_stress\" is the SPH particles' own stress σ̄; it needs an SPH \
+                 fluid that forms it (fluid.viscous_term = \"nested_summation\", a \
+                 [fluid.polymer], or [inclusions]); the momentum flux (\"viscosity\", \
+                 \"stress\") is measured for every fluid"
+                    .to_string(),
+            ));
+        }
+        let msph = matches!(&case.fluid, FluidCfg::Sph(s)
+            if s.derivatives == crate::models::sph::Derivatives::Msph);
+        if needs_virial && msph {
             return Err(ix.error(
                 &[k("diagnostics"), k("observables"), Segment::Index(i)],
                 format!(
-                    "\"{}\" of an SPH fluid is measured from the particles' stress, which \
-                     Morris's viscous term does not form; use fluid.viscous_term = \
-                     \"nested_summation\"",
+                    "\"{}\" needs the momentum flux of pair forces, and with fluid.derivatives \
+                     = \"msph\" the stresses enter as a per-particle divergence, not as pair \
+                     forces; use \"constitutive_stress\" (the particles' own stress), or \
+                     fluid.derivatives = \"sph\"",
                     o.name()
                 ),
             ));
@@ -562,14 +569,11 @@ pub fn validate(case: &Case, ix: &SpanIndex) -> Result<(), CaseError> {
                     .to_string(),
             ));
         }
-        if needs_virial
-            && !(viscometric && sph_stress)
-            && matches!(case.fluid, FluidCfg::SummationGas(_) | FluidCfg::Sph(_))
-        {
+        if needs_virial && matches!(case.fluid, FluidCfg::SummationGas(_)) {
             return Err(ix.error(
                 &[k("diagnostics"), k("observables"), Segment::Index(i)],
                 format!(
-                    "\"{}\" needs the pair virial, which the SPH models do not compute yet \
+                    "\"{}\" needs the pair virial, which the summation gas does not compute \
                      (the default list has \"pressure\"); list only \"temperature\", \
                      \"momentum\" or \"velocity_profile\"",
                     o.name()

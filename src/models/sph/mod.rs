@@ -63,6 +63,7 @@ pub mod kernels;
 mod lanes;
 pub mod maxwell;
 pub mod mirror;
+mod momentum_flux;
 pub mod msph;
 
 use crate::fixed_sum::Scale;
@@ -81,6 +82,7 @@ use crate::with_kernel;
 use kernels::{Kernel, KernelKind};
 use maxwell::{Maxwell, PolymerCfg, packed_index, packed_width};
 use mirror::{FitFallbacks, MirrorWalls};
+pub use momentum_flux::SPH_STRESS_PARTS;
 use msph::{Local, MomentKernel, unknowns};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -849,6 +851,86 @@ impl<K: Kernel, const D: usize> MomentumKernel<'_, K, D> {
     }
 }
 
+/// The two ends of a pair as the stress terms of the momentum equation see them.
+struct StressEnds {
+    i: usize,
+    j: usize,
+    /// The fluid end of a boundary pair (i otherwise).
+    fluid_end: usize,
+    inclusion_pair: bool,
+    /// Whether the boundary end carries the fluid end's polymer stress (Morris's images).
+    mirror: bool,
+    /// ρ_i², ρ_j².
+    rho2: [f64; 2],
+}
+
+impl<K: Kernel, const D: usize> MomentumKernel<'_, K, D> {
+    /// p_i/ρ_i² + p_j/ρ_j² of a pair, with an inclusion particle carrying its fluid
+    /// neighbour's pressure when the inclusions mirror it (zero normal gradient, spec §2.3:
+    /// p_j := p_i).
+    #[inline(always)]
+    fn pressure_sum(
+        &self,
+        i: usize,
+        j: usize,
+        fluid_end: usize,
+        inclusion_pair: bool,
+        ri2: f64,
+        rj2: f64,
+    ) -> f64 {
+        let mirror_pressure = inclusion_pair
+            && self
+                .boundaries
+                .inclusions
+                .is_some_and(|g| g.mirror_pressure);
+        if mirror_pressure {
+            let pf =
+                self.p_over_rho2[fluid_end] * self.density[fluid_end] * self.density[fluid_end];
+            pf * (1.0 / ri2 + 1.0 / rj2)
+        } else {
+            self.p_over_rho2[i] + self.p_over_rho2[j]
+        }
+    }
+
+    /// The coefficient s of the wall repulsion s x_ij (per m_i m_j) of a fluid–wall pair at
+    /// distance r, when it acts: an acceleration of the fluid particle (Eq. 2.48 adds it
+    /// without a mass), so the force m_i a_i, divided by the m_j that the common factor
+    /// m_i m_j of the pair force brings.
+    #[inline(always)]
+    fn wall_repulsion(&self, fluid_wall_pair: bool, r: f64) -> Option<f64> {
+        let w = self.boundaries.walls.as_ref().filter(|_| fluid_wall_pair)?;
+        (r < w.range).then(|| {
+            let q2 = (w.range / r) * (w.range / r);
+            w.strength * (q2 * q2 - q2) / (r * r) / self.mass
+        })
+    }
+
+    /// Component (a, b) of σ̄_i/ρ_i² + σ̄_j/ρ_j² (the nested summation's viscous stress, when
+    /// `viscous`) plus τ_i/ρ_i² + τ_j/ρ_j² (the polymer stress, when `polymer`), with the
+    /// images' stresses of [`GatherKernel::pair`]. With both parts: the very bits the
+    /// momentum equation uses.
+    #[inline(always)]
+    fn pair_stress(&self, e: &StressEnds, a: usize, b: usize, viscous: bool, polymer: bool) -> f64 {
+        let [ri2, rj2] = e.rho2;
+        let mut sab = match self.stress.filter(|_| viscous) {
+            Some(s) if e.inclusion_pair => {
+                s[e.fluid_end * D * D + a * D + b] * (1.0 / ri2 + 1.0 / rj2)
+            }
+            Some(s) => s[e.i * D * D + a * D + b] / ri2 + s[e.j * D * D + a * D + b] / rj2,
+            None => 0.0,
+        };
+        if let Some(tau) = self.polymer.filter(|_| polymer) {
+            let (w, c) = (packed_width(D), packed_index::<D>(a, b));
+            sab += if e.mirror {
+                tau[e.fluid_end * w + c] * (1.0 / ri2 + 1.0 / rj2)
+            } else {
+                tau[e.i * w + c] / ri2 + tau[e.j * w + c] / rj2
+            };
+        }
+        sab
+    }
+}
+
 impl<K: Kernel, const D: usize> GatherKernel<D> for MomentumKernel<'_, K, D> {
     fn scales(&self) -> &[Scale] {
         &self.scales
@@ -888,20 +970,7 @@ impl<K: Kernel, const D: usize> GatherKernel<D> for MomentumKernel<'_, K, D> {
             self.density[i] * self.density[i],
             self.density[j] * self.density[j],
         );
-        let mirror_pressure = inclusion_pair
-            && self
-                .boundaries
-                .inclusions
-                .is_some_and(|g| g.mirror_pressure);
-        let p_sum = if mirror_pressure {
-            // An inclusion particle carries its fluid neighbour's pressure (zero normal
-            // gradient, spec §2.3): p_j := p_i.
-            let pf =
-                self.p_over_rho2[fluid_end] * self.density[fluid_end] * self.density[fluid_end];
-            pf * (1.0 / ri2 + 1.0 / rj2)
-        } else {
-            self.p_over_rho2[i] + self.p_over_rho2[j]
-        };
+        let p_sum = self.pressure_sum(i, j, fluid_end, inclusion_pair, ri2, rj2);
         let pressure = if self.pairwise_stress {
             -p_sum * gw
         } else {
@@ -916,26 +985,18 @@ impl<K: Kernel, const D: usize> GatherKernel<D> for MomentumKernel<'_, K, D> {
             // gradient, spec §2.3): σ̄_j := σ̄_i, τ_j := τ_i. Method-B walls carry their own.
             let mirror = inclusion_pair
                 || (boundary_pair && self.boundaries.walls.is_some_and(|w| w.morris));
-            let w = packed_width(D);
+            let ends = StressEnds {
+                i,
+                j,
+                fluid_end,
+                inclusion_pair,
+                mirror,
+                rho2: [ri2, rj2],
+            };
             for a in 0..D {
                 let mut t = 0.0;
                 for b in 0..D {
-                    let mut sab = match self.stress {
-                        Some(s) if inclusion_pair => {
-                            s[fluid_end * D * D + a * D + b] * (1.0 / ri2 + 1.0 / rj2)
-                        }
-                        Some(s) => s[i * D * D + a * D + b] / ri2 + s[j * D * D + a * D + b] / rj2,
-                        None => 0.0,
-                    };
-                    if let Some(tau) = self.polymer {
-                        let c = packed_index::<D>(a, b);
-                        sab += if mirror {
-                            tau[fluid_end * w + c] * (1.0 / ri2 + 1.0 / rj2)
-                        } else {
-                            tau[i * w + c] / ri2 + tau[j * w + c] / rj2
-                        };
-                    }
-                    t += sab * x[b];
+                    t += self.pair_stress(&ends, a, b, true, true) * x[b];
                 }
                 f[a] += gw * t;
             }
@@ -950,15 +1011,7 @@ impl<K: Kernel, const D: usize> GatherKernel<D> for MomentumKernel<'_, K, D> {
                 f[a] += s * vij[a];
             }
         }
-        if let Some(w) = &self.boundaries.walls
-            && boundary_pair
-            && !inclusion_pair
-            && r < w.range
-        {
-            // An acceleration of the fluid particle (Eq. 2.48 adds it without a mass), so the
-            // force m_i a_i: divided by the m_j that the common factor m_i m_j below brings.
-            let q2 = (w.range / r) * (w.range / r);
-            let s = w.strength * (q2 * q2 - q2) / (r * r) / self.mass;
+        if let Some(s) = self.wall_repulsion(boundary_pair && !inclusion_pair, r) {
             for a in 0..D {
                 f[a] += s * x[a];
             }
@@ -1064,6 +1117,11 @@ pub struct SphModel<const D: usize> {
     stress_over_rho2: Vec<f64>,
     sums: Vec<f64>,
     scatter: ScatterBuffers,
+    /// Whether the momentum pass of this evaluation also forms the momentum flux
+    /// ([`momentum_flux`]; the diagnostics asked for the virial).
+    flux_wanted: bool,
+    /// The momentum flux of the last momentum pass that formed it, for the engine.
+    flux: Option<Result<crate::models::pair_loop::Virial, String>>,
 }
 
 impl<const D: usize> SphModel<D> {
@@ -1162,6 +1220,8 @@ impl<const D: usize> SphModel<D> {
             stress_over_rho2: Vec::new(),
             sums: Vec::new(),
             scatter: ScatterBuffers::default(),
+            flux_wanted: false,
+            flux: None,
         }
     }
 
@@ -1717,12 +1777,17 @@ impl<const D: usize> SphModel<D> {
                     scales,
                     parities,
                 };
+                // The momentum flux, on the steps the diagnostics sample (with MSPH derivatives
+                // the stresses are not pair forces: validation refuses the flux there).
+                let flux = (self.flux_wanted && k.pairwise_stress)
+                    .then(|| momentum_flux::momentum_virial(&k, p, list));
                 let gathered = lanes && k.gather_lanes(Isa::current(), p, full.lanes(), &mut sums);
                 let r = if gathered {
                     Ok(())
                 } else {
                     scatter(&k, p, list, &mut self.scatter, &mut sums)
                 };
+                self.flux = flux;
                 r.map(|()| {
                     let mf: [f64; D] = std::array::from_fn(|d| self.mass * self.body_force[d]);
                     let species = p.species.as_deref();
@@ -2056,6 +2121,7 @@ impl<const D: usize> ParticleModel<D> for SphModel<D> {
         if matches!(kind, Pass::Momentum | Pass::MsphDivergence) {
             check_density(p, self.density, ctx.step)?;
         }
+        self.flux_wanted = ctx.virial != crate::models::pair_loop::VirialScope::Off;
         match kind {
             Pass::WallMirror | Pass::MsphGradient | Pass::WallStress | Pass::MsphDivergence => {
                 self.run_msph(kind, p, full).map_err(|e| e.to_string())
@@ -2064,7 +2130,15 @@ impl<const D: usize> ParticleModel<D> for SphModel<D> {
                 .map_err(|e| e.to_string()),
         }
         .map_err(|e| format!("{e} (SPH pass {kind:?} at step {})", ctx.step))?;
-        Ok(PassOutput::default())
+        let virial = self
+            .flux
+            .take()
+            .transpose()
+            .map_err(|e| format!("{e} (SPH momentum flux at step {})", ctx.step))?;
+        Ok(PassOutput {
+            virial,
+            ..PassOutput::default()
+        })
     }
 }
 
