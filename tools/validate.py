@@ -25,6 +25,12 @@ and writes plots to docs/ when matplotlib is available.
                  at De = 0.01, 0.1 against the thesis's linear-in-concentration fit (~35 min)
   maxwell_convergence  the Maxwell shear case at De = 1: the errors of η and N₁ against Δt and
                  against the resolution Δ, with the cost of each run (~15 min)
+  maxwell_couette  Oldroyd-B start-up Couette at λ = 0.05, 0.2, 1 and β = 0.1, 0.5 against the
+                 series: the max error over the listed times against Δ and Δt, the stock scheme
+                 (Lucy 3Δ, Morris cap 6) beside the issue's (2.5Δ, cap 2) (~30 min on one thread)
+  maxwell_couette_causes  the same flow at λ = 0.05, β = 0.1: the issue's setup and one change
+                 at a time (Δt, Morris cap, gradient estimate, wall treatment, support, c₀, Δ)
+                 (~3 min on one thread)
   maxwell_stability  the largest stable Δt of the Maxwell shear case against De, by bisection
                  (2000 steps survive = stable), beside the limit `check` predicts (~10 min)
   connffessit_shear  SPH particles carrying dumbbells in Lees–Edwards shear: Hookean at
@@ -631,6 +637,121 @@ def maxwell_convergence():
         print("\n![Maxwell error against cost](maxwell_convergence.png)\n")
     except ImportError:
         print("\n(matplotlib missing: no plot)\n")
+
+
+def maxwell_couette():
+    """Oldroyd-B start-up Couette flow (cases/maxwell_couette_startup_2d.toml with --set) at
+    λ = 0.05, 0.2, 1 and β = η_s/η₀ = 0.1, 0.5 (η₀ = 1): the max over the listed times of the
+    max-bin error against the series `couette_oldroyd_b`, against Δ and Δt, for the stock scheme
+    (Lucy 3Δ, Morris cap 6) and the issue's (Lucy 2.5Δ, cap 2, the Newtonian stock case's). One
+    rank × MESORHEO_THREADS threads (default 1); a cell whose estimated loop time exceeds
+    MESORHEO_CELL_BUDGET seconds (default 200) is skipped and listed as such."""
+    import re
+    threads = int(os.environ.get("MESORHEO_THREADS", "1"))
+    budget = float(os.environ.get("MESORHEO_CELL_BUDGET", "200"))
+    text = open(os.path.join(ROOT, "cases", "maxwell_couette_startup_2d.toml")).read()
+    times = {0.05: [0.01, 0.02, 0.05, 0.1, 0.2, 0.3], 0.2: [0.02, 0.05, 0.1, 0.2, 0.5, 1.0],
+             1.0: [0.1, 0.2, 0.5, 1.0, 1.5, 2.0]}
+    # (scheme, support/Δ, cap, {(Δ, β): Δt values}); every Δt within the binding limit of
+    # `check` (the solvent's Morris term 0.042 r_s²/ν_s, or the elastic wave)
+    schemes = [
+        ("stock: Lucy 3Δ, cap 6", 3.0, 6.0,
+         {(0.02, 0.1): (2e-4, 1e-4), (0.02, 0.5): (2e-4, 1e-4), (0.01, 0.1): (2e-4, 1e-4),
+          (0.01, 0.5): (6.25e-5, 3.125e-5), (0.005, 0.1): (5e-5,)}),
+        ("issue: Lucy 2.5Δ, cap 2", 2.5, 2.0,
+         {(0.02, 0.1): (1e-4,), (0.02, 0.5): (1e-4,), (0.01, 0.1): (1e-4,), (0.01, 0.5): (5e-5,)}),
+    ]
+    print("### Oldroyd-B start-up Couette: max over the listed times of max_bin |u − u_series| / U\n")
+    print(f"One rank × {threads} thread(s); loop seconds of each run; bins one lattice row each. "
+          "Times: λ = 0.05: " + ", ".join(map(str, times[0.05])) + "; λ = 0.2: "
+          + ", ".join(map(str, times[0.2])) + "; λ = 1: " + ", ".join(map(str, times[1.0])) + ".\n")
+    print("| λ | β | scheme | Δ | Δt | max error (at t) | error at each listed time (%) | loop s |")
+    print("|---|---|---|---|---|---|---|---|")
+    for lam in (0.05, 0.2, 1.0):
+        for beta in (0.1, 0.5):
+            for label, support, cap, dts in schemes:
+                for (delta, b), steps_dt in dts.items():
+                    if b != beta or (delta == 0.005 and lam != 0.05):
+                        continue
+                    for dt in steps_dt:
+                        n = round(1 / delta)
+                        t_end = times[lam][-1]
+                        steps = round(t_end / dt)
+                        particles = n * n + 2 * n * math.ceil(2 * support - 1e-9)
+                        estimate = 6.5e-7 * particles * steps * (support / 3.0) ** 2
+                        head = f"| {lam} | {beta} | {label} | {delta} | {dt:g} |"
+                        if estimate > budget:
+                            print(f"{head} skipped (estimated {estimate:.0f} s) | | |")
+                            continue
+                        case = re.sub(r"(?m)^times = \[.*\]$",
+                                      "times = [" + ", ".join(map(str, times[lam])) + "]", text)
+                        sets = [f"particles.density={n * n}.0", f"particles.mass={delta ** 2}",
+                                f"fluid.smoothing_length={support * delta}",
+                                f"neighbour.skin={delta / 2}", f"walls.morris_cap={cap}",
+                                f"fluid.viscosity={beta}", f"fluid.polymer.viscosity={1 - beta:g}",
+                                f"fluid.polymer.relaxation_time={lam}", f"integrator.dt={dt}",
+                                f"run.steps={steps}", f"run.sample_every={round(0.01 / dt)}",
+                                f"diagnostics.profile_bins={n}"]
+                        s = run_text(case, sets, threads=threads)
+                        e = startup_errors(s)
+                        worst = max(e, key=e.get)
+                        print(f"{head} {100 * e[worst]:.2f} % ({worst:g}) | "
+                              + " ".join(f"{100 * e[t]:.2f}" for t in sorted(e))
+                              + f" | {s['loop_seconds']:.0f} |", flush=True)
+
+
+def maxwell_couette_causes():
+    """What the Oldroyd-B start-up Couette error is made of, at the issue's λ = 0.05, β = 0.1:
+    the issue's setup (the Newtonian stock case's scheme: Lucy 2.5Δ, Morris cap 2, Δ = 0.02,
+    Δt = 10⁻⁴) and one change at a time, then the stock scheme (3Δ, cap 6), at Δ = 0.02 and
+    0.01; cases/maxwell_couette_startup_2d.toml with --set, one rank × MESORHEO_THREADS."""
+    import re
+    threads = int(os.environ.get("MESORHEO_THREADS", "1"))
+    times = [0.01, 0.02, 0.05, 0.1, 0.2, 0.3]
+    text = open(os.path.join(ROOT, "cases", "maxwell_couette_startup_2d.toml")).read()
+    text = re.sub(r"(?m)^times = \[.*\]$", "times = [" + ", ".join(map(str, times)) + "]", text)
+
+    def lattice(delta):
+        n = round(1 / delta)
+        return [f"particles.density={n * n}.0", f"particles.mass={delta ** 2}",
+                f"neighbour.skin={delta / 2}", f"diagnostics.profile_bins={n}"]
+
+    def steps(dt):
+        return [f"integrator.dt={dt}", f"run.steps={round(0.3 / dt)}",
+                f"run.sample_every={round(0.01 / dt)}"]
+
+    issue = ["fluid.smoothing_length=0.05", "walls.morris_cap=2.0"]
+    stock = ["fluid.smoothing_length=0.06", "walls.morris_cap=6.0"]
+    fine_issue = ["fluid.smoothing_length=0.025", "walls.morris_cap=2.0"]
+    fine_stock = ["fluid.smoothing_length=0.03", "walls.morris_cap=6.0"]
+    rows = [
+        ("Δ = 0.02, issue: Lucy 2.5Δ, cap 2", lattice(0.02) + steps(1e-4) + issue),
+        ("  Δt = 5·10⁻⁵", lattice(0.02) + steps(5e-5) + issue),
+        ("  cap 1.5 (the default)", lattice(0.02) + steps(1e-4) + issue + ["walls.morris_cap=1.5"]),
+        ("  cap 6", lattice(0.02) + steps(1e-4) + issue + ["walls.morris_cap=6.0"]),
+        ("  corrected velocity gradient", lattice(0.02) + steps(1e-4) + issue
+         + ['fluid.velocity_gradient="corrected"']),
+        ("  corrected velocity gradient, cap 6", lattice(0.02) + steps(1e-4) + issue
+         + ['fluid.velocity_gradient="corrected"', "walls.morris_cap=6.0"]),
+        ("  method B layers (own τ at the walls)", lattice(0.02) + steps(1e-4) + issue
+         + ['walls.treatment="layers"']),
+        ("Δ = 0.02, stock scheme: Lucy 3Δ, cap 6", lattice(0.02) + steps(1e-4) + stock),
+        ("  c₀ = 20 (M = 0.05)", lattice(0.02) + steps(1e-4) + stock + ["fluid.sound_speed=20.0"]),
+        ("  Δt = 5·10⁻⁵", lattice(0.02) + steps(5e-5) + stock),
+        ("Δ = 0.01, issue: Lucy 2.5Δ, cap 2", lattice(0.01) + steps(1e-4) + fine_issue),
+        ("Δ = 0.01, Lucy 2.5Δ, cap 6", lattice(0.01) + steps(1e-4) + fine_issue
+         + ["walls.morris_cap=6.0"]),
+        ("Δ = 0.01, stock scheme: Lucy 3Δ, cap 6", lattice(0.01) + steps(1e-4) + fine_stock),
+    ]
+    print("### Oldroyd-B start-up Couette at λ = 0.05, β = 0.1: max_bin |u − u_series| / U, one change at a time\n")
+    print("| run | " + " | ".join(f"t = {t}" for t in times) + " | loop s |")
+    print("|---|" + "---|" * len(times) + "---|")
+    for label, sets in rows:
+        s = run_text(text, sets + ["fluid.viscosity=0.1", "fluid.polymer.viscosity=0.9",
+                                   "fluid.polymer.relaxation_time=0.05"], threads=threads)
+        e = startup_errors(s)
+        print(f"| {label} | " + " | ".join(f"{100 * e[t]:.2f} %" for t in times)
+              + f" | {s['loop_seconds']:.0f} |", flush=True)
 
 
 def try_run(case, sets=(), ranks=1, threads=2):
@@ -1377,7 +1498,7 @@ if __name__ == "__main__":
     todo = sys.argv[1:] or ["stock", "kt_vs_dt", "viscosity", "viscometric", "sph", "sph_convergence", "maxwell",
                             "inclusion", "maxwell_convergence", "maxwell_stability", "connffessit_shear",
                             "msph_channel", "weak_order", "fene_table", "transverse_current",
-                            "kt_vs_dt_low_mass", "dpd_stability", "fuzz"]
+                            "kt_vs_dt_low_mass", "dpd_stability", "fuzz", "maxwell_couette_causes", "maxwell_couette"]
     targets = {"kt_vs_dt": kt_vs_dt, "viscosity": viscosity, "stock": stock,
                "viscometric": viscometric, "sph": sph, "sph_convergence": sph_convergence,
                "maxwell": maxwell, "inclusion": inclusion,
@@ -1385,7 +1506,8 @@ if __name__ == "__main__":
                "connffessit_shear": connffessit_shear, "msph_channel": msph_channel,
                "weak_order": weak_order, "fene_table": fene_table,
                "transverse_current": transverse_current, "kt_vs_dt_low_mass": kt_vs_dt_low_mass,
-               "dpd_stability": dpd_stability, "fuzz": fuzz}
+               "dpd_stability": dpd_stability, "fuzz": fuzz, "maxwell_couette": maxwell_couette,
+               "maxwell_couette_causes": maxwell_couette_causes}
     for name in todo:
         if name not in targets:
             sys.exit(f"unknown validation '{name}'; valid: {', '.join(targets)}")
