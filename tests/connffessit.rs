@@ -35,8 +35,17 @@ fn coupled_run_is_bitwise_on_1_to_4_ranks_and_1_2_threads() {
     let text = stock_text("connffessit_shear_2d.toml")
         .replace("steps = 12000", "steps = 80")
         .replace("equilibration = 6000", "equilibration = 0")
-        .replace("per_particle = 100", "per_particle = 8");
-    let d = digests_on_1_to_4_ranks(&text, "connffessit shear", |s| assert_eq!(s.steps, 80));
+        .replace("per_particle = 100", "per_particle = 8")
+        // Every part of the momentum flux too (the SPH pair virial, summed exactly).
+        .replace(
+            "\"constitutive_stress\",",
+            "\"constitutive_stress\", \"stress\",",
+        );
+    assert!(text.contains("\"stress\""), "the observables line changed");
+    let d = digests_on_1_to_4_ranks(&text, "connffessit shear", |s| {
+        assert_eq!(s.steps, 80);
+        assert!(s.observables.contains_key("stress_polymer_yx"));
+    });
     assert_all_equal("connffessit shear", &d);
 }
 

@@ -14,8 +14,9 @@
 //!
 //! Every pair crossing the periodic and the Lees–Edwards boundaries counts once: an owned–ghost
 //! pair adds half on each side, so a wrong weight or a wrong lever shows at the 10⁻¹ level.
-//! Mutations that fail it (run): owned–ghost weight 1 instead of ½; the lever and the force
-//! swapped in the tensor (F^b ℓ^a): the Morris part moves to P_yx.
+//! Mutations that fail it (run 2026-11-26): an owned–ghost pair counted in full instead of half
+//! (pressure 5.8156 against 5.2690); the lever and the force swapped in the tensor (F^b ℓ^a):
+//! the Morris part moves to P_yx.
 
 mod common;
 use common::case_from_str;

@@ -26,9 +26,10 @@
 //!   from turning is in it: the antisymmetric part of the cell stress (Batchelor 1970).
 //! - two boundary particles: no force, nothing.
 //!
-//! An owned–ghost pair adds ½ of its term on each of its two ranks (the same bits on both, the
-//! pair terms being exactly antisymmetric), so the sum is the same on any rank count. Every
-//! term is accumulated exactly ([`FixedSum`]).
+//! Every pair adds ½ of its term twice: an owned–ghost pair once on each of its two ranks (the
+//! same bits on both, the pair terms being exactly antisymmetric), an owned–owned pair twice on
+//! its rank. Each term is accumulated exactly ([`FixedSum`], which rounds a term once to its
+//! resolution), so the sum is the same integer on any rank and thread count.
 //!
 //! The parts (the `stress` observable's `pressure`, `viscous`, `polymer` parts): the pressure
 //! (with the background pressure and the wall repulsion), the polymer stress term, and the rest
@@ -156,11 +157,15 @@ pub(super) fn momentum_virial<K: Kernel, const D: usize>(
                 let Some((parts, lever)) = kernel.flux_terms(p, i, j, &x, r2.sqrt()) else {
                     continue;
                 };
-                let weight = if j < n_owned { 1.0 } else { 0.5 };
+                // Every pair adds ½ of its term twice: once on each end's rank for an owned–ghost
+                // pair, twice here for an owned–owned one. The fixed-point sum rounds each term to
+                // its resolution, so round(½t) + round(½t) is the same integer on any
+                // decomposition, where round(t) once would not be.
+                let copies = if j < n_owned { 2 } else { 1 };
                 for (k, part) in parts.iter().enumerate() {
                     for a in 0..D {
                         for b in 0..D {
-                            let term = weight * part[a] * lever[b];
+                            let term = 0.5 * part[a] * lever[b];
                             if !FixedSum::representable(term) {
                                 return Err(format!(
                                     "the momentum flux of the pair ({}, {}) is {term:e}, not \
@@ -171,7 +176,9 @@ pub(super) fn momentum_virial<K: Kernel, const D: usize>(
                                     crate::sim::UNSTABLE
                                 ));
                             }
-                            sums[k * D * D + a * D + b].add(term);
+                            for _ in 0..copies {
+                                sums[k * D * D + a * D + b].add(term);
+                            }
                         }
                     }
                 }
