@@ -346,6 +346,21 @@ pub fn report(case: &Case, ranks: usize) -> String {
                                 .into(),
                         );
                     }
+                    if poly.model == PolymerModel::Dumbbells {
+                        // The measured bias of the coupled shear (tools/coupled_bias.py, the
+                        // table in docs/validation.md): what a user can expect at these settings.
+                        line(format!(
+                            "  expected bias of the measured η and N₁ (the momentum flux; 2D \
+                             CONNFFESSIT shear, Lucy 3Δ, measured 2026-11-26, docs/validation.md): \
+                             Wi ≤ 1, p_b = 5: η +1.5 % with 100 dumbbells per particle, +0.1 % \
+                             with 1 000 (the noisy ensembles disorder the particles; p_b = 20 \
+                             raises it); Wi = 2–4 with p_b = 5 τ_xx: η within ±2.5 %, N₁ within \
+                             ±4.5 %; p_b below 5 τ_xx: errors of 3–17 %. This scene: Wi = {de:.3}, \
+                             {} dumbbells per particle, p_b = {:.1} τ_xx",
+                            poly.per_particle.unwrap_or(0),
+                            sph.background_pressure / tension
+                        ));
+                    }
                 }
             }
             let (binding, _) = crate::stability::sph_binding_limit(sph, case.inclusions.is_some());
