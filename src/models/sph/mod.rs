@@ -905,6 +905,45 @@ impl<K: Kernel, const D: usize> MomentumKernel<'_, K, D> {
         })
     }
 
+    /// The pair's ends as [`Self::pair_stress`] reads them. Morris's images (walls or
+    /// inclusions) carry the fluid end's stress (zero normal gradient, spec §2.3): σ̄_j := σ̄_i,
+    /// τ_j := τ_i; method-B walls carry their own.
+    #[inline(always)]
+    fn stress_ends(
+        &self,
+        i: usize,
+        j: usize,
+        fluid_end: usize,
+        boundary_pair: bool,
+        inclusion_pair: bool,
+        rho2: [f64; 2],
+    ) -> StressEnds {
+        let mirror =
+            inclusion_pair || (boundary_pair && self.boundaries.walls.is_some_and(|w| w.morris));
+        StressEnds {
+            i,
+            j,
+            fluid_end,
+            inclusion_pair,
+            mirror,
+            rho2,
+        }
+    }
+
+    /// Σ_b S^{ab} x_b for every a, S the pair's stress sum of [`Self::pair_stress`] (the
+    /// nested summation's σ̄ when `viscous`, and τ): the bits the momentum equation multiplies
+    /// by ∂W/r.
+    #[inline(always)]
+    fn stress_on_pair(&self, e: &StressEnds, x: &[f64; D], viscous: bool) -> [f64; D] {
+        std::array::from_fn(|a| {
+            let mut t = 0.0;
+            for b in 0..D {
+                t += self.pair_stress(e, a, b, viscous, true) * x[b];
+            }
+            t
+        })
+    }
+
     /// Component (a, b) of σ̄_i/ρ_i² + σ̄_j/ρ_j² (the nested summation's viscous stress, when
     /// `viscous`) plus τ_i/ρ_i² + τ_j/ρ_j² (the polymer stress, when `polymer`), with the
     /// images' stresses of [`GatherKernel::pair`]. With both parts: the very bits the
@@ -981,24 +1020,10 @@ impl<K: Kernel, const D: usize> GatherKernel<D> for MomentumKernel<'_, K, D> {
             f[a] = pressure * x[a];
         }
         if self.pairwise_stress && (self.stress.is_some() || self.polymer.is_some()) {
-            // Morris's images (walls or inclusions) carry the fluid end's stress (zero normal
-            // gradient, spec §2.3): σ̄_j := σ̄_i, τ_j := τ_i. Method-B walls carry their own.
-            let mirror = inclusion_pair
-                || (boundary_pair && self.boundaries.walls.is_some_and(|w| w.morris));
-            let ends = StressEnds {
-                i,
-                j,
-                fluid_end,
-                inclusion_pair,
-                mirror,
-                rho2: [ri2, rj2],
-            };
+            let ends = self.stress_ends(i, j, fluid_end, boundary_pair, inclusion_pair, [ri2, rj2]);
+            let t = self.stress_on_pair(&ends, x, true);
             for a in 0..D {
-                let mut t = 0.0;
-                for b in 0..D {
-                    t += self.pair_stress(&ends, a, b, true, true) * x[b];
-                }
-                f[a] += gw * t;
+                f[a] += gw * t[a];
             }
         }
         if self.two_eta_morris != 0.0 {

@@ -36,7 +36,7 @@
 //! of the pair force (Morris's term or the nested summation's σ̄), so that the parts add up to
 //! the force actually applied.
 
-use super::{FLUID, INCLUSION, MomentumKernel, StressEnds};
+use super::{FLUID, INCLUSION, MomentumKernel};
 use crate::fixed_sum::FixedSum;
 use crate::models::gather::GatherKernel;
 use crate::models::pair_loop::Virial;
@@ -87,21 +87,11 @@ impl<K: Kernel, const D: usize> MomentumKernel<'_, K, D> {
                 pressure[a] = -p_sum * gw * x[a];
             }
             if self.polymer.is_some() {
-                let mirror = inclusion_pair
-                    || (boundary_pair && self.boundaries.walls.is_some_and(|w| w.morris));
-                let ends = StressEnds {
-                    i,
-                    j,
-                    fluid_end,
-                    inclusion_pair,
-                    mirror,
-                    rho2: [ri2, rj2],
-                };
+                let ends =
+                    self.stress_ends(i, j, fluid_end, boundary_pair, inclusion_pair, [ri2, rj2]);
+                let t = self.stress_on_pair(&ends, x, false);
                 for a in 0..D {
-                    let t: f64 = (0..D)
-                        .map(|b| self.pair_stress(&ends, a, b, false, true) * x[b])
-                        .sum();
-                    polymer[a] = mm * gw * t;
+                    polymer[a] = mm * gw * t[a];
                 }
             }
         }
