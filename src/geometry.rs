@@ -166,6 +166,15 @@ pub fn axis_order<const D: usize>() -> [usize; D] {
     order
 }
 
+/// Volume of the D-ball of radius r.
+pub fn ball_volume(dimension: usize, r: f64) -> f64 {
+    if dimension == 2 {
+        std::f64::consts::PI * r * r
+    } else {
+        4.0 / 3.0 * std::f64::consts::PI * r * r * r
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -54,7 +54,6 @@ pub mod scene;
 pub mod sim;
 pub mod simd;
 pub mod species;
-pub mod stability;
 pub mod stability_map;
 pub mod stress_profile;
 pub mod study;

@@ -16,7 +16,7 @@
 //! and velocities are refreshed.
 
 use crate::comm::{Comm, U64Op};
-use crate::config::{Case, FluidCfg, IntegratorCfg, Lattice, Observable, VelocityProfile};
+use crate::config::{Case, IntegratorCfg, Lattice, Observable, VelocityProfile};
 use crate::diagnostics::{DENSITY_PROFILE_PREFIX, SHEAR_STRESS_PROFILE_PREFIX, Series};
 use crate::domain::{HaloPlan, Slab, send_leavers, wrap_owned};
 use crate::fixed_sum::FixedSum;
@@ -24,12 +24,9 @@ use crate::geometry::{GRADIENT, SimBox};
 use crate::integrators::{
     GrootWarren, IntegratedField, Integrator, KickDriftKick, TwoStage, TwoStageVariant,
 };
-use crate::models::dpd::DpdModel;
 use crate::models::gather::FullList;
 use crate::models::interface::{FieldKind, ParticleModel, PassContext, StateBlowUp};
 use crate::models::pair_loop::{Virial, VirialScope};
-use crate::models::sph::SphModel;
-use crate::models::summation_gas::SummationGas;
 use crate::neighbour::{NeighbourList, spatial_order};
 use crate::particles::Particles;
 use crate::rng::{Purpose, StreamKey};
@@ -143,167 +140,20 @@ pub struct Simulation<'c, const D: usize> {
 /// a particle beyond the neighbour list's reach): `mesorheo run` exits with code 4 on it.
 pub const UNSTABLE: &str = "the run is unstable";
 
-/// Thermal part, in units of k_BT, of the peculiar kinetic energy beyond which a particle of a
-/// thermostatted (DPD) fluid is a runaway (see [`runaway_energy_in_kt`]). In equilibrium a
-/// particle exceeds E k_BT with probability ≈ 2√(E/π) e^{−E} (3D), 10⁻⁴² at E = 100: no
-/// healthy run of 10⁶ particles over 10⁹ steps ever trips it, while a step beyond the
-/// stability limit reaches it within a few steps of going wrong.
-pub const RUNAWAY_KT: f64 = 100.0;
-
-/// The kinetic temperature, in units of the thermostat's k_BT, beyond which an equilibrated DPD
-/// fluid is heating without bound: checked at every sample (after the equilibration), with an
-/// allowance for a random start's release of overlap energy ([`heating_bound_in_kt`]). A time step near the dissipative limit
-/// heats the fluid gradually — 2D ρ = 4, a = 25, γ = 18.9 (`cases/dpd_equilibrium_2d.toml`,
-/// 1000 steps): k_BT = 1.05, 1.17, 1.32, 1.62 at Δt = 0.040, 0.044, 0.046, 0.048, and a runaway
-/// particle at 0.052 — so no single particle need pass [`RUNAWAY_KT`] before the fluid
-/// is useless. Shear heating of a thermostatted fluid is a few per cent at γ̇ ~ 1.
-pub const HEATING_BOUND: f64 = 2.0;
-
-/// The heating bound of a DPD fluid at time t, in units of k_BT:
-///
-/// ```text
-/// HEATING_BOUND + (2/D) (n/2) ∫ φ(r) dV / k_BT · e^{−ω₀ t},   φ(r) = a r_c (1 − r/r_c)^{s̄+1}/(s̄+1)
-/// ∫ φ dV = 2π a r_c³ / ((s̄+1)(s̄+2)(s̄+3))          (2D)
-///        = 8π a r_c⁴ / ((s̄+1)(s̄+2)(s̄+3)(s̄+4))     (3D)
-/// ```
-///
-/// The second term is the temperature rise if the mean overlap energy of uniformly random
-/// positions (a random start) turned into heat at once (5.24 k_BT for the 3D a = 25, ρ = 3
-/// fluid), decaying at half the thermostat's mean-field rate ω₀ = γΣw_D/(D m)
-/// ([`crate::stability::dpd_mean_field_rate`]): a quarter of the rate 2ω₀ at which the
-/// thermostat removes kinetic energy, because the overlaps release their energy over the
-/// structural relaxation, more slowly than it is removed (measured: the 2D a = 100, ρ = 4
-/// random start at γ = 40, Δt = 0.02 still reads 2.34 k_BT at t = 0.2, where e^{−ω₀t} would
-/// allow only 2.01).
-pub fn heating_bound_in_kt(
-    dpd: &crate::models::dpd::DpdCfg,
-    dimension: usize,
-    density: f64,
-    mass: f64,
-    time: f64,
-) -> f64 {
-    let (a, rc, s) = (dpd.a.abs(), dpd.cutoff, dpd.conservative_exponent);
-    let overlap = if dimension == 2 {
-        2.0 * std::f64::consts::PI * a * rc.powi(3) / ((s + 1.0) * (s + 2.0) * (s + 3.0))
-    } else {
-        8.0 * std::f64::consts::PI * a * rc.powi(4)
-            / ((s + 1.0) * (s + 2.0) * (s + 3.0) * (s + 4.0))
-    };
-    let start = (2.0 / dimension as f64) * 0.5 * density * overlap / dpd.kt;
-    let rate = crate::stability::dpd_mean_field_rate(dpd, dimension, density, mass);
-    HEATING_BOUND + start * (-0.5 * rate * time).exp()
-}
-
-/// The runaway bound of a DPD fluid in units of k_BT: RUNAWAY_KT + a n_c / k_BT, where
-/// n_c = ρ V_d(r_c) is the mean number of neighbours within the cutoff. The second term is
-/// twice the most potential energy a particle's neighbourhood can hold (each pair at most a/2),
-/// so a violent start (random positions at a large a) that converts it to heat is not taken
-/// for an instability; a genuine one grows without bound and passes any finite bound.
-pub fn runaway_energy_in_kt(
-    dpd: &crate::models::dpd::DpdCfg,
-    dimension: usize,
-    density: f64,
-) -> f64 {
-    let neighbours = density * crate::stability::ball_volume(dimension, dpd.cutoff);
-    RUNAWAY_KT + dpd.a.abs() * neighbours / dpd.kt
-}
-
 /// Name of the extra field that carries the neighbour-list build positions in checkpoints.
 pub const LIST_REFERENCE_FIELD: &str = "list_reference_position";
 
-/// The fluid model the case names (the registration of every particle model).
+/// The fluid model the case names ([`crate::config::registry`]).
 pub fn build_fluid<const D: usize>(case: &Case) -> Box<dyn ParticleModel<D>> {
-    match &case.fluid {
-        FluidCfg::Dpd(d) => {
-            let d = &dpd_as_integrated(case, d);
-            let ly = case.domain.lengths[1];
-            let model = DpdModel::<D>::new(d, case.integrator.dt(), case.seed).with_body_force(
-                d,
-                case.particles.mass,
-                ly,
-            );
-            if case.wants(Observable::ShearStressProfile) {
-                Box::new(model.with_shear_stress_profile(case.diagnostics.profile_bins, ly))
-            } else {
-                Box::new(model)
-            }
-        }
-        FluidCfg::SummationGas(g) => Box::new(SummationGas::<D>::new(g, case.particles.mass)),
-        FluidCfg::Sph(s) => {
-            let lengths = std::array::from_fn(|d| case.domain.lengths[d]);
-            let composite = case
-                .diagnostics
-                .observables
-                .contains(&crate::config::Observable::CompositeViscosity);
-            Box::new(
-                SphModel::<D>::new(
-                    s,
-                    case.particles.mass,
-                    &lengths,
-                    case.lattice_spacing(),
-                    case.walls.as_ref(),
-                    case.inclusions.as_ref(),
-                )
-                .with_traction_moments(composite),
-            )
-        }
-    }
+    case.fluid.builder::<D>().build_fluid(case)
 }
 
-/// The models a case needs beside its fluid: the dumbbell ensembles of a CONNFFESSIT fluid
-/// (`[fluid.polymer] model = "dumbbells"`), carried by the fluid species only, stepping with
-/// the SPH velocity gradient. Attached after the species are known.
+/// The models a case needs beside its fluid (the dumbbell ensembles of a CONNFFESSIT fluid),
+/// attached after the species are known.
 pub fn build_companions<const D: usize>(
     case: &Case,
 ) -> Result<Vec<Box<dyn ParticleModel<D>>>, String> {
-    let mut out: Vec<Box<dyn ParticleModel<D>>> = Vec::new();
-    if let FluidCfg::Sph(s) = &case.fluid
-        && let Some(poly) = s.polymer.as_ref().filter(|p| p.is_ensemble())
-    {
-        let carrier = (case.walls.is_some() || case.inclusions.is_some())
-            .then_some(crate::models::sph::FLUID);
-        out.push(Box::new(
-            crate::models::dumbbell_ensemble::DumbbellEnsemble::<D>::of_fluid(
-                poly,
-                case.integrator.dt(),
-                case.seed,
-                crate::models::sph::VELOCITY_GRADIENT,
-                carrier,
-            )?,
-        ));
-    }
-    Ok(out)
-}
-
-/// The DPD fluid the step integrates: as given, or with the friction φγ (and so the noise
-/// √φ σ) of the exponential thermostat ([`crate::integrators::groot_warren`]).
-pub fn dpd_as_integrated(case: &Case, d: &crate::config::DpdCfg) -> crate::config::DpdCfg {
-    let mut d = d.clone();
-    if let Some(phi) = exponential_friction_factor_of(case) {
-        d.gamma *= phi;
-    }
-    d
-}
-
-/// φ = (1 − e^{−ω₀Δt})/(ω₀Δt) when the case integrates a DPD fluid with the exponential
-/// thermostat.
-pub fn exponential_friction_factor_of(case: &Case) -> Option<f64> {
-    match (&case.integrator, &case.fluid) {
-        (IntegratorCfg::GrootWarren(gw), FluidCfg::Dpd(d))
-            if gw.thermostat == crate::config::Thermostat::Exponential =>
-        {
-            let omega = crate::stability::dpd_mean_field_rate(
-                d,
-                case.dimension,
-                case.particles.density,
-                case.particles.mass,
-            );
-            Some(crate::integrators::exponential_friction_factor(
-                omega * gw.dt,
-            ))
-        }
-        _ => None,
-    }
+    case.fluid.builder::<D>().build_companions(case)
 }
 
 /// The integrator the case names, for the species `species` (a one-species scene: `&[]`).
@@ -1098,12 +948,11 @@ impl<'c, const D: usize> Simulation<'c, D> {
         }
         // After the displacement check, which names a particle thrown out of the lists
         // more specifically.
-        let bound = match &self.case.fluid {
-            crate::config::FluidCfg::Dpd(dpd) => {
-                runaway_energy_in_kt(dpd, D, self.total_particles as f64 / self.sim_box.volume())
-            }
-            _ => f64::INFINITY,
-        };
+        let bound = self
+            .case
+            .fluid
+            .model()
+            .runaway_bound_in_kt(D, self.total_particles as f64 / self.sim_box.volume());
         if moved[2] > bound {
             let mut id = [
                 if hottest == moved[2] && hot_culprit < self.particles.n_owned {
@@ -1283,9 +1132,7 @@ impl<'c, const D: usize> Simulation<'c, D> {
     pub fn transverse_current(
         &self,
     ) -> Option<crate::transverse_current::TransverseCurrentEstimate> {
-        let crate::config::FluidCfg::Dpd(dpd) = &self.case.fluid else {
-            return None;
-        };
+        let kt = self.case.fluid.model().thermal_energy()?;
         if self.series.transverse_current.is_empty() {
             return None;
         }
@@ -1293,7 +1140,7 @@ impl<'c, const D: usize> Simulation<'c, D> {
         let fluid = crate::transverse_current::FluidState {
             particles: count,
             mass_density: mass / self.sim_box.volume(),
-            kt_over_mass: dpd.kt * inverse_mass / count,
+            kt_over_mass: kt * inverse_mass / count,
             length: self.sim_box.lengths[0],
         };
         let d = &self.case.diagnostics;
@@ -1328,9 +1175,7 @@ impl<'c, const D: usize> Simulation<'c, D> {
     /// The Green–Kubo viscosity of the correlators so far ([`crate::green_kubo::estimate`]);
     /// `None` when the case does not ask for it.
     pub fn green_kubo(&self) -> Option<crate::green_kubo::GreenKuboEstimate> {
-        let crate::config::FluidCfg::Dpd(dpd) = &self.case.fluid else {
-            return None;
-        };
+        let kt = self.case.fluid.model().thermal_energy()?;
         if self.series.green_kubo.is_empty() {
             return None;
         }
@@ -1338,7 +1183,7 @@ impl<'c, const D: usize> Simulation<'c, D> {
             &self.series.green_kubo,
             self.dt,
             self.sim_box.volume(),
-            dpd.kt,
+            kt,
             self.case.diagnostics.green_kubo_time,
             D,
         ))
@@ -1456,25 +1301,24 @@ impl<'c, const D: usize> Simulation<'c, D> {
     }
 
     /// Samples every observable the case asked for (collective). A thermostatted (DPD) fluid
-    /// whose kinetic temperature has passed [`HEATING_BOUND`] × k_BT stops the run (the
+    /// whose kinetic temperature has passed [`crate::models::FluidModel::heating`] stops the run (the
     /// decision is on an exactly reduced sum, so every rank count stops alike).
     pub fn sample(&mut self) -> Result<(), String> {
         let t0 = Instant::now();
         let values = self.measure();
         self.times.diagnostics += t0.elapsed().as_secs_f64();
-        if let crate::config::FluidCfg::Dpd(dpd) = &self.case.fluid {
-            let heated = values.kinetic_temperature / dpd.kt;
-            let density = self.total_particles as f64 / self.sim_box.volume();
-            let bound = heating_bound_in_kt(dpd, D, density, self.case.particles.mass, self.time());
-            if heated.is_nan() || heated > bound {
-                return Err(format!(
-                    "the fluid's kinetic temperature is {heated:.4} k_BT, beyond {bound:.4} k_BT \
-                     ({HEATING_BOUND} × the thermostat's k_BT = {} plus what is left, under the \
-                     thermostat, of the overlap energy a random start can release): a fluid \
-                     heating without bound, at step {}: {UNSTABLE}; reduce the time step",
-                    dpd.kt, self.step
-                ));
-            }
+        let density = self.total_particles as f64 / self.sim_box.volume();
+        if let Some(heating) = self.case.fluid.model().heating(
+            values.kinetic_temperature,
+            D,
+            density,
+            self.case.particles.mass,
+            self.time(),
+        ) {
+            return Err(format!(
+                "{heating}, at step {}: {UNSTABLE}; reduce the time step",
+                self.step
+            ));
         }
         for (name, v) in values.scalars {
             self.series.push(&name, v);
@@ -1968,7 +1812,7 @@ pub fn initial_particles<const D: usize>(
     let (cells, total) = case.lattice_counts();
     let wall_layers = case.walls.as_ref().map(|w| {
         let axis = w.axis.index();
-        (axis, wall_layer_count(case, axis))
+        (axis, case.wall_layer_count(axis))
     });
     let mut positions: Vec<[f64; D]> = Vec::with_capacity(total as usize);
     match case.particles.lattice {
@@ -2114,19 +1958,6 @@ pub fn initial_particles<const D: usize>(
     (particles, total)
 }
 
-/// Rows of boundary particles beyond each face of the wall axis: the wall thickness (default
-/// two kernel supports) in lattice spacings, rounded up.
-pub fn wall_layer_count(case: &Case, axis: usize) -> usize {
-    let (cells, _) = case.lattice_counts();
-    let spacing = case.domain.lengths[axis] / cells[axis].max(1) as f64;
-    let thickness = case
-        .walls
-        .as_ref()
-        .and_then(|w| w.thickness)
-        .unwrap_or(2.0 * case.cutoff());
-    (thickness / spacing - 1e-9).ceil().max(1.0) as usize
-}
-
 /// Empty transverse-current correlators (blocks × modes) for a case that asks for that
 /// viscosity, none otherwise.
 fn fresh_transverse_current(case: &Case) -> Vec<crate::correlator::MultipleTauCorrelator> {
@@ -2168,10 +1999,9 @@ fn largest_kinetic_energy_in_kt<const D: usize>(
     sim_box: &SimBox<D>,
 ) -> (f64, usize) {
     use rayon::prelude::*;
-    let crate::config::FluidCfg::Dpd(dpd) = fluid else {
+    let Some(kt) = fluid.model().thermal_energy() else {
         return (0.0, usize::MAX);
     };
-    let kt = dpd.kt;
     p.vel[..p.n_owned]
         .par_iter()
         .enumerate()

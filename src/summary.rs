@@ -133,15 +133,16 @@ fn check_startup(
         OldroydB, StartupFlow, couette, couette_oldroyd_b, poiseuille, poiseuille_oldroyd_b,
         relaxation,
     };
-    let (crate::config::FluidCfg::Sph(s), Some(w)) = (&case.fluid, &case.walls) else {
+    let (Some(s), Some(w)) = (case.fluid.model().continuum(), &case.walls) else {
         return Vec::new();
     };
+    let body_force = case.fluid.model().body_force().x();
     let l = case.domain.lengths[w.axis.index()];
-    let nu = s.viscosity / s.rest_density;
+    let nu = s.solvent_viscosity / s.density;
     let first = |v: &[f64]| v.first().copied().unwrap_or(0.0);
     let oldroyd_b = s.polymer.as_ref().map(|poly| OldroydB {
-        density: s.rest_density,
-        solvent_viscosity: s.viscosity,
+        density: s.density,
+        solvent_viscosity: s.solvent_viscosity,
         polymer_viscosity: poly.viscosity,
         relaxation_time: poly.relaxation_time,
     });
@@ -159,7 +160,7 @@ fn check_startup(
             }
         }
         StartupFlow::Poiseuille => {
-            let f = first(&s.body_force);
+            let f = body_force;
             match oldroyd_b {
                 // Oldroyd-B (UCM, Hookean dumbbells): the scale is the steady centre velocity
                 // or, while a slow fluid's plug overshoots it, the largest velocity reached.
@@ -178,7 +179,7 @@ fn check_startup(
         }
         StartupFlow::ViscoelasticRelaxation => {
             let a = case.particles.velocity_amplitude;
-            let (rho, eta_s) = (s.rest_density, s.viscosity);
+            let (rho, eta_s) = (s.density, s.solvent_viscosity);
             let polymer = s.polymer.as_ref().map(|p| (p.viscosity, p.relaxation_time));
             (
                 Box::new(move |y, t| {
@@ -447,14 +448,8 @@ pub fn shear_stress_points(
     let ly = case.domain.lengths[1];
     let width = ly / bins.len().max(1) as f64;
     let rho = case.particles.density * case.particles.mass;
-    let g = match &case.fluid {
-        crate::config::FluidCfg::Dpd(d)
-            if d.body_force_profile == crate::models::dpd::BodyForceProfile::Reverse =>
-        {
-            Some(body_force_x(case))
-        }
-        _ => None,
-    };
+    let force = case.fluid.model().body_force();
+    let g = force.reverse.then(|| force.x());
     bins.iter()
         .enumerate()
         .map(|(b, e)| {
@@ -478,12 +473,9 @@ fn double_poiseuille_tau_max(case: &Case) -> f64 {
         .abs()
 }
 
-/// g_x of a DPD fluid's body force (0 without one).
+/// g_x of the fluid's body force (0 without one).
 fn body_force_x(case: &Case) -> f64 {
-    match &case.fluid {
-        crate::config::FluidCfg::Dpd(d) => d.body_force.first().copied().unwrap_or(0.0),
-        _ => 0.0,
-    }
+    case.fluid.model().body_force().x()
 }
 
 /// The steady reverse-Poiseuille solution of a case with a `double_poiseuille_profile`
@@ -493,11 +485,10 @@ pub fn double_poiseuille_of(
     r: &crate::config::DoublePoiseuilleReference,
 ) -> (impl Fn(f64, f64) -> f64, f64) {
     let g = body_force_x(case);
-    let physical = match &case.fluid {
-        crate::config::FluidCfg::Dpd(d) => d.physical.as_ref().map(|p| p.viscosity),
-        _ => None,
-    };
-    let eta = r.viscosity.or(physical).unwrap_or(f64::NAN);
+    let eta = r
+        .viscosity
+        .or(case.fluid.model().target_viscosity())
+        .unwrap_or(f64::NAN);
     let rho = case.particles.density * case.particles.mass;
     let ly = case.domain.lengths[1];
     let u_max = (rho * g * ly * ly / (32.0 * eta)).abs();

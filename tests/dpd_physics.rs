@@ -191,7 +191,9 @@ fn a_particle_with_a_runaway_kinetic_energy_is_named() {
         "{err}"
     );
     let bound = match &loaded.case.fluid {
-        mesorheo::config::FluidCfg::Dpd(d) => mesorheo::sim::runaway_energy_in_kt(d, 3, 3.0),
+        mesorheo::config::FluidCfg::Dpd(d) => {
+            mesorheo::models::dpd::spec::runaway_energy_in_kt(d, 3, 3.0)
+        }
         _ => unreachable!(),
     };
     assert!((bound - (100.0 + 25.0 * 4.0 * std::f64::consts::PI)).abs() < 1e-9);
@@ -211,7 +213,7 @@ fn a_fluid_heating_past_its_bound_is_stopped() {
     let mesorheo::config::FluidCfg::Dpd(dpd) = &loaded.case.fluid else {
         unreachable!()
     };
-    let bound = |t: f64| mesorheo::sim::heating_bound_in_kt(dpd, 3, 3.0, 1.0, t);
+    let bound = |t: f64| mesorheo::models::dpd::spec::heating_bound_in_kt(dpd, 3, 3.0, 1.0, t);
     let omega0 = 4.5 * 3.0 * 8.0 * std::f64::consts::PI / 60.0 / 3.0;
     let start = 3.0 * 25.0 * std::f64::consts::PI / 45.0;
     assert!((bound(0.0) - 2.0 - start).abs() < 1e-12, "{}", bound(0.0));

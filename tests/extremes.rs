@@ -58,7 +58,7 @@ fn dpd_without_repulsion_and_with_a_huge_one() {
     if let mesorheo::config::FluidCfg::Dpd(d) = &mut case.fluid {
         d.a = 1e6;
     }
-    let limits = mesorheo::stability::dpd_limits_of(&case).expect("a DPD case");
+    let limits = mesorheo::models::dpd::time_step::dpd_limits_of(&case).expect("a DPD case");
     let dt = 0.1 * limits.combined;
     let text = stiff.replace("dt = 0.04", &format!("dt = {dt:e}"));
     let s = run(&text, 1);
@@ -122,7 +122,7 @@ fn time_steps_at_and_around_each_limit() {
     ] {
         let base = small_dpd(3, 6.0, 0.0, 10, "").replace("a = 25.0\ngamma = 4.5", fluid);
         let case = case_from_str(&base.replace("dt = 0.04", "dt = 1e-6"), "probe").case;
-        let limit = mesorheo::stability::dpd_limits_of(&case)
+        let limit = mesorheo::models::dpd::time_step::dpd_limits_of(&case)
             .expect("a DPD case")
             .combined;
         let at = |dt: f64| parse(&base.replace("dt = 0.04", &format!("dt = {dt:e}")));
@@ -142,7 +142,7 @@ fn time_steps_at_and_around_each_limit() {
     let mesorheo::config::FluidCfg::Sph(s) = &case.fluid else {
         unreachable!()
     };
-    let (name, limit) = mesorheo::stability::sph_binding_limit(s, false);
+    let (name, limit) = mesorheo::models::sph::time_step::sph_binding_limit(s, false);
     let dt_line = couette
         .lines()
         .find(|l| l.trim_start().starts_with("dt ="))
@@ -380,7 +380,7 @@ fn check_refuses_every_measured_unstable_dpd_step() {
             let mesorheo::config::Scene::Particles(c) = loaded.scene else {
                 panic!("{name}: a particle scene")
             };
-            let limit = mesorheo::stability::dpd_limits_of(&c)
+            let limit = mesorheo::models::dpd::time_step::dpd_limits_of(&c)
                 .expect("DPD")
                 .combined;
             let parse = |k: usize| cells[k].parse::<f64>().expect("a number");
@@ -431,7 +431,7 @@ fn check_refuses_every_measured_unstable_dpd_step() {
         let mesorheo::config::Scene::Particles(c) = loaded.scene else {
             panic!("a particle scene")
         };
-        let limit = mesorheo::stability::dpd_limits_of(&c)
+        let limit = mesorheo::models::dpd::time_step::dpd_limits_of(&c)
             .expect("DPD")
             .combined;
         assert!(

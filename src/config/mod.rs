@@ -9,7 +9,8 @@ pub mod dpd_physical;
 pub mod flow;
 pub mod observables;
 pub mod reference;
-mod spans;
+pub mod registry;
+pub(crate) mod spans;
 mod tagged;
 mod validate;
 
@@ -23,7 +24,8 @@ use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
 pub use flow::FlowCase;
-pub use spans::CaseError;
+pub use registry::FluidCfg;
+pub use spans::{CaseError, Segment, SpanIndex};
 
 /// A whole case file.
 #[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
@@ -259,26 +261,10 @@ fn one() -> f64 {
     1.0
 }
 
-/// `[fluid]`, selected by `kind`.
-#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
-#[serde(tag = "kind", rename_all = "snake_case")]
-pub enum FluidCfg {
-    /// Dissipative particle dynamics.
-    Dpd(DpdCfg),
-    /// The engine's two-pass test model: an isothermal SPH gas with summation density.
-    SummationGas(SummationGasCfg),
-    /// Weakly compressible SPH (Newtonian).
-    Sph(SphCfg),
-}
-
 impl FluidCfg {
     /// Interaction range of the fluid's pair forces.
     pub fn cutoff(&self) -> f64 {
-        match self {
-            FluidCfg::Dpd(d) => d.cutoff,
-            FluidCfg::SummationGas(g) => g.smoothing_length,
-            FluidCfg::Sph(s) => s.support(),
-        }
+        self.model().cutoff()
     }
 }
 
@@ -301,7 +287,7 @@ pub enum IntegratorCfg {
 impl Case {
     /// Whether a DPD body force drives the flow (the velocity profile is then binned along y).
     pub fn body_forced(&self) -> bool {
-        matches!(&self.fluid, FluidCfg::Dpd(d) if d.body_force.iter().any(|&g| g != 0.0))
+        self.fluid.model().body_force().drives()
     }
 }
 
@@ -442,6 +428,18 @@ pub enum Observable {
 
 impl Observable {
     /// Name in summary.json.
+    /// Whether it is formed from the momentum flux of the pair forces (the pair virial).
+    pub fn needs_pair_virial(self) -> bool {
+        matches!(
+            self,
+            Observable::Pressure
+                | Observable::Stress
+                | Observable::Viscosity
+                | Observable::FirstNormalStressDifference
+                | Observable::SecondNormalStressDifference
+        )
+    }
+
     pub fn name(self) -> &'static str {
         match self {
             Observable::Temperature => "temperature",
@@ -511,7 +509,8 @@ fn ten_usize() -> usize {
 fn default_blocks() -> usize {
     10
 }
-fn default_observables() -> Vec<Observable> {
+/// Temperature and pressure: what a thermal fluid reports when nothing is listed.
+pub fn default_observables() -> Vec<Observable> {
     vec![Observable::Temperature, Observable::Pressure]
 }
 
@@ -830,32 +829,45 @@ pub fn parse(source: &str, path: &Path) -> Result<Case, CaseError> {
         .and_then(|d| d.get("observables"))
         .is_some();
     if !observables_given {
-        case.diagnostics.observables = default_observables_of(&case);
+        case.diagnostics.observables = case.fluid.model().default_observables(&case);
     }
     validate::validate(&case, &index)?;
     Ok(case)
 }
 
-/// The observables a case records when `[diagnostics] observables` is left out: temperature
-/// and pressure for DPD; temperature and momentum for the summation gas (no pair virial); for
-/// SPH (no virial either) the momentum and, in a sheared box, the viscometric functions.
-fn default_observables_of(case: &Case) -> Vec<Observable> {
-    match &case.fluid {
-        FluidCfg::Sph(_) => {
-            let mut o = vec![Observable::Momentum];
-            if case.domain.shear_rate != 0.0 {
-                o.extend([
-                    Observable::Viscosity,
-                    Observable::FirstNormalStressDifference,
-                ]);
-                if case.dimension == 3 {
-                    o.push(Observable::SecondNormalStressDifference);
-                }
-            }
-            o
+impl Case {
+    /// φ = (1 − e^{−ω₀Δt})/(ω₀Δt) when the case integrates a fluid with friction (rate ω₀,
+    /// [`crate::models::FluidModel::friction_rate`]) by the exponential thermostat.
+    pub fn exponential_friction_factor(&self) -> Option<f64> {
+        let IntegratorCfg::GrootWarren(gw) = &self.integrator else {
+            return None;
+        };
+        if gw.thermostat != Thermostat::Exponential {
+            return None;
         }
-        FluidCfg::SummationGas(_) => vec![Observable::Temperature, Observable::Momentum],
-        FluidCfg::Dpd(_) => default_observables(),
+        let omega = self.fluid.model().friction_rate(
+            self.dimension,
+            self.particles.density,
+            self.particles.mass,
+        )?;
+        Some(crate::integrators::exponential_friction_factor(
+            omega * gw.dt,
+        ))
+    }
+}
+
+impl Case {
+    /// Rows of boundary particles beyond each face of the wall axis: the wall thickness
+    /// (default two interaction ranges) in lattice spacings, rounded up.
+    pub fn wall_layer_count(&self, axis: usize) -> usize {
+        let (cells, _) = self.lattice_counts();
+        let spacing = self.domain.lengths[axis] / cells[axis].max(1) as f64;
+        let thickness = self
+            .walls
+            .as_ref()
+            .and_then(|w| w.thickness)
+            .unwrap_or(2.0 * self.cutoff());
+        (thickness / spacing - 1e-9).ceil().max(1.0) as usize
     }
 }
 

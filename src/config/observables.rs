@@ -15,35 +15,27 @@ pub fn tensor_components(dimension: usize) -> Vec<(usize, usize, String)> {
     out
 }
 
-/// The components of the `stress` observable: the upper triangle for central pair forces
-/// (a symmetric tensor), every component for SPH, whose Morris viscous force (along v_ij) and
-/// inclusion couples make the momentum flux non-symmetric (`stress_*_xy` is the x-momentum
-/// crossing planes y = const, `stress_*_yx` the y-momentum crossing planes x = const).
+/// The components of the `stress` observable: the upper triangle for a symmetric momentum
+/// flux (central pair forces), every component otherwise (SPH, whose Morris viscous force lies
+/// along v_ij and whose inclusions take couples: `stress_*_xy` is the x-momentum crossing
+/// planes y = const, `stress_*_yx` the y-momentum crossing planes x = const).
 pub fn stress_components(case: &Case) -> Vec<(usize, usize, String)> {
-    match case.fluid {
-        super::FluidCfg::Sph(_) => {
-            let names = ["x", "y", "z"];
-            let d = case.dimension;
-            (0..d)
-                .flat_map(|a| (0..d).map(move |b| (a, b, format!("{}{}", names[a], names[b]))))
-                .collect()
-        }
-        _ => tensor_components(case.dimension),
+    if case.fluid.model().symmetric_stress() {
+        return tensor_components(case.dimension);
     }
+    let names = ["x", "y", "z"];
+    let d = case.dimension;
+    (0..d)
+        .flat_map(|a| (0..d).map(move |b| (a, b, format!("{}{}", names[a], names[b]))))
+        .collect()
 }
 
-/// Contributions of the stress tensor of a DPD (or any pairwise-central) fluid.
+/// Contributions of the stress tensor of a pairwise-central fluid (DPD).
 pub const STRESS_PARTS: [&str; 5] = ["total", "kinetic", "conservative", "dissipative", "random"];
 
-/// Contributions of the stress tensor of an SPH fluid (`crate::models::sph::momentum_flux`).
-pub const SPH_STRESS_PARTS: [&str; 5] = ["total", "kinetic", "pressure", "viscous", "polymer"];
-
-/// The contributions the `stress` observable of this case reports.
+/// The contributions the `stress` observable of this case reports (the fluid model's).
 pub fn stress_parts(case: &Case) -> [&'static str; 5] {
-    match case.fluid {
-        super::FluidCfg::Sph(_) => SPH_STRESS_PARTS,
-        _ => STRESS_PARTS,
-    }
+    case.fluid.model().stress_parts()
 }
 
 /// The names of the constitutive viscometric functions ([`Observable::ConstitutiveStress`]) in

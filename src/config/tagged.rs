@@ -5,27 +5,22 @@
 //! known variant, then the rest of the table is deserialised into that variant's struct with
 //! path tracking, so a wrong type or an unknown choice names its own key and line.
 
+use super::registry::FLUIDS;
 use super::spans::{Segment, SpanIndex, segments};
 use super::{
-    CaseError, DoublePoiseuilleReference, DoublePoiseuilleStressReference, DpdCfg, GrootWarrenCfg,
-    KickDriftKickCfg, ProfileReference, SphCfg, StartupProfileReference, SummationGasCfg,
-    TwoStageCfg, ValueReference,
+    CaseError, DoublePoiseuilleReference, DoublePoiseuilleStressReference, GrootWarrenCfg,
+    KickDriftKickCfg, ProfileReference, StartupProfileReference, TwoStageCfg, ValueReference,
 };
 use serde::de::DeserializeOwned;
 
-type Check = fn(toml::Value) -> Result<(), serde_path_to_error::Error<toml::de::Error>>;
+pub(super) type Check = fn(toml::Value) -> Result<(), serde_path_to_error::Error<toml::de::Error>>;
 
-fn check<T: DeserializeOwned>(
+pub(super) fn check<T: DeserializeOwned>(
     v: toml::Value,
 ) -> Result<(), serde_path_to_error::Error<toml::de::Error>> {
     serde_path_to_error::deserialize::<_, T>(v).map(|_| ())
 }
 
-const FLUIDS: &[(&str, Check)] = &[
-    ("dpd", check::<DpdCfg>),
-    ("summation_gas", check::<SummationGasCfg>),
-    ("sph", check::<SphCfg>),
-];
 const INTEGRATORS: &[(&str, Check)] = &[
     ("groot_warren", check::<GrootWarrenCfg>),
     ("kick_drift_kick", check::<KickDriftKickCfg>),

@@ -2,7 +2,6 @@
 
 use super::spans::{Segment, SpanIndex};
 use super::*;
-use crate::stability;
 
 fn k(s: &str) -> Segment {
     Segment::Key(s.to_owned())
@@ -169,86 +168,28 @@ pub fn validate(case: &Case, ix: &SpanIndex) -> Result<(), CaseError> {
     }
     // [fluid]
     let fl = |key: &str| vec![k("fluid"), k(key)];
-    match &case.fluid {
-        FluidCfg::Dpd(dpd) => {
-            if !(dpd.a.is_finite() && dpd.a >= 0.0) {
-                return Err(ix.error(
-                    &fl("a"),
-                    format!("found {}; the repulsion a must be ≥ 0", dpd.a),
-                ));
-            }
-            if !(dpd.gamma.is_finite() && dpd.gamma > 0.0) {
-                return Err(ix.error(
-                    &fl("gamma"),
-                    format!("found {}; the dissipation γ must be > 0", dpd.gamma),
-                ));
-            }
-            if !(dpd.kt.is_finite() && dpd.kt > 0.0) {
-                return Err(ix.error(&fl("kt"), format!("found {}; k_BT must be > 0", dpd.kt)));
-            }
-            if !(dpd.cutoff.is_finite() && dpd.cutoff > 0.0) {
-                return Err(ix.error(&fl("cutoff"), format!("found {}; must be > 0", dpd.cutoff)));
-            }
-            if !(dpd.weight_exponent.is_finite() && dpd.weight_exponent > 0.0) {
-                return Err(ix.error(
-                &fl("weight_exponent"),
+    case.fluid.model().validate(case, ix)?;
+    if !case.fluid.model().carries_boundary_particles() {
+        let kind = case.fluid.model().kind();
+        if case.inclusions.is_some() {
+            return err(
+                &["inclusions"],
                 format!(
-                    "found {}; the exponent s of w_D = (1 − r/r_c)^s must be > 0 (2 standard, 0.5 \
-                     modified)",
-                    dpd.weight_exponent
+                    "inclusions of boundary particles need a fluid model that carries boundary \
+                     particles, which kind = \"{kind}\" does not (SPH does)"
                 ),
-            ));
-            }
-            if !dpd.body_force.is_empty()
-                && (dpd.body_force.len() != dim || dpd.body_force.iter().any(|g| !g.is_finite()))
-            {
-                return Err(ix.error(
-                    &fl("body_force"),
-                    format!(
-                        "found {:?}; give {dim} finite components of the acceleration g",
-                        dpd.body_force
-                    ),
-                ));
-            }
-            if !(dpd.conservative_exponent.is_finite() && dpd.conservative_exponent > 0.0) {
-                return Err(ix.error(
-                    &fl("conservative_exponent"),
-                    format!(
-                        "found {}; the exponent s̄ of w_C = (1 − r/r_c)^s̄ must be > 0 (1 standard)",
-                        dpd.conservative_exponent
-                    ),
-                ));
-            }
+            );
         }
-        FluidCfg::SummationGas(gas) => {
-            if !(gas.smoothing_length.is_finite() && gas.smoothing_length > 0.0) {
-                return Err(ix.error(
-                    &fl("smoothing_length"),
-                    format!("found {}; must be > 0", gas.smoothing_length),
-                ));
-            }
-            if !(gas.sound_speed.is_finite() && gas.sound_speed > 0.0) {
-                return Err(ix.error(
-                    &fl("sound_speed"),
-                    format!("found {}; must be > 0", gas.sound_speed),
-                ));
-            }
+        if case.walls.is_some() {
+            return err(
+                &["walls"],
+                format!(
+                    "boundary-particle walls need a fluid model that carries boundary \
+                     particles, which kind = \"{kind}\" does not (SPH does); for reflecting \
+                     walls set box.boundaries"
+                ),
+            );
         }
-        FluidCfg::Sph(sph) => validate_sph(case, sph, ix)?,
-    }
-    if case.inclusions.is_some() && !matches!(case.fluid, FluidCfg::Sph(_)) {
-        return err(
-            &["inclusions"],
-            "inclusions of boundary particles belong to SPH fluids (kind = \"sph\")".to_string(),
-        );
-    }
-    if case.walls.is_some() && !matches!(case.fluid, FluidCfg::Sph(_)) {
-        return err(
-            &["walls"],
-            "boundary-particle walls belong to SPH fluids (kind = \"sph\"); for reflecting \
-             walls set box.boundaries"
-                .to_string(),
-        );
     }
     // [integrator]
     let dt = case.integrator.dt();
@@ -283,35 +224,22 @@ pub fn validate(case: &Case, ix: &SpanIndex) -> Result<(), CaseError> {
                 ),
             );
         }
-        if !matches!(case.fluid, FluidCfg::Dpd(_)) {
+        if case
+            .fluid
+            .model()
+            .friction_rate(case.dimension, case.particles.density, case.particles.mass)
+            .is_none()
+        {
             return err(
                 &["integrator", "thermostat"],
-                "thermostat = \"exponential\" integrates the DPD friction; this fluid has none \
+                "thermostat = \"exponential\" integrates a thermostat's friction; this fluid has none \
                  (use \"explicit\")"
                     .to_string(),
             );
         }
     }
-    let sph = matches!(case.fluid, FluidCfg::Sph(_));
-    let groot_warren = matches!(case.integrator, IntegratorCfg::GrootWarren(_));
-    if !sph && !groot_warren {
-        return err(
-            &["integrator", "kind"],
-            "the SPH integrators (kick_drift_kick, heun, midpoint, thesis_predictor_corrector) \
-             serve kind = \"sph\" fluids; use kind = \"groot_warren\" for this fluid"
-                .to_string(),
-        );
-    }
-    if let FluidCfg::Sph(s) = &case.fluid
-        && groot_warren
-        && s.density == crate::models::sph::DensityMethod::Continuity
-    {
-        return err(
-            &["integrator", "kind"],
-            "groot_warren does not integrate the continuity density; use kick_drift_kick, heun \
-             or midpoint"
-                .to_string(),
-        );
+    if let Err(message) = case.fluid.model().accepts_integrator(&case.integrator) {
+        return err(&["integrator", "kind"], message);
     }
     if case.integrator.stages() > 1 && case.domain.shear_rate != 0.0 {
         return err(
@@ -339,10 +267,7 @@ pub fn validate(case: &Case, ix: &SpanIndex) -> Result<(), CaseError> {
             ));
         }
     }
-    let cutoff_key = match &case.fluid {
-        FluidCfg::Dpd(_) => "cutoff",
-        FluidCfg::SummationGas(_) | FluidCfg::Sph(_) => "smoothing_length",
-    };
+    let cutoff_key = case.fluid.model().cutoff_key();
     for (i, (l, b)) in lengths.iter().zip(&boundaries).enumerate() {
         if *b == Boundary::Periodic && range > 0.5 * l {
             return Err(ix.error(
@@ -358,69 +283,10 @@ pub fn validate(case: &Case, ix: &SpanIndex) -> Result<(), CaseError> {
         }
     }
     // Time-step stability (unless the case asks to run beyond the limits).
-    match &case.fluid {
-        _ if case.run.beyond_stability_limits => {}
-        FluidCfg::Dpd(_) => {
-            if let Some(l) = stability::dpd_limits_of(case)
-                && dt > l.combined
-            {
-                let binding = if l.free_flight < l.dissipative.min(l.conservative) {
-                    "mostly the free flight's (a thermal particle crossing the cutoff in too few \
-                     steps): use a smaller time step"
-                } else if l.dissipative < l.conservative {
-                    "mostly the dissipative force's: use a smaller time step, a smaller γ, or \
-                     thermostat = \"exponential\" (which integrates the friction exactly)"
-                } else {
-                    "mostly the conservative force's (velocity Verlet in the cage of \
-                     neighbours): use a smaller time step or a softer a"
-                };
-                return err(
-                    &["integrator", "dt"],
-                    format!(
-                        "Δt = {dt} is beyond the measured stability limit of this DPD fluid, \
-                         Δt ≤ ((Δt_C⁻ᵖ + Δt_D⁻ᵖ)^(p′/p) + Δt_F^(−p′))^(−1/p′) = {:.4e} (p = {}, p′ = {}) with the \
-                         conservative part Δt_C = α/ω_E = {:.4e}, the dissipative part \
-                         Δt_D = {:.4e} and the free-flight part Δt_F = {:.4e} (see `mesorheo \
-                         check`); the limit is {binding}",
-                        l.combined,
-                        stability::dpd_fit::NORM_EXPONENT,
-                        stability::dpd_fit::FREE_FLIGHT_EXPONENT,
-                        l.conservative,
-                        l.dissipative,
-                        l.free_flight
-                    ),
-                );
-            }
-        }
-        FluidCfg::SummationGas(gas) => {
-            let cfl = stability::cfl_limit(gas.smoothing_length, gas.sound_speed);
-            if dt > cfl {
-                return err(
-                    &["integrator", "dt"],
-                    format!(
-                        "Δt = {dt} is beyond the acoustic (CFL) limit 0.25 h/c = {cfl:.4e}; use a \
-                         smaller time step"
-                    ),
-                );
-            }
-        }
-        FluidCfg::Sph(s) => {
-            let (name, limit) = stability::sph_binding_limit(s, case.inclusions.is_some());
-            if dt > limit {
-                let all: Vec<String> = stability::sph_limits(s, case.inclusions.is_some())
-                    .iter()
-                    .map(|(n, l)| format!("{n} = {l:.4e}"))
-                    .collect();
-                return err(
-                    &["integrator", "dt"],
-                    format!(
-                        "Δt = {dt} is beyond the {name} limit {limit:.4e} (limits: {}); use a \
-                         smaller time step",
-                        all.join(", ")
-                    ),
-                );
-            }
-        }
+    if !case.run.beyond_stability_limits
+        && let Some(message) = case.fluid.model().time_step_error(case, dt)
+    {
+        return err(&["integrator", "dt"], message);
     }
     // [run]
     validate_run(&case.run, case.diagnostics.blocks, ix)?;
@@ -507,56 +373,10 @@ pub fn validate(case: &Case, ix: &SpanIndex) -> Result<(), CaseError> {
                 ),
             ));
         }
-        let needs_virial = matches!(
-            o,
-            Observable::Pressure
-                | Observable::Stress
-                | Observable::Viscosity
-                | Observable::FirstNormalStressDifference
-                | Observable::SecondNormalStressDifference
-        );
-        // The SPH constitutive stress σ̄ (viscous stress of the nested summation + polymer
-        // stress) must be the whole deviatoric stress to be a viscometric measurement.
-        let sph_stress = match &case.fluid {
-            FluidCfg::Sph(s) => {
-                s.viscous_term == crate::models::sph::ViscousTerm::NestedSummation
-                    || s.polymer.is_some()
-                    || (case.inclusions.is_some() && s.viscosity > 0.0)
-            }
-            _ => false,
-        };
-        if *o == Observable::ConstitutiveStress && !sph_stress {
+        if let Err(message) = case.fluid.model().supports(case, *o) {
             return Err(ix.error(
                 &[k("diagnostics"), k("observables"), Segment::Index(i)],
-                "\"constitutive_stress\" is the SPH particles' own stress σ̄; it needs an SPH \
-                 fluid that forms it (fluid.viscous_term = \"nested_summation\", a \
-                 [fluid.polymer], or [inclusions]); the momentum flux (\"viscosity\", \
-                 \"stress\") is measured for every fluid"
-                    .to_string(),
-            ));
-        }
-        let msph = matches!(&case.fluid, FluidCfg::Sph(s)
-            if s.derivatives == crate::models::sph::Derivatives::Msph);
-        if needs_virial && msph {
-            return Err(ix.error(
-                &[k("diagnostics"), k("observables"), Segment::Index(i)],
-                format!(
-                    "\"{}\" needs the momentum flux of pair forces, and with fluid.derivatives \
-                     = \"msph\" the stresses enter as a per-particle divergence, not as pair \
-                     forces; use \"constitutive_stress\" (the particles' own stress), or \
-                     fluid.derivatives = \"sph\"",
-                    o.name()
-                ),
-            ));
-        }
-        if *o == Observable::PolymerStressTrace
-            && !matches!(&case.fluid, FluidCfg::Sph(s) if s.polymer.is_some())
-        {
-            return Err(ix.error(
-                &[k("diagnostics"), k("observables"), Segment::Index(i)],
-                "\"polymer_stress_trace\" needs a polymer stress ([fluid.polymer] of an SPH \
-                 fluid)"
-                    .to_string(),
+                message,
             ));
         }
         if *o == Observable::CompositeViscosity
@@ -569,32 +389,6 @@ pub fn validate(case: &Case, ix: &SpanIndex) -> Result<(), CaseError> {
                     .to_string(),
             ));
         }
-        if needs_virial && matches!(case.fluid, FluidCfg::SummationGas(_)) {
-            return Err(ix.error(
-                &[k("diagnostics"), k("observables"), Segment::Index(i)],
-                format!(
-                    "\"{}\" needs the pair virial, which the summation gas does not compute \
-                     (the default list has \"pressure\"); list only \"temperature\", \
-                     \"momentum\" or \"velocity_profile\"",
-                    o.name()
-                ),
-            ));
-        }
-        if *o == Observable::ShearStressProfile && !matches!(case.fluid, FluidCfg::Dpd(_)) {
-            return Err(ix.error(
-                &[k("diagnostics"), k("observables"), Segment::Index(i)],
-                "\"shear_stress_profile\" bins the DPD pair and kinetic stress; it needs [fluid] \
-                 kind = \"dpd\""
-                    .to_string(),
-            ));
-        }
-        if *o == Observable::DensityProfile && !matches!(case.fluid, FluidCfg::Sph(_)) {
-            return Err(ix.error(
-                &[k("diagnostics"), k("observables"), Segment::Index(i)],
-                "\"density_profile\" is the SPH density per bin; it needs [fluid] kind = \"sph\""
-                    .to_string(),
-            ));
-        }
         if *o == Observable::WallShearStress && case.walls.is_none() {
             return Err(ix.error(
                 &[k("diagnostics"), k("observables"), Segment::Index(i)],
@@ -604,14 +398,6 @@ pub fn validate(case: &Case, ix: &SpanIndex) -> Result<(), CaseError> {
         }
         if *o == Observable::GreenKuboViscosity {
             let at = [k("diagnostics"), k("observables"), Segment::Index(i)];
-            if !matches!(case.fluid, FluidCfg::Dpd(_)) {
-                return Err(ix.error(
-                    &at,
-                    "\"green_kubo_viscosity\" correlates the pair virial of a DPD fluid; it needs \
-                     [fluid] kind = \"dpd\""
-                        .to_string(),
-                ));
-            }
             if shear != 0.0 || boundaries.contains(&Boundary::Wall) {
                 return Err(ix.error(
                     &at,
@@ -647,17 +433,7 @@ pub fn validate(case: &Case, ix: &SpanIndex) -> Result<(), CaseError> {
         }
         if *o == Observable::TransverseCurrentViscosity {
             let at = [k("diagnostics"), k("observables"), Segment::Index(i)];
-            let FluidCfg::Dpd(dpd) = &case.fluid else {
-                return Err(ix.error(
-                    &at,
-                    "\"transverse_current_viscosity\" needs a thermal fluid, [fluid] kind = \"dpd\""
-                        .to_string(),
-                ));
-            };
-            if shear != 0.0
-                || boundaries.contains(&Boundary::Wall)
-                || dpd.body_force.iter().any(|&g| g != 0.0)
-            {
+            if shear != 0.0 || boundaries.contains(&Boundary::Wall) || case.body_forced() {
                 return Err(ix.error(
                     &at,
                     "\"transverse_current_viscosity\" is an equilibrium method: it needs a \
@@ -766,11 +542,7 @@ pub fn validate(case: &Case, ix: &SpanIndex) -> Result<(), CaseError> {
                             .to_string(),
                     ));
                 }
-                let physical = match &case.fluid {
-                    FluidCfg::Dpd(d) => d.physical.as_ref().map(|p| p.viscosity),
-                    _ => None,
-                };
-                match dp.viscosity.or(physical) {
+                match dp.viscosity.or(case.fluid.model().target_viscosity()) {
                     Some(eta) if eta.is_finite() && eta > 0.0 => {}
                     Some(eta) => {
                         return Err(ix.error(
@@ -825,433 +597,8 @@ pub fn validate(case: &Case, ix: &SpanIndex) -> Result<(), CaseError> {
 /// Whether the case is a DPD fluid driven along x by a reverse ("double Poiseuille") body force,
 /// the flow both double-Poiseuille references need.
 fn driven_in_reverse_along_x(case: &Case) -> bool {
-    matches!(&case.fluid, FluidCfg::Dpd(d)
-        if d.body_force_profile == crate::models::dpd::BodyForceProfile::Reverse
-            && d.body_force.first().is_some_and(|&g| g != 0.0)
-            && d.body_force[1..].iter().all(|&g| g == 0.0))
-}
-
-/// `[inclusions]`: each inside the box (none straddles a boundary, so a sheared image never
-/// splits one), none overlapping another or a wall layer, each holding boundary particles.
-fn validate_inclusions(case: &Case, ix: &SpanIndex) -> Result<(), CaseError> {
-    let Some(inc) = &case.inclusions else {
-        return Ok(());
-    };
-    let dim = case.dimension;
-    let ik = |key: &str| vec![k("inclusions"), k(key)];
-    let spacing = case.lattice_spacing();
-    if !(inc.radius.is_finite() && inc.radius >= spacing) {
-        return Err(ix.error(
-            &ik("radius"),
-            format!(
-                "found {}; an inclusion needs a radius of at least the lattice spacing {spacing:.4e} \
-                 (it is filled with lattice sites)",
-                inc.radius
-            ),
-        ));
-    }
-    if !(inc.morris_cap.is_finite() && inc.morris_cap >= 1.0) {
-        return Err(ix.error(
-            &ik("morris_cap"),
-            format!(
-                "found {}; the extrapolation factor β = 1 + d_j/d_i is ≥ 1, so its cap must be \
-                 ≥ 1 (1.5 is usual)",
-                inc.morris_cap
-            ),
-        ));
-    }
-    if inc.centres.is_empty() {
-        return Err(ix.error(
-            &ik("centres"),
-            "give at least one centre, e.g. centres = [[0.5, 0.5]]".to_string(),
-        ));
-    }
-    let r = inc.radius;
-    for (n, c) in inc.centres.iter().enumerate() {
-        let at = vec![k("inclusions"), k("centres"), Segment::Index(n)];
-        if c.len() != dim || c.iter().any(|x| !x.is_finite()) {
-            return Err(ix.error(
-                &at,
-                format!(
-                    "found {} components; give {dim} finite coordinates",
-                    c.len()
-                ),
-            ));
-        }
-        for d in 0..dim {
-            let l = case.domain.lengths[d];
-            if c[d] - r < 0.0 || c[d] + r > l {
-                return Err(ix.error(
-                    &at,
-                    format!(
-                        "the inclusion reaches beyond the box along {} ({} ± {r} outside [0, {l}]); \
-                         inclusions lie inside the box",
-                        ["x", "y", "z"][d],
-                        c[d]
-                    ),
-                ));
-            }
-        }
-        for (m, e) in inc.centres.iter().enumerate().take(n) {
-            let d2: f64 = c.iter().zip(e).map(|(a, b)| (a - b) * (a - b)).sum();
-            if e.len() == dim && d2 < 4.0 * r * r {
-                return Err(ix.error(
-                    &at,
-                    format!(
-                        "overlaps inclusion {m} (centres {:.4} apart, 2R = {})",
-                        d2.sqrt(),
-                        2.0 * r
-                    ),
-                ));
-            }
-        }
-    }
-    Ok(())
-}
-
-/// `[fluid] kind = "sph"` and `[walls]`.
-fn validate_sph(
-    case: &Case,
-    s: &crate::models::sph::SphCfg,
-    ix: &SpanIndex,
-) -> Result<(), CaseError> {
-    let fl = |key: &str| vec![k("fluid"), k(key)];
-    let positive = |key: &str, v: f64, what: &str| -> Result<(), CaseError> {
-        if v.is_finite() && v > 0.0 {
-            Ok(())
-        } else {
-            Err(ix.error(&fl(key), format!("found {v}; {what} must be > 0")))
-        }
-    };
-    positive(
-        "smoothing_length",
-        s.smoothing_length,
-        "the smoothing length",
-    )?;
-    positive("rest_density", s.rest_density, "the rest density ρ₀")?;
-    positive("sound_speed", s.sound_speed, "the speed of sound c₀")?;
-    if !(s.viscosity.is_finite() && s.viscosity >= 0.0) {
-        return Err(ix.error(
-            &fl("viscosity"),
-            format!("found {}; the viscosity η must be ≥ 0", s.viscosity),
-        ));
-    }
-    if !(s.morris_regularisation.is_finite() && s.morris_regularisation >= 0.0) {
-        return Err(ix.error(
-            &fl("morris_regularisation"),
-            format!(
-                "found {}; must be ≥ 0 (Morris et al. use 0.01)",
-                s.morris_regularisation
-            ),
-        ));
-    }
-    if !(s.xsph.is_finite() && (0.0..=1.0).contains(&s.xsph)) {
-        return Err(ix.error(
-            &fl("xsph"),
-            format!(
-                "found {}; the XSPH factor ε must be in [0, 1] (0.5 is usual)",
-                s.xsph
-            ),
-        ));
-    }
-    if s.xsph != 0.0 && !matches!(case.integrator, IntegratorCfg::KickDriftKick(_)) {
-        return Err(ix.error(
-            &[k("integrator"), k("kind")],
-            format!(
-                "XSPH (fluid.xsph = {}) moves the particles in the kick–drift–kick drift only; \
-                 use kind = \"kick_drift_kick\" or set fluid.xsph = 0",
-                s.xsph
-            ),
-        ));
-    }
-    if !(s.morris_share.is_finite() && (0.0..1.0).contains(&s.morris_share)) {
-        return Err(ix.error(
-            &fl("morris_share"),
-            format!(
-                "found {}; the share of η given to Morris's term must be in [0, 1) (0.1 damps \
-                 MSPH's particle-scale modes)",
-                s.morris_share
-            ),
-        ));
-    }
-    if s.morris_share != 0.0 && s.viscous_term != crate::models::sph::ViscousTerm::NestedSummation {
-        return Err(ix.error(
-            &fl("morris_share"),
-            "morris_share splits the nested summation's viscosity; with viscous_term = \
-             \"morris\" all of η is Morris's already (remove morris_share)"
-                .to_string(),
-        ));
-    }
-    if s.derivatives == crate::models::sph::Derivatives::Msph {
-        if s.kernel != crate::models::sph::kernels::KernelKind::TruncatedGaussian {
-            return Err(ix.error(
-                &fl("kernel"),
-                format!(
-                    "found \"{}\"; MSPH derivatives use the paper's kernel: kernel = \
-                     \"truncated_gaussian\" (h = 2Δ in the paper)",
-                    s.kernel.name()
-                ),
-            ));
-        }
-        if s.density != crate::models::sph::DensityMethod::Summation {
-            return Err(ix.error(
-                &fl("density"),
-                "MSPH derivatives use the summation density (spec msph-dumbbells.md §1.1); \
-                 remove density or set it to \"summation\""
-                    .to_string(),
-            ));
-        }
-        if s.velocity_gradient != crate::models::sph::GradientEstimate::Sph {
-            return Err(ix.error(
-                &fl("velocity_gradient"),
-                "velocity_gradient chooses among the pairwise SPH estimates; with derivatives \
-                 = \"msph\" the MSPH gradient is used (remove velocity_gradient)"
-                    .to_string(),
-            ));
-        }
-        if case.inclusions.is_some() {
-            return Err(ix.error(
-                &fl("derivatives"),
-                "MSPH derivatives do not support [inclusions] yet; use derivatives = \"sph\""
-                    .to_string(),
-            ));
-        }
-    }
-    if !s.background_pressure.is_finite() {
-        return Err(ix.error(
-            &fl("background_pressure"),
-            format!("found {}; must be finite", s.background_pressure),
-        ));
-    }
-    if let Some(poly) = &s.polymer {
-        let pl = |key: &str| vec![k("fluid"), k("polymer"), k(key)];
-        if !(poly.viscosity.is_finite() && poly.viscosity > 0.0) {
-            return Err(ix.error(
-                &pl("viscosity"),
-                format!(
-                    "found {}; the polymer viscosity η_p must be > 0 (leave [fluid.polymer] out \
-                     for a Newtonian fluid)",
-                    poly.viscosity
-                ),
-            ));
-        }
-        if !(poly.relaxation_time.is_finite() && poly.relaxation_time > 0.0) {
-            return Err(ix.error(
-                &pl("relaxation_time"),
-                format!(
-                    "found {}; the relaxation time λ must be > 0",
-                    poly.relaxation_time
-                ),
-            ));
-        }
-        if !poly.rotation
-            && poly.model != crate::models::sph::maxwell::PolymerModel::CorotationalMaxwell
-        {
-            return Err(ix.error(
-                &pl("rotation"),
-                "switching the rotation terms off is the linear variant of the corotational \
-                 model; use model = \"corotational_maxwell\" or leave rotation out"
-                    .to_string(),
-            ));
-        }
-        let ensemble_keys = [
-            ("per_particle", poly.per_particle.is_some()),
-            ("spring", poly.spring.is_some()),
-            ("b", poly.b.is_some()),
-            ("scheme", poly.scheme.is_some()),
-            ("precision", poly.precision.is_some()),
-        ];
-        if poly.is_ensemble() {
-            let Some(n_d) = poly.per_particle else {
-                return Err(ix.error(
-                    &pl("model"),
-                    "model = \"dumbbells\" needs per_particle = N_d, the dumbbells each fluid \
-                     particle carries (10²–10⁴ typical)"
-                        .to_string(),
-                ));
-            };
-            crate::config::flow::validate_ensemble(
-                &[k("fluid"), k("polymer")],
-                n_d,
-                poly.spring
-                    .unwrap_or(crate::config::flow::SpringKind::Hookean),
-                poly.b,
-                poly.scheme,
-                ix,
-            )?;
-        } else if let Some((key, _)) = ensemble_keys.iter().find(|(_, given)| *given) {
-            return Err(ix.error(
-                &pl(key),
-                format!(
-                    "`{key}` describes dumbbell ensembles; it belongs to model = \"dumbbells\" \
-                     (remove it for a constitutive model)"
-                ),
-            ));
-        }
-    }
-    let dim = case.dimension;
-    if !s.body_force.is_empty() && s.body_force.len() != dim {
-        return Err(ix.error(
-            &fl("body_force"),
-            format!(
-                "found {} components; give {dim} (or leave it out)",
-                s.body_force.len()
-            ),
-        ));
-    }
-    if s.body_force.iter().any(|f| !f.is_finite()) {
-        return Err(ix.error(&fl("body_force"), "components must be finite".to_string()));
-    }
-    // The mass must make the lattice density ρ₀ (m = ρ₀/n), within 5 %.
-    let want = s.rest_density / case.particles.density;
-    let m = case.particles.mass;
-    if ((m - want) / want).abs() > 0.05 {
-        return Err(ix.error(
-            &[k("particles"), k("mass")],
-            format!(
-                "found {m}; an SPH particle carries m = fluid.rest_density / particles.density = \
-                 {want:.6e} (within 5 %), so that the initial lattice has density ρ₀"
-            ),
-        ));
-    }
-    validate_inclusions(case, ix)?;
-    let Some(w) = &case.walls else {
-        return Ok(());
-    };
-    let wk = |key: &str| vec![k("walls"), k(key)];
-    let axis = w.axis.index();
-    if axis >= dim {
-        return Err(ix.error(
-            &wk("axis"),
-            format!("a {dim}-dimensional case has no axis {axis}"),
-        ));
-    }
-    if case.boundaries()[axis] != Boundary::Wall {
-        return Err(ix.error(
-            &wk("axis"),
-            format!(
-                "box.boundaries must be \"wall\" along the wall axis {}",
-                ["x", "y", "z"][axis]
-            ),
-        ));
-    }
-    if case.particles.lattice != Lattice::Cubic {
-        return Err(ix.error(
-            &[k("particles"), k("lattice")],
-            "walls continue a \"cubic\" lattice beyond the faces; use lattice = \"cubic\""
-                .to_string(),
-        ));
-    }
-    if case.domain.shear_rate != 0.0 {
-        return Err(ix.error(
-            &[k("box"), k("shear_rate")],
-            "walls and Lees–Edwards shear do not mix; move the walls instead".to_string(),
-        ));
-    }
-    for key in ["lower_velocity", "upper_velocity"] {
-        let u = if key == "lower_velocity" {
-            &w.lower_velocity
-        } else {
-            &w.upper_velocity
-        };
-        if !u.is_empty() && u.len() != dim {
-            return Err(ix.error(
-                &wk(key),
-                format!(
-                    "found {} components; give {dim} (or leave it out for a wall at rest)",
-                    u.len()
-                ),
-            ));
-        }
-        if u.iter().any(|x| !x.is_finite()) || u.get(axis).is_some_and(|&x| x != 0.0) {
-            return Err(ix.error(
-                &wk(key),
-                "a wall moves in its own plane: finite components, 0 along the wall axis"
-                    .to_string(),
-            ));
-        }
-    }
-    // A fluid particle sits at least Δ/2 from the plane; the layer at depth (k + ½)Δ is in
-    // reach of it only when (k + 1)Δ < support, and W = 0 at the support: one support less
-    // one spacing of layers gives it a complete neighbourhood (3 layers of the paper's
-    // h = 2Δ truncated Gaussian).
-    let spacing = case.lattice_spacing();
-    let needed = s.support() - spacing;
-    if let Some(t) = w.thickness
-        && !(t.is_finite() && t >= needed * (1.0 - 1e-9))
-    {
-        return Err(ix.error(
-            &wk("thickness"),
-            format!(
-                "found {t}; a wall must be at least one kernel support less one lattice \
-                 spacing ({} − {spacing} = {needed}) thick, so that a fluid particle next to \
-                 it sees every layer within its support",
-                s.support()
-            ),
-        ));
-    }
-    // A fluid particle sees one support deep: layers beyond the channel's own width (or two
-    // supports, for a narrow channel) only cost memory; an absurd value would overflow the
-    // layer count.
-    let thickest = case.domain.lengths[w.axis.index()].max(2.0 * s.support());
-    if let Some(t) = w.thickness
-        && t > thickest
-    {
-        return Err(ix.error(
-            &wk("thickness"),
-            format!(
-                "found {t}; a wall needs to be only one kernel support thick ({}); at most \
-                 {thickest} (the channel width or two supports, whichever is larger) is accepted",
-                s.support()
-            ),
-        ));
-    }
-    let msph = s.derivatives == crate::models::sph::Derivatives::Msph;
-    match w.treatment {
-        crate::models::sph::WallTreatment::Mirror if !msph => {
-            return Err(ix.error(
-                &wk("treatment"),
-                "treatment = \"mirror\" is the MSPH wall (spec msph-dumbbells.md §5.1); it \
-                 needs fluid.derivatives = \"msph\" (with SPH use \"layers\" or \"morris\")"
-                    .to_string(),
-            ));
-        }
-        crate::models::sph::WallTreatment::Morris if msph => {
-            return Err(ix.error(
-                &wk("treatment"),
-                "with fluid.derivatives = \"msph\" use treatment = \"mirror\" (the working \
-                 scheme of spec msph-dumbbells.md §5.1) or \"layers\" (the paper's literal \
-                 walls, ill-posed); Morris's pairwise images give no single wall value"
-                    .to_string(),
-            ));
-        }
-        crate::models::sph::WallTreatment::Mirror if case.decomposition.axis == w.axis => {
-            return Err(ix.error(
-                &[k("decomposition"), k("axis")],
-                "mirror walls fit the fluid beside each boundary particle, so the slabs must be \
-                 cut across the channel: choose a decomposition axis other than the wall axis"
-                    .to_string(),
-            ));
-        }
-        _ => {}
-    }
-    if !(w.morris_cap.is_finite() && w.morris_cap >= 1.0) {
-        return Err(ix.error(
-            &wk("morris_cap"),
-            format!("found {}; β_max must be ≥ 1 (1.5 is usual)", w.morris_cap),
-        ));
-    }
-    for (key, v) in [
-        ("repulsion_strength", w.repulsion_strength),
-        ("repulsion_range", w.repulsion_range),
-    ] {
-        if let Some(v) = v
-            && !(v.is_finite() && v >= 0.0)
-        {
-            return Err(ix.error(&wk(key), format!("found {v}; must be ≥ 0")));
-        }
-    }
-    Ok(())
+    let force = case.fluid.model().body_force();
+    force.reverse && force.x() != 0.0 && force.acceleration[1..].iter().all(|&g| g == 0.0)
 }
 
 /// `[[reference]] kind = "startup_profile"`.
@@ -1263,12 +610,15 @@ fn validate_startup_reference(
 ) -> Result<(), CaseError> {
     let at = |key: &str| vec![k("reference"), Segment::Index(i), k(key)];
     let fail = |key: &str, msg: String| Err(ix.error(&at(key), msg));
-    let (FluidCfg::Sph(s), Some(w)) = (&case.fluid, &case.walls) else {
+    let (Some(fluid), Some(w)) = (case.fluid.model().continuum(), &case.walls) else {
         return fail(
             "kind",
-            "a startup_profile reference needs an SPH fluid with [walls]".into(),
+            "a startup_profile reference needs [walls] and a fluid with a continuum \
+             constitutive law (SPH)"
+                .into(),
         );
     };
+    let force = case.fluid.model().body_force();
     if w.axis != Axis::Y || !case.wants(Observable::VelocityProfile) {
         return fail(
             "kind",
@@ -1280,14 +630,14 @@ fn validate_startup_reference(
     let x = |v: &[f64]| v.first().copied().unwrap_or(0.0);
     let flow_ok = match sp.solution {
         crate::analytic::StartupFlow::Couette => {
-            x(&w.upper_velocity) != 0.0 && x(&w.lower_velocity) == 0.0 && x(&s.body_force) == 0.0
+            x(&w.upper_velocity) != 0.0 && x(&w.lower_velocity) == 0.0 && force.x() == 0.0
         }
         crate::analytic::StartupFlow::Poiseuille => {
-            x(&s.body_force) != 0.0 && x(&w.upper_velocity) == 0.0 && x(&w.lower_velocity) == 0.0
+            force.x() != 0.0 && x(&w.upper_velocity) == 0.0 && x(&w.lower_velocity) == 0.0
         }
         crate::analytic::StartupFlow::ViscoelasticRelaxation => {
             case.particles.velocity_profile == crate::config::VelocityProfile::HalfSine
-                && x(&s.body_force) == 0.0
+                && force.x() == 0.0
                 && x(&w.upper_velocity) == 0.0
                 && x(&w.lower_velocity) == 0.0
         }
@@ -1303,18 +653,9 @@ fn validate_startup_reference(
         );
     }
     if sp.solution == crate::analytic::StartupFlow::Poiseuille
-        && let Some(poly) = &s.polymer
+        && let Some(poly) = &fluid.polymer
     {
-        use crate::models::sph::maxwell::PolymerModel;
-        let oldroyd_b = match poly.model {
-            PolymerModel::UpperConvectedMaxwell => true,
-            PolymerModel::Dumbbells => {
-                poly.spring
-                    .unwrap_or(crate::config::flow::SpringKind::Hookean)
-                    == crate::config::flow::SpringKind::Hookean
-            }
-            PolymerModel::CorotationalMaxwell => false,
-        };
+        let oldroyd_b = poly.oldroyd_b;
         if !oldroyd_b {
             return fail(
                 "solution",
@@ -1325,8 +666,8 @@ fn validate_startup_reference(
             );
         }
     }
-    if s.viscosity <= 0.0
-        && !(s.polymer.is_some() && sp.solution != crate::analytic::StartupFlow::Couette)
+    if fluid.solvent_viscosity <= 0.0
+        && !(fluid.polymer.is_some() && sp.solution != crate::analytic::StartupFlow::Couette)
     {
         return fail(
             "solution",

@@ -3,6 +3,7 @@
 pub mod dpd;
 pub mod dumbbell_ensemble;
 pub mod dumbbells;
+pub mod fluid_model;
 pub mod gather;
 pub mod homogeneous_flow;
 pub mod interface;
@@ -10,6 +11,7 @@ pub mod pair_loop;
 pub mod sph;
 pub mod summation_gas;
 
+pub use fluid_model::{BuildModels, FluidModel};
 pub use interface::{
     FieldKind, FieldSpec, ParticleModel, PassContext, PassOutput, PassSpec, StateBlowUp,
 };

@@ -202,6 +202,114 @@ impl<const D: usize> ParticleModel<D> for SummationGas<D> {
     }
 }
 
+/// What the summation gas owns besides its passes ([`crate::models::FluidModel`]).
+mod spec {
+    use super::{SummationGas, SummationGasCfg};
+    use crate::config::{Case, CaseError, IntegratorCfg, Observable, Segment, SpanIndex};
+    use crate::models::fluid_model::{BuildModels, FluidModel, ModelMemory, generic_support};
+    use crate::models::interface::ParticleModel;
+
+    impl SummationGasCfg {
+        /// The acoustic (CFL) limit 0.25 h/c.
+        pub fn acoustic_limit(&self) -> f64 {
+            0.25 * self.smoothing_length / self.sound_speed
+        }
+    }
+
+    impl FluidModel for SummationGasCfg {
+        fn kind(&self) -> &'static str {
+            "summation_gas"
+        }
+
+        fn cutoff(&self) -> f64 {
+            self.smoothing_length
+        }
+
+        fn cutoff_key(&self) -> &'static str {
+            "smoothing_length"
+        }
+
+        fn validate(&self, _case: &Case, ix: &SpanIndex) -> Result<(), CaseError> {
+            let fl = |key: &str| vec![Segment::Key("fluid".into()), Segment::Key(key.into())];
+            if !(self.smoothing_length.is_finite() && self.smoothing_length > 0.0) {
+                return Err(ix.error(
+                    &fl("smoothing_length"),
+                    format!("found {}; must be > 0", self.smoothing_length),
+                ));
+            }
+            if !(self.sound_speed.is_finite() && self.sound_speed > 0.0) {
+                return Err(ix.error(
+                    &fl("sound_speed"),
+                    format!("found {}; must be > 0", self.sound_speed),
+                ));
+            }
+            Ok(())
+        }
+
+        fn accepts_integrator(&self, integrator: &IntegratorCfg) -> Result<(), String> {
+            crate::models::dpd::spec::groot_warren_only(integrator)
+        }
+
+        fn time_step_limits(&self, _case: &Case) -> Vec<(String, f64)> {
+            vec![("acoustic (CFL) 0.25 h/c".to_string(), self.acoustic_limit())]
+        }
+
+        fn time_step_error(&self, _case: &Case, dt: f64) -> Option<String> {
+            let cfl = self.acoustic_limit();
+            (dt > cfl).then(|| {
+                format!(
+                    "Δt = {dt} is beyond the acoustic (CFL) limit 0.25 h/c = {cfl:.4e}; use a \
+                     smaller time step"
+                )
+            })
+        }
+
+        fn default_observables(&self, _case: &Case) -> Vec<Observable> {
+            vec![Observable::Temperature, Observable::Momentum]
+        }
+
+        fn supports(&self, _case: &Case, o: Observable) -> Result<(), String> {
+            if o.needs_pair_virial() {
+                return Err(format!(
+                    "\"{}\" needs the pair virial, which the summation gas does not compute \
+                     (the default list has \"pressure\"); list only \"temperature\", \
+                     \"momentum\" or \"velocity_profile\"",
+                    o.name()
+                ));
+            }
+            generic_support(o)
+        }
+
+        fn stress_parts(&self) -> [&'static str; 5] {
+            crate::config::observables::STRESS_PARTS
+        }
+
+        fn report(&self, case: &Case, _density: f64, line: &mut dyn FnMut(String)) {
+            let dt = case.integrator.dt();
+            let cfl = self.acoustic_limit();
+            line(format!(
+                "summation gas (the engine's two-pass test model): Lucy kernel h = {}, sound \
+                 speed c = {}, p = c² ρ",
+                self.smoothing_length, self.sound_speed
+            ));
+            line(format!(
+                "time step Δt = {dt}: acoustic limit 0.25 h/c = {cfl:.4e} [{}]",
+                if dt < cfl { "ok" } else { "VIOLATED" }
+            ));
+        }
+
+        fn memory(&self, _case: &Case) -> ModelMemory {
+            ModelMemory::default()
+        }
+    }
+
+    impl<const D: usize> BuildModels<D> for SummationGasCfg {
+        fn build_fluid(&self, case: &Case) -> Box<dyn ParticleModel<D>> {
+            Box::new(SummationGas::<D>::new(self, case.particles.mass))
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -65,6 +65,9 @@ pub mod maxwell;
 pub mod mirror;
 mod momentum_flux;
 pub mod msph;
+mod spec;
+pub mod time_step;
+mod validate;
 
 use crate::fixed_sum::Scale;
 use crate::models::gather::{

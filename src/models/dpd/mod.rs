@@ -16,6 +16,9 @@
 //! follows from the compressibility when the fluid is given by its physical properties
 //! (`[fluid.physical]`, [`crate::dpd_parameters`]).
 
+pub mod spec;
+pub mod time_step;
+
 use crate::models::interface::{ParticleModel, PassContext, PassOutput, PassSpec};
 use crate::models::pair_loop::{
     BATCH, BlockTerms, PairBlock, PairKernel, PairTerms, PairWorkspace, VirialScope, compute_forces,

@@ -1,0 +1,64 @@
+//! The registry of fluid models: `[fluid] kind = "…"` → the model's parameter struct.
+//!
+//! **Adding a fluid model is one line here** (its variant, its parameter struct and its
+//! `kind`), plus the model's own directory, whose parameter struct implements
+//! [`FluidModel`] and [`BuildModels`] (see [`crate::models::fluid_model`]). The macro derives
+//! from the list the `[fluid]` enum (serde, tagged by `kind`), the dispatch to the model
+//! ([`FluidCfg::model`], [`FluidCfg::builder`]) and the list of kinds the case parser accepts;
+//! nothing else in the generic layers names a model.
+
+use crate::models::fluid_model::{BuildModels, FluidModel};
+use serde::{Deserialize, Serialize};
+
+macro_rules! fluid_registry {
+    ($( $(#[$doc:meta])* $variant:ident($cfg:ty) = $kind:literal, )*) => {
+        /// `[fluid]`, selected by `kind`: one variant per registered fluid model.
+        #[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+        #[serde(tag = "kind")]
+        pub enum FluidCfg {
+            $( $(#[$doc])* #[serde(rename = $kind)] $variant($cfg), )*
+        }
+
+        impl FluidCfg {
+            /// The model's own answers about itself.
+            pub fn model(&self) -> &dyn FluidModel {
+                match self {
+                    $( FluidCfg::$variant(m) => m, )*
+                }
+            }
+
+            /// What the model runs in D dimensions.
+            pub fn builder<const D: usize>(&self) -> &dyn BuildModels<D> {
+                match self {
+                    $( FluidCfg::$variant(m) => m, )*
+                }
+            }
+        }
+
+        /// Every registered `kind` with the check of its table (for the case parser).
+        pub(super) const FLUIDS: &[(&str, super::tagged::Check)] = &[
+            $( ($kind, super::tagged::check::<$cfg>), )*
+        ];
+    };
+}
+
+fluid_registry! {
+    /// Dissipative particle dynamics (Groot–Warren; from physical properties, Nguyen 2021).
+    Dpd(crate::models::dpd::DpdCfg) = "dpd",
+    /// The engine's two-pass test model: an isothermal SPH gas with summation density.
+    SummationGas(crate::models::summation_gas::SummationGasCfg) = "summation_gas",
+    /// Weakly compressible SPH: Newtonian, corotational Maxwell, Oldroyd-B, CONNFFESSIT
+    /// dumbbells; walls and inclusions; MSPH derivatives.
+    Sph(crate::models::sph::SphCfg) = "sph",
+}
+
+/// The registered kinds whose model satisfies `wanted`, as `kind = "a"` or `kind = "a" | "b"`
+/// (for errors that say which fluids provide something).
+pub fn kinds_where(wanted: impl Fn(&'static str) -> bool) -> String {
+    let kinds: Vec<String> = FLUIDS
+        .iter()
+        .filter(|(k, _)| wanted(k))
+        .map(|(k, _)| format!("\"{k}\""))
+        .collect();
+    format!("kind = {}", kinds.join(" | "))
+}

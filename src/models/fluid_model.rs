@@ -1,0 +1,255 @@
+//! What a fluid model owns: everything the generic layers (validation, `check`, the step, the
+//! measurement, the summary) used to ask of it by name.
+//!
+//! # Adding a fluid model
+//!
+//! A fluid model is one directory (or file) in `src/models/` and one line of the registry
+//! ([`crate::config::registry`]). Its parameter struct (the `[fluid]` table, serde with
+//! `deny_unknown_fields`) implements
+//!
+//! - [`FluidModel`]: its cutoff, parameter validation, the integrators and observables it
+//!   supports, its time-step limits, its `check` report, its memory, its blow-up detectors, the
+//!   parts of its measured stress and what the analytic references need to know of it;
+//! - [`BuildModels`]: the particle models a case of this fluid runs ([`ParticleModel`]): the
+//!   fluid itself, and its companions (the dumbbell ensembles a CONNFFESSIT fluid carries).
+//!
+//! The generic layers call these through `case.fluid.model()` and never name a model; a
+//! default method is what a model without the feature answers.
+
+use super::interface::ParticleModel;
+use crate::config::{Case, CaseError, IntegratorCfg, Observable, SpanIndex};
+
+/// A body force that drives a fluid: the acceleration g, and whether it is the "reverse"
+/// (double-Poiseuille) profile, g in one half of the box along y and −g in the other.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct BodyForce<'a> {
+    /// The acceleration, D components (empty: none).
+    pub acceleration: &'a [f64],
+    /// g(y) = +g for y < L_y/2 and −g above.
+    pub reverse: bool,
+}
+
+impl BodyForce<'_> {
+    /// Whether any component is non-zero.
+    pub fn drives(&self) -> bool {
+        self.acceleration.iter().any(|&g| g != 0.0)
+    }
+
+    /// g_x (0 without a force).
+    pub fn x(&self) -> f64 {
+        self.acceleration.first().copied().unwrap_or(0.0)
+    }
+}
+
+/// The continuum a fluid model discretises, for the analytic references (start-up Couette and
+/// Poiseuille, relaxation): an incompressible Oldroyd-B fluid (η_p = 0: Newtonian).
+#[derive(Clone, Copy, Debug)]
+pub struct Continuum {
+    /// Mass density ρ₀.
+    pub density: f64,
+    /// Solvent viscosity η_s.
+    pub solvent_viscosity: f64,
+    /// The polymer, when the fluid has one.
+    pub polymer: Option<ContinuumPolymer>,
+}
+
+/// The polymer of a [`Continuum`].
+#[derive(Clone, Copy, Debug)]
+pub struct ContinuumPolymer {
+    /// Polymer viscosity η_p.
+    pub viscosity: f64,
+    /// Relaxation time λ.
+    pub relaxation_time: f64,
+    /// Whether its constitutive law is Oldroyd-B's (upper-convected Maxwell, Hookean
+    /// dumbbells), whose start-up series the references know.
+    pub oldroyd_b: bool,
+}
+
+/// Bytes per particle a fluid model needs beyond the engine's core arrays.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct ModelMemory {
+    /// Numbers (f64) per particle of the model's fields (checkpointed ones twice: the state and
+    /// its copy at the last step start).
+    pub numbers_per_particle: f64,
+    /// Full neighbour lists kept beside the half list (4 bytes per directed entry each).
+    pub full_lists: f64,
+    /// Bytes of per-particle ensembles (dumbbells) an owned fluid particle carries.
+    pub ensemble_bytes: f64,
+}
+
+/// Everything a fluid model declares about itself (module doc).
+pub trait FluidModel: Send + Sync {
+    /// The `kind` of its `[fluid]` table.
+    fn kind(&self) -> &'static str;
+
+    /// Interaction range of its pair forces.
+    fn cutoff(&self) -> f64;
+
+    /// The `[fluid]` key that sets [`Self::cutoff`] (for errors about the range).
+    fn cutoff_key(&self) -> &'static str;
+
+    /// Checks its `[fluid]` table (and the tables only it reads, `[walls]`, `[inclusions]`)
+    /// against the case; the error names the file, line and column through `ix`.
+    fn validate(&self, case: &Case, ix: &SpanIndex) -> Result<(), CaseError>;
+
+    /// Whether it carries boundary particles (`[walls]`, `[inclusions]`).
+    fn carries_boundary_particles(&self) -> bool {
+        false
+    }
+
+    /// Whether `integrator` can integrate it; `Err(message)` (about `integrator.kind`)
+    /// otherwise.
+    fn accepts_integrator(&self, integrator: &IntegratorCfg) -> Result<(), String>;
+
+    /// The mean-field friction rate ω₀ of a thermostatted fluid (its velocity among neighbours
+    /// at rest relaxes as e^{−ω₀t}) at number density `n` and mass `m`: what the exponential
+    /// thermostat integrates exactly. `None`: no friction.
+    fn friction_rate(&self, _dimension: usize, _n: f64, _m: f64) -> Option<f64> {
+        None
+    }
+
+    /// Its time-step limits, each with its name, for the case's integrator; the run refuses a
+    /// Δt above the smallest unless `run.beyond_stability_limits`.
+    fn time_step_limits(&self, case: &Case) -> Vec<(String, f64)>;
+
+    /// Why a Δt beyond `limit` (the named, binding one) is refused, with what would help.
+    fn time_step_error(&self, case: &Case, dt: f64) -> Option<String> {
+        let limits = self.time_step_limits(case);
+        let (name, limit) = binding_limit(&limits)?;
+        (dt > limit).then(|| {
+            let all: Vec<String> = limits
+                .iter()
+                .map(|(n, l)| format!("{n} = {l:.4e}"))
+                .collect();
+            format!(
+                "Δt = {dt} is beyond the {name} limit {limit:.4e} (limits: {}); use a smaller \
+                 time step",
+                all.join(", ")
+            )
+        })
+    }
+
+    /// The observables a case of this fluid records when `[diagnostics] observables` is left
+    /// out.
+    fn default_observables(&self, case: &Case) -> Vec<Observable>;
+
+    /// Whether it can produce observable `o` in this case; `Err(message)` otherwise (the
+    /// generic conditions, shear or dimension, are checked by the caller).
+    fn supports(&self, case: &Case, o: Observable) -> Result<(), String>;
+
+    /// The contributions its momentum flux (the `stress` observable) is split into; the first
+    /// is "total" and the second "kinetic".
+    fn stress_parts(&self) -> [&'static str; 5];
+
+    /// Whether its momentum flux is symmetric (central pair forces): `stress` then lists the
+    /// upper triangle only.
+    fn symmetric_stress(&self) -> bool {
+        true
+    }
+
+    /// Its lines of the `check` report, at the case's number density `density`.
+    fn report(&self, case: &Case, density: f64, line: &mut dyn FnMut(String));
+
+    /// Its lines of the `check` report's cost estimate, for `particles` particles (an upper
+    /// bound where wall and inclusion particles are counted).
+    fn cost_report(&self, _case: &Case, _particles: f64, _line: &mut dyn FnMut(String)) {}
+
+    /// Its memory per particle ([`ModelMemory`]).
+    fn memory(&self, case: &Case) -> ModelMemory;
+
+    /// k_BT of a thermostatted fluid (the runaway and heating detectors, the fluctuation
+    /// methods of the viscosity need it); `None` for an athermal fluid.
+    fn thermal_energy(&self) -> Option<f64> {
+        None
+    }
+
+    /// The peculiar kinetic energy, in k_BT, that no thermalised particle reaches: beyond it a
+    /// particle has run away (∞: no detector).
+    fn runaway_bound_in_kt(&self, _dimension: usize, _density: f64) -> f64 {
+        f64::INFINITY
+    }
+
+    /// Whether a fluid at kinetic temperature `kinetic_temperature` (in energy units) at time
+    /// `time` is heating without bound: the diagnosis when it is (`None`: no detector, or
+    /// healthy).
+    fn heating(
+        &self,
+        _kinetic_temperature: f64,
+        _dimension: usize,
+        _density: f64,
+        _mass: f64,
+        _time: f64,
+    ) -> Option<String> {
+        None
+    }
+
+    /// The body force that drives it.
+    fn body_force(&self) -> BodyForce<'_> {
+        BodyForce::default()
+    }
+
+    /// The viscosity it was built to have (a DPD fluid mapped from physical properties), which
+    /// a reference may use as its solution's viscosity.
+    fn target_viscosity(&self) -> Option<f64> {
+        None
+    }
+
+    /// The continuum it discretises, when it has one ([`Continuum`]).
+    fn continuum(&self) -> Option<Continuum> {
+        None
+    }
+}
+
+/// What a fluid model runs in D dimensions.
+pub trait BuildModels<const D: usize> {
+    /// The fluid's particle model.
+    fn build_fluid(&self, case: &Case) -> Box<dyn ParticleModel<D>>;
+
+    /// The models it needs beside the fluid (attached after the species are known).
+    fn build_companions(&self, _case: &Case) -> Result<Vec<Box<dyn ParticleModel<D>>>, String> {
+        Ok(Vec::new())
+    }
+}
+
+/// The binding (smallest) of named limits, `None` when there are none.
+pub fn binding_limit(limits: &[(String, f64)]) -> Option<(&str, f64)> {
+    limits
+        .iter()
+        .fold(None, |best: Option<(&str, f64)>, (n, l)| match best {
+            Some((_, b)) if b <= *l => best,
+            _ => Some((n.as_str(), *l)),
+        })
+}
+
+/// What a model answers, by default, for an observable that only some models provide: the
+/// observable's own requirement (a model that provides it accepts it before calling this).
+pub fn generic_support(o: Observable) -> Result<(), String> {
+    let need = match o {
+        Observable::ConstitutiveStress => {
+            "\"constitutive_stress\" is the SPH particles' own stress σ̄; it needs an SPH \
+             fluid that forms it (fluid.viscous_term = \"nested_summation\", a \
+             [fluid.polymer], or [inclusions]); the momentum flux (\"viscosity\", \
+             \"stress\") is measured for every fluid"
+        }
+        Observable::PolymerStressTrace => {
+            "\"polymer_stress_trace\" needs a polymer stress ([fluid.polymer] of an SPH \
+             fluid)"
+        }
+        Observable::ShearStressProfile => {
+            "\"shear_stress_profile\" bins the DPD pair and kinetic stress; it needs [fluid] \
+             kind = \"dpd\""
+        }
+        Observable::DensityProfile => {
+            "\"density_profile\" is the SPH density per bin; it needs [fluid] kind = \"sph\""
+        }
+        Observable::GreenKuboViscosity => {
+            "\"green_kubo_viscosity\" correlates the pair virial of a DPD fluid; it needs \
+             [fluid] kind = \"dpd\""
+        }
+        Observable::TransverseCurrentViscosity => {
+            "\"transverse_current_viscosity\" needs a thermal fluid, [fluid] kind = \"dpd\""
+        }
+        _ => return Ok(()),
+    };
+    Err(need.to_string())
+}
