@@ -63,28 +63,6 @@ fn fresh<'c, const D: usize>(
     Ok(e)
 }
 
-/// The value of the line `key:` of a /proc file given in kB, in bytes (None where the file or
-/// the line is missing).
-fn proc_bytes(file: &str, key: &str) -> Option<f64> {
-    let text = std::fs::read_to_string(file).ok()?;
-    let line = text
-        .lines()
-        .find(|l| l.strip_prefix(key).is_some_and(|r| r.starts_with(':')))?;
-    let kb: f64 = line.split_whitespace().nth(1)?.parse().ok()?;
-    Some(kb * 1024.0)
-}
-
-/// Bytes of MemAvailable on this node (None where /proc/meminfo is missing).
-pub fn available_memory() -> Option<f64> {
-    proc_bytes("/proc/meminfo", "MemAvailable")
-}
-
-/// This process's peak resident memory in bytes (VmHWM of /proc/self/status; None where it is
-/// missing).
-pub fn peak_resident_memory() -> Option<f64> {
-    proc_bytes("/proc/self/status", "VmHWM")
-}
-
 /// Memory of this rank's ensembles: its id block × N_d × D × (8 or 4) bytes (× 2 with control
 /// variates).
 pub fn rank_memory(case: &FlowCase, ranks: usize, rank: usize) -> f64 {
@@ -95,7 +73,7 @@ pub fn rank_memory(case: &FlowCase, ranks: usize, rank: usize) -> f64 {
 /// Refuses (on every rank) a scene whose ensembles do not fit the memory this node has free.
 fn check_memory(case: &FlowCase, comm: &dyn Comm) -> Result<(), String> {
     let need = rank_memory(case, comm.size(), comm.rank());
-    let verdict = match available_memory() {
+    let verdict = match crate::capacity::available_memory() {
         Some(free) if need > 0.9 * free => Err(format!(
             "the dumbbell ensembles need {:.2} GiB on rank {} but the node has {:.2} GiB \
              available; use more ranks (or nodes), fewer dumbbells per particle \
@@ -465,7 +443,7 @@ impl<const D: usize> Scene for FlowScene<'_, D> {
                 "a dumbbell on another rank left the spring's domain at step {}: {} (see that \
                  rank's log)",
                 self.e.step,
-                crate::sim::UNSTABLE
+                crate::error::UNSTABLE
             ));
         }
         self.stop_agreed = stop[0] > 0.0;

@@ -31,6 +31,7 @@
 #![allow(clippy::needless_range_loop)]
 
 pub mod analytic;
+pub mod capacity;
 pub mod check;
 pub mod comm;
 pub mod config;
@@ -39,6 +40,7 @@ pub mod diagnostics;
 pub mod domain;
 pub mod dpd_parameters;
 pub mod driver;
+pub mod error;
 pub mod fixed_sum;
 pub mod flow_scene;
 pub mod geometry;
@@ -55,7 +57,6 @@ pub mod sim;
 pub mod simd;
 pub mod species;
 pub mod stability_map;
-pub mod stress_profile;
 pub mod study;
 pub mod summary;
 pub mod tcaf_fit;

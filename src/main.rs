@@ -275,17 +275,17 @@ fn main() -> ExitCode {
                 if root {
                     print!("{}", mesorheo::check::report(&loaded, ranks));
                 }
-                if let Err(e) = mesorheo::check::check_rank_memory(
+                if let Err(e) = mesorheo::capacity::check_rank_memory(
                     &loaded,
                     ranks,
-                    mesorheo::flow_scene::available_memory(),
+                    mesorheo::capacity::available_memory(),
                 ) {
                     if root {
                         eprintln!("error: {}: {e}", case.display());
                     }
                     return ExitCode::from(2);
                 }
-                let max = mesorheo::check::max_ranks(&loaded);
+                let max = mesorheo::capacity::max_ranks(&loaded);
                 if ranks > max {
                     if root {
                         eprintln!(

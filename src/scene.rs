@@ -640,7 +640,7 @@ pub fn drive(
     }
     let steps_run = (scene.step() - first_step) as f64;
     let rate = |n: f64| n * steps_run / loop_seconds.max(1e-300);
-    let mut peak = [crate::flow_scene::peak_resident_memory().unwrap_or(-1.0)];
+    let mut peak = [crate::capacity::peak_resident_memory().unwrap_or(-1.0)];
     comm.allreduce_max(&mut peak);
     Ok(Summary {
         version: env!("CARGO_PKG_VERSION").to_owned(),
@@ -679,7 +679,7 @@ fn keep_blown_up_state(scene: &mut impl Scene, options: &RunOptions, error: Stri
     let Some(out) = options
         .out
         .as_ref()
-        .filter(|_| error.contains(crate::sim::UNSTABLE))
+        .filter(|_| error.contains(crate::error::UNSTABLE))
     else {
         return error;
     };

@@ -136,9 +136,7 @@ pub struct Simulation<'c, const D: usize> {
     stop_agreed: bool,
 }
 
-/// What every blow-up diagnosis says (a force, a position or a moment sum that is not finite,
-/// a particle beyond the neighbour list's reach): `mesorheo run` exits with code 4 on it.
-pub const UNSTABLE: &str = "the run is unstable";
+pub use crate::error::UNSTABLE;
 
 /// Name of the extra field that carries the neighbour-list build positions in checkpoints.
 pub const LIST_REFERENCE_FIELD: &str = "list_reference_position";
@@ -389,8 +387,8 @@ impl<'c, const D: usize> Simulation<'c, D> {
                 ["x", "y", "z"][axis]
             ));
         }
-        crate::check::check_particles_per_rank(case, comm.size())?;
-        crate::check::check_rank_memory(case, comm.size(), crate::flow_scene::available_memory())?;
+        crate::capacity::check_particles_per_rank(case, comm.size())?;
+        crate::capacity::check_rank_memory(case, comm.size(), crate::capacity::available_memory())?;
         Ok((sim_box, slab))
     }
 
@@ -1577,7 +1575,7 @@ impl<'c, const D: usize> Simulation<'c, D> {
                     out.scalars.push(("inclusion_torque".into(), torque));
                 }
                 Observable::ShearStressProfile => {
-                    // τ_xy(b) = −[Σ_{i∈b} m V_x V_y + W_xy(b)]/V_b ([`crate::stress_profile`]),
+                    // τ_xy(b) = −[Σ_{i∈b} m V_x V_y + W_xy(b)]/V_b ([`crate::models::stress_profile`]),
                     // V about the local mean velocity of the temperature.
                     let nb = case.diagnostics.profile_bins;
                     let mut sums = match &self.shear_virial_profile {

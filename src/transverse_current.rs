@@ -259,10 +259,7 @@ pub fn estimate(
     }
 }
 
-/// The summary name of mode j's (1-based) η_k.
-pub fn mode_observable(j: usize) -> String {
-    format!("transverse_current_viscosity_k{j}")
-}
+pub use crate::config::observables::transverse_current_mode as mode_observable;
 
 #[cfg(test)]
 mod tests {

@@ -569,13 +569,13 @@ fn check_like_the_cli(text: &str) -> bool {
         match &scene {
             Scene::Particles(case) => {
                 std::hint::black_box(mesorheo::check::report(case, ranks));
-                let memory = mesorheo::check::check_rank_memory(
+                let memory = mesorheo::capacity::check_rank_memory(
                     case,
                     ranks,
-                    mesorheo::flow_scene::available_memory(),
+                    mesorheo::capacity::available_memory(),
                 );
                 std::hint::black_box(memory.err());
-                std::hint::black_box(mesorheo::check::max_ranks(case));
+                std::hint::black_box(mesorheo::capacity::max_ranks(case));
             }
             Scene::HomogeneousFlow(flow) => {
                 let (text, verdict) = mesorheo::check::flow_report(flow, ranks);

@@ -95,7 +95,7 @@ fn slabs_one_interaction_range_thick() {
     let mut loaded = stock_case("dpd_equilibrium_3d.toml");
     loaded.case.run.steps = 60;
     loaded.case.run.equilibration = 0;
-    assert_eq!(mesorheo::check::max_ranks(&loaded.case), 5);
+    assert_eq!(mesorheo::capacity::max_ranks(&loaded.case), 5);
     let one = run_in_process(&loaded, 1, 1, None).expect("1 rank");
     let five = run_in_process(&loaded, 5, 1, None).expect("5 ranks");
     assert_eq!(one.state_digest, five.state_digest);
@@ -211,10 +211,10 @@ fn a_million_particles_on_one_rank_against_the_memory_check() {
     let (_, n) = case.lattice_counts();
     assert!((990_000..1_010_000).contains(&n), "{n} particles");
     let gib = 1024.0 * 1024.0 * 1024.0;
-    let need = mesorheo::check::rank_memory(&case, 1);
+    let need = mesorheo::capacity::rank_memory(&case, 1);
     assert!(need > 0.1 * gib && need < 2.0 * gib, "{} GiB", need / gib);
-    assert!(mesorheo::check::check_rank_memory(&case, 1, Some(24.0 * gib)).is_ok());
-    let err = mesorheo::check::check_rank_memory(&case, 1, Some(0.5 * need / 0.9))
+    assert!(mesorheo::capacity::check_rank_memory(&case, 1, Some(24.0 * gib)).is_ok());
+    let err = mesorheo::capacity::check_rank_memory(&case, 1, Some(0.5 * need / 0.9))
         .expect_err("refused with half the memory it needs");
     assert!(
         err.contains("run on at least 2 ranks") || err.contains("run on at least 3 ranks"),
@@ -274,7 +274,7 @@ fn check_memory_estimate_covers_the_measured_peak() {
             .expect("peak_memory_mib");
         let loaded = mesorheo::config::load_with_overrides(&stock_case_path(case), sets)
             .unwrap_or_else(|e| panic!("{e}"));
-        let estimate = mesorheo::check::rank_memory(&loaded.case, 1) / (1024.0 * 1024.0);
+        let estimate = mesorheo::capacity::rank_memory(&loaded.case, 1) / (1024.0 * 1024.0);
         (measured, estimate)
     };
     let box_of = |l: f64, d: usize| format!("box.lengths=[{}]", vec![l.to_string(); d].join(","));

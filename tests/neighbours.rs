@@ -215,7 +215,7 @@ fn a_scene_larger_than_the_node_memory_is_refused_with_what_fits() {
     let mut case = huge.expect("stock case");
     case.domain.lengths = vec![1000.0, 1000.0];
     let gib = 1024.0 * 1024.0 * 1024.0;
-    let err = mesorheo::check::check_rank_memory(&case, 1, Some(24.0 * gib))
+    let err = mesorheo::capacity::check_rank_memory(&case, 1, Some(24.0 * gib))
         .expect_err("6500 GiB on a 24 GiB node");
     assert!(err.contains("GiB available"), "{err}");
     let ranks: usize = err
@@ -225,18 +225,18 @@ fn a_scene_larger_than_the_node_memory_is_refused_with_what_fits() {
         .and_then(|s| s.parse().ok())
         .unwrap_or_else(|| panic!("names a rank count: {err}"));
     assert!(
-        mesorheo::check::check_rank_memory(&case, ranks, Some(24.0 * gib)).is_ok()
-            && mesorheo::check::check_rank_memory(&case, ranks - 1, Some(24.0 * gib)).is_err(),
+        mesorheo::capacity::check_rank_memory(&case, ranks, Some(24.0 * gib)).is_ok()
+            && mesorheo::capacity::check_rank_memory(&case, ranks - 1, Some(24.0 * gib)).is_err(),
         "{ranks} is the smallest rank count that fits"
     );
     let report = mesorheo::check::report(&case, 1);
     assert!(report.contains("DOES NOT FIT"), "{report}");
     // The stock scene itself fits, and the memory left unknown checks nothing.
     let stock = mesorheo::config::load(&path).expect("stock case").case;
-    assert!(mesorheo::check::check_rank_memory(&stock, 1, Some(24.0 * gib)).is_ok());
-    assert!(mesorheo::check::check_rank_memory(&case, 1, None).is_ok());
+    assert!(mesorheo::capacity::check_rank_memory(&stock, 1, Some(24.0 * gib)).is_ok());
+    assert!(mesorheo::capacity::check_rank_memory(&case, 1, None).is_ok());
     let comm = mesorheo::comm::SerialComm::new();
-    if mesorheo::flow_scene::available_memory().is_some() {
+    if mesorheo::capacity::available_memory().is_some() {
         let refused = Simulation::<2>::new(&case, &comm, 1).err();
         assert!(refused.is_some_and(|e| e.contains("GiB available")));
     }

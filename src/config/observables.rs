@@ -82,11 +82,16 @@ pub fn scalar_names(case: &Case) -> Vec<String> {
             Observable::TransverseCurrentViscosity => {
                 out.push(o.name().to_owned());
                 for j in 1..=case.diagnostics.transverse_current_modes {
-                    out.push(crate::transverse_current::mode_observable(j));
+                    out.push(transverse_current_mode(j));
                 }
             }
             other => out.push(other.name().to_owned()),
         }
     }
     out
+}
+
+/// The summary name of the transverse-current viscosity η_k of mode j (1-based).
+pub fn transverse_current_mode(j: usize) -> String {
+    format!("transverse_current_viscosity_k{j}")
 }

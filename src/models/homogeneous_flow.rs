@@ -443,7 +443,7 @@ impl<'c, const D: usize> HomogeneousEnsembles<'c, D> {
                     Spring::Hookean => " (not finite)".into(),
                 },
                 self.step,
-                crate::sim::UNSTABLE,
+                crate::error::UNSTABLE,
                 if self.q_single.is_some() {
                     ", or store the connectors in double precision"
                 } else {

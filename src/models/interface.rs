@@ -116,7 +116,7 @@ pub struct PassContext<'a, const D: usize> {
 pub struct PassOutput {
     /// The pair virial, when the pass computed one.
     pub virial: Option<Virial>,
-    /// The pair part of the binned shear virial ([`crate::stress_profile`]), when the model
+    /// The pair part of the binned shear virial ([`crate::models::stress_profile`]), when the model
     /// was asked for it and the pass computed the full virial.
     pub shear_virial_profile: Option<Vec<crate::fixed_sum::FixedSum>>,
 }

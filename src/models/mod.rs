@@ -9,6 +9,7 @@ pub mod homogeneous_flow;
 pub mod interface;
 pub mod pair_loop;
 pub mod sph;
+pub mod stress_profile;
 pub mod summation_gas;
 
 pub use fluid_model::{BuildModels, FluidModel};

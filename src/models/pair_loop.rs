@@ -11,10 +11,10 @@
 //! An owned–ghost pair adds to the owned end only (the other end's rank adds its own half) and
 //! contributes ½ of its virial here.
 
+use crate::error::UNSTABLE;
 use crate::fixed_sum::{FixedSum, Split};
 use crate::neighbour::{NEAR_AT_BUILD, NeighbourList};
 use crate::particles::Particles;
-use crate::sim::UNSTABLE;
 use crate::simd::Isa;
 use rayon::prelude::*;
 

@@ -306,7 +306,7 @@ impl<const D: usize> DpdModel<D> {
     }
 
     /// The same, also computing the pair part of the binned shear virial
-    /// ([`crate::stress_profile`]) in `bins` bins across `ly` whenever the full virial is asked.
+    /// ([`crate::models::stress_profile`]) in `bins` bins across `ly` whenever the full virial is asked.
     pub fn with_shear_stress_profile(mut self, bins: usize, ly: f64) -> Self {
         self.shear_profile = Some((bins, ly));
         self
@@ -371,9 +371,11 @@ impl<const D: usize> ParticleModel<D> for DpdModel<D> {
         p.force = force;
         let virial = virial?;
         let shear_virial_profile = match self.shear_profile {
-            Some((bins, ly)) if scope == VirialScope::Full => Some(
-                crate::stress_profile::pair_shear_virial(&self.dpd, p, list, step, bins, ly),
-            ),
+            Some((bins, ly)) if scope == VirialScope::Full => {
+                Some(crate::models::stress_profile::pair_shear_virial(
+                    &self.dpd, p, list, step, bins, ly,
+                ))
+            }
             _ => None,
         };
         Ok(PassOutput {

@@ -2189,7 +2189,7 @@ fn check_density<const D: usize>(
              {} (reduce the time step, or use summation density, which cannot go negative)",
             p.gid[i],
             rho[i],
-            crate::sim::UNSTABLE
+            crate::error::UNSTABLE
         )),
     }
 }

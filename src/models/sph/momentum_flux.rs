@@ -163,7 +163,7 @@ pub(super) fn momentum_virial<K: Kernel, const D: usize>(
                                     p.gid[i],
                                     p.gid[j],
                                     FixedSum::MAX_TERM,
-                                    crate::sim::UNSTABLE
+                                    crate::error::UNSTABLE
                                 ));
                             }
                             for _ in 0..copies {

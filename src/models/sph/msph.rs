@@ -21,9 +21,9 @@
 //! yz) — the spec prints 2D as (…, xx, xy, yy); only the order differs.
 
 use super::kernels::{Kernel, TruncatedGaussian};
+use crate::error::UNSTABLE;
 use crate::models::gather::FullList;
 use crate::particles::Particles;
-use crate::sim::UNSTABLE;
 use rayon::prelude::*;
 
 /// Unknowns per particle: 1 + D + D(D + 1)/2 (6 in 2D, 10 in 3D).
