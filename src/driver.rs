@@ -10,6 +10,7 @@ use crate::sim::Simulation;
 use crate::summary::Summary;
 use std::path::{Path, PathBuf};
 
+pub use crate::comm::in_process;
 pub(crate) use crate::scene::threads_of;
 #[cfg(feature = "hdf5")]
 use crate::scene::{Restart, log_restart};
@@ -278,32 +279,6 @@ pub fn write_summary(summary: &Summary, out: &Path) -> std::io::Result<()> {
     let tmp = out.join("summary.json.tmp");
     std::fs::write(&tmp, text)?;
     std::fs::rename(tmp, out.join("summary.json"))
-}
-
-/// Runs `job` on `ranks` in-process ranks (threads connected by channels) and returns rank 0's
-/// result — what the tests use to check that results do not depend on the decomposition
-/// without launching `mpirun`.
-pub fn in_process<T: Send + 'static>(
-    ranks: usize,
-    job: impl Fn(&dyn Comm) -> Result<T, String> + Send + Sync + 'static,
-) -> Result<T, String> {
-    let job = std::sync::Arc::new(job);
-    let comms = crate::comm::local_universe(ranks);
-    let handles: Vec<_> = comms
-        .into_iter()
-        .map(|comm| {
-            let job = job.clone();
-            std::thread::spawn(move || job(&comm))
-        })
-        .collect();
-    let mut results: Vec<Result<T, String>> = handles
-        .into_iter()
-        .map(|h| {
-            h.join()
-                .unwrap_or_else(|_| Err("a rank thread panicked".into()))
-        })
-        .collect();
-    results.swap_remove(0)
 }
 
 /// Runs a case on `ranks` in-process ranks, each with `threads` rayon workers, and returns

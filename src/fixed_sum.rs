@@ -408,7 +408,7 @@ mod tests {
         let want = all.value();
         for ranks in 1..=4 {
             let xs = xs.clone();
-            let got = crate::driver::in_process(ranks, move |c| {
+            let got = crate::comm::in_process(ranks, move |c| {
                 let mut s = [FixedSum::ZERO];
                 for x in xs.iter().skip(c.rank()).step_by(c.size()) {
                     s[0].add(*x);

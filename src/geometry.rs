@@ -175,6 +175,58 @@ pub fn ball_volume(dimension: usize, r: f64) -> f64 {
     }
 }
 
+/// Axis names.
+#[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq, Eq, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum Axis {
+    /// x
+    X,
+    /// y
+    #[default]
+    Y,
+    /// z
+    Z,
+}
+
+impl Axis {
+    /// Axis index.
+    pub fn index(self) -> usize {
+        match self {
+            Axis::X => 0,
+            Axis::Y => 1,
+            Axis::Z => 2,
+        }
+    }
+}
+
+/// Initial arrangement.
+#[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum Lattice {
+    /// Simple cubic (square in 2D), one particle per cell.
+    Cubic,
+    /// Face-centred cubic (centred square in 2D).
+    Fcc,
+    /// Uniformly random positions.
+    Random,
+}
+
+/// Initial velocity field.
+#[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq, Eq, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum VelocityProfile {
+    /// The linear shear profile γ̇ (y − L_y/2) when sheared, else at rest.
+    #[default]
+    Auto,
+    /// Maxwellian only.
+    Rest,
+    /// Maxwellian plus γ̇ (y − L_y/2) along x.
+    Shear,
+    /// Maxwellian plus A sin(πy/L_y) along x inside 0 ≤ y ≤ L_y (a channel's lowest mode; the
+    /// viscoelastic relaxation test), A = `particles.velocity_amplitude`.
+    HalfSine,
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

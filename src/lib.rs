@@ -48,6 +48,7 @@ pub mod green_kubo;
 pub mod integrators;
 pub mod models;
 pub mod neighbour;
+pub mod observable;
 #[cfg(feature = "hdf5")]
 pub mod output;
 pub mod particles;
@@ -55,6 +56,7 @@ pub mod rng;
 pub mod scene;
 pub mod sim;
 pub mod simd;
+pub mod spans;
 pub mod species;
 pub mod stability_map;
 pub mod study;

@@ -58,7 +58,7 @@ fn dpd_without_repulsion_and_with_a_huge_one() {
     if let mesorheo::config::FluidCfg::Dpd(d) = &mut case.fluid {
         d.a = 1e6;
     }
-    let limits = mesorheo::models::dpd::time_step::dpd_limits_of(&case).expect("a DPD case");
+    let limits = dpd_limits_of_case(&case).expect("a DPD case");
     let dt = 0.1 * limits.combined;
     let text = stiff.replace("dt = 0.04", &format!("dt = {dt:e}"));
     let s = run(&text, 1);
@@ -122,9 +122,7 @@ fn time_steps_at_and_around_each_limit() {
     ] {
         let base = small_dpd(3, 6.0, 0.0, 10, "").replace("a = 25.0\ngamma = 4.5", fluid);
         let case = case_from_str(&base.replace("dt = 0.04", "dt = 1e-6"), "probe").case;
-        let limit = mesorheo::models::dpd::time_step::dpd_limits_of(&case)
-            .expect("a DPD case")
-            .combined;
+        let limit = dpd_limits_of_case(&case).expect("a DPD case").combined;
         let at = |dt: f64| parse(&base.replace("dt = 0.04", &format!("dt = {dt:e}")));
         if let Err(e) = at(limit * (1.0 - 1e-9)) {
             panic!("{what}: just below: {e}");
@@ -380,9 +378,7 @@ fn check_refuses_every_measured_unstable_dpd_step() {
             let mesorheo::config::Scene::Particles(c) = loaded.scene else {
                 panic!("{name}: a particle scene")
             };
-            let limit = mesorheo::models::dpd::time_step::dpd_limits_of(&c)
-                .expect("DPD")
-                .combined;
+            let limit = dpd_limits_of_case(&c).expect("DPD").combined;
             let parse = |k: usize| cells[k].parse::<f64>().expect("a number");
             let (s, u) = (parse(stable), parse(unstable));
             if (parse(printed) - limit).abs() > 1e-3 * limit && stale.is_none() {
@@ -431,9 +427,7 @@ fn check_refuses_every_measured_unstable_dpd_step() {
         let mesorheo::config::Scene::Particles(c) = loaded.scene else {
             panic!("a particle scene")
         };
-        let limit = mesorheo::models::dpd::time_step::dpd_limits_of(&c)
-            .expect("DPD")
-            .combined;
+        let limit = dpd_limits_of_case(&c).expect("DPD").combined;
         assert!(
             limit <= 0.97 * dt,
             "γ = {gamma}: check accepts {limit:.4e}, the study blew up at {dt}"
@@ -441,4 +435,16 @@ fn check_refuses_every_measured_unstable_dpd_step() {
         blowups += 1;
     }
     assert!(blowups >= 3, "{blowups} blow-ups in the study");
+}
+
+/// The DPD time-step limits of a case whose fluid is DPD.
+fn dpd_limits_of_case(
+    case: &mesorheo::config::Case,
+) -> Option<mesorheo::models::dpd::time_step::DpdLimits> {
+    match &case.fluid {
+        mesorheo::config::FluidCfg::Dpd(d) => {
+            Some(mesorheo::models::dpd::time_step::dpd_limits_of(d, case))
+        }
+        _ => None,
+    }
 }

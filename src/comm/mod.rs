@@ -125,3 +125,29 @@ pub(crate) fn reduce_u64(acc: &mut [u64], other: &[u64], op: U64Op) {
         };
     }
 }
+
+/// Runs `job` on `ranks` in-process ranks (threads connected by channels) and returns rank 0's
+/// result — what the tests use to check that results do not depend on the decomposition
+/// without launching `mpirun`.
+pub fn in_process<T: Send + 'static>(
+    ranks: usize,
+    job: impl Fn(&dyn Comm) -> Result<T, String> + Send + Sync + 'static,
+) -> Result<T, String> {
+    let job = std::sync::Arc::new(job);
+    let comms = local_universe(ranks);
+    let handles: Vec<_> = comms
+        .into_iter()
+        .map(|comm| {
+            let job = job.clone();
+            std::thread::spawn(move || job(&comm))
+        })
+        .collect();
+    let mut results: Vec<Result<T, String>> = handles
+        .into_iter()
+        .map(|h| {
+            h.join()
+                .unwrap_or_else(|_| Err("a rank thread panicked".into()))
+        })
+        .collect();
+    results.swap_remove(0)
+}

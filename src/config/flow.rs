@@ -23,6 +23,9 @@
 
 use super::spans::{Segment, SpanIndex};
 use super::{CaseError, OutputCfg, ReferenceCfg, RunCfg};
+pub use crate::models::dumbbell_settings::{
+    Precision, SchemeKind, SpringKind, scheme_or_default, spring_law, validate_ensemble,
+};
 use crate::models::dumbbells::{DumbbellParams, Scheme, Spring};
 use crate::models::homogeneous_flow::Flow;
 use serde::{Deserialize, Serialize};
@@ -98,39 +101,6 @@ pub enum PolymerKind {
     Dumbbells,
 }
 
-/// Spring laws.
-#[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq, Eq)]
-#[serde(rename_all = "snake_case")]
-pub enum SpringKind {
-    /// F = H Q.
-    Hookean,
-    /// F = H Q / (1 − Q²/Q₀²).
-    Fene,
-}
-
-/// Stochastic schemes.
-#[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq, Eq)]
-#[serde(rename_all = "snake_case")]
-pub enum SchemeKind {
-    /// Euler–Maruyama (weak order 1).
-    EulerMaruyama,
-    /// Stochastic Heun / SRK2 (weak order 2).
-    Heun,
-    /// Öttinger's semi-implicit predictor–corrector (FENE stays inside √b).
-    SemiImplicit,
-}
-
-/// Storage precision of the connector vectors.
-#[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq, Eq, Default)]
-#[serde(rename_all = "snake_case")]
-pub enum Precision {
-    /// 8 bytes per component.
-    #[default]
-    Double,
-    /// 4 bytes per component (arithmetic still in double precision).
-    Single,
-}
-
 /// `[polymer]`
 #[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
@@ -192,16 +162,6 @@ impl Default for FlowDiagnosticsCfg {
         Self {
             blocks: super::default_blocks(),
         }
-    }
-}
-
-/// The spring law of the keys `spring` and `b` (b validated to exist for FENE).
-pub fn spring_law(spring: SpringKind, b: Option<f64>) -> Spring {
-    match spring {
-        SpringKind::Hookean => Spring::Hookean,
-        SpringKind::Fene => Spring::Fene {
-            b: b.unwrap_or(f64::NAN),
-        },
     }
 }
 
@@ -274,16 +234,6 @@ pub fn accuracy_warnings(case: &FlowCase) -> Vec<String> {
         ));
     }
     out
-}
-
-/// The scheme of the key `scheme`, with its default: Heun for Hookean, semi-implicit for FENE.
-pub fn scheme_or_default(scheme: Option<SchemeKind>, spring: SpringKind) -> Scheme {
-    match (scheme, spring) {
-        (Some(SchemeKind::EulerMaruyama), _) => Scheme::EulerMaruyama,
-        (Some(SchemeKind::Heun), _) => Scheme::Heun,
-        (Some(SchemeKind::SemiImplicit), _) | (None, SpringKind::Fene) => Scheme::SemiImplicit,
-        (None, SpringKind::Hookean) => Scheme::Heun,
-    }
 }
 
 impl PolymerCfg {
@@ -372,72 +322,6 @@ impl FlowCase {
 
 fn k(s: &str) -> Segment {
     Segment::Key(s.to_owned())
-}
-
-/// Largest N_d (6.7·10⁷): one particle's ensemble is one contiguous buffer; larger ensembles
-/// are better spread over more particles.
-const MAX_PER_PARTICLE: usize = 1 << 26;
-
-/// Checks of a dumbbell ensemble's keys under the table `table` (`[polymer]` of a homogeneous
-/// flow, `[fluid.polymer]` of a CONNFFESSIT fluid): N_d, the spring and its b, the scheme.
-pub fn validate_ensemble(
-    table: &[Segment],
-    per_particle: usize,
-    spring: SpringKind,
-    b: Option<f64>,
-    scheme: Option<SchemeKind>,
-    ix: &SpanIndex,
-) -> Result<(), CaseError> {
-    let pk = |key: &str| {
-        let mut path = table.to_vec();
-        path.push(k(key));
-        path
-    };
-    if per_particle == 0 || per_particle > MAX_PER_PARTICLE {
-        return Err(ix.error(
-            &pk("per_particle"),
-            format!(
-                "found {}; must be between 1 and {MAX_PER_PARTICLE} (10²–10⁴ is typical)",
-                per_particle
-            ),
-        ));
-    }
-    match (spring, b) {
-        (SpringKind::Fene, None) => {
-            return Err(ix.error(
-                &pk("b"),
-                "missing: a FENE spring needs its extensibility b = H Q₀²/k_BT (> 2; 10–100 \
-                 typical)",
-            ));
-        }
-        (SpringKind::Fene, Some(b)) if !(b.is_finite() && b > 2.0) => {
-            return Err(ix.error(
-                &pk("b"),
-                format!("found {b}; must be > 2 (typically 10–100)"),
-            ));
-        }
-        (SpringKind::Hookean, Some(_)) => {
-            return Err(ix.error(
-                &pk("b"),
-                "a Hookean spring has no extensibility; remove b or use spring = \"fene\"",
-            ));
-        }
-        _ => {}
-    }
-    if spring == SpringKind::Fene && !matches!(scheme, None | Some(SchemeKind::SemiImplicit)) {
-        return Err(ix.error(
-            &pk("scheme"),
-            format!(
-                "found \"{}\": an explicit scheme can stretch a FENE dumbbell beyond √b; use \
-                 \"semi_implicit\" (or leave scheme out)",
-                match scheme {
-                    Some(SchemeKind::EulerMaruyama) => "euler_maruyama",
-                    _ => "heun",
-                }
-            ),
-        ));
-    }
-    Ok(())
 }
 
 /// Value checks of a homogeneous-flow scene; the first failure is reported.

@@ -5,12 +5,12 @@
 //! `docs/case-reference.md` is generated from [`reference::KEYS`], and a test checks that the
 //! table, the structs and the document agree.
 
-pub mod dpd_physical;
+pub use crate::models::dpd::physical as dpd_physical;
 pub mod flow;
 pub mod observables;
 pub mod reference;
 pub mod registry;
-pub(crate) mod spans;
+pub(crate) use crate::spans;
 mod tagged;
 mod validate;
 
@@ -23,6 +23,9 @@ pub use crate::models::summation_gas::SummationGasCfg;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
+pub use crate::geometry::{Axis, Lattice, VelocityProfile};
+pub use crate::integrators::IntegratorCfg;
+pub use crate::observable::Observable;
 pub use flow::FlowCase;
 pub use registry::FluidCfg;
 pub use spans::{CaseError, Segment, SpanIndex};
@@ -164,30 +167,6 @@ pub struct BoxCfg {
     pub shear_rate: f64,
 }
 
-/// Axis names.
-#[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq, Eq, Default)]
-#[serde(rename_all = "snake_case")]
-pub enum Axis {
-    /// x
-    X,
-    /// y
-    #[default]
-    Y,
-    /// z
-    Z,
-}
-
-impl Axis {
-    /// Axis index.
-    pub fn index(self) -> usize {
-        match self {
-            Axis::X => 0,
-            Axis::Y => 1,
-            Axis::Z => 2,
-        }
-    }
-}
-
 /// `[decomposition]`
 #[derive(Clone, Debug, Serialize, Deserialize, PartialEq, Default)]
 #[serde(deny_unknown_fields)]
@@ -195,18 +174,6 @@ pub struct DecompositionCfg {
     /// Slab axis.
     #[serde(default)]
     pub axis: Axis,
-}
-
-/// Initial arrangement.
-#[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq, Eq)]
-#[serde(rename_all = "snake_case")]
-pub enum Lattice {
-    /// Simple cubic (square in 2D), one particle per cell.
-    Cubic,
-    /// Face-centred cubic (centred square in 2D).
-    Fcc,
-    /// Uniformly random positions.
-    Random,
 }
 
 impl Lattice {
@@ -218,22 +185,6 @@ impl Lattice {
             (Lattice::Fcc, _) => 4,
         }
     }
-}
-
-/// Initial velocity field.
-#[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq, Eq, Default)]
-#[serde(rename_all = "snake_case")]
-pub enum VelocityProfile {
-    /// The linear shear profile γ̇ (y − L_y/2) when sheared, else at rest.
-    #[default]
-    Auto,
-    /// Maxwellian only.
-    Rest,
-    /// Maxwellian plus γ̇ (y − L_y/2) along x.
-    Shear,
-    /// Maxwellian plus A sin(πy/L_y) along x inside 0 ≤ y ≤ L_y (a channel's lowest mode; the
-    /// viscoelastic relaxation test), A = `particles.velocity_amplitude`.
-    HalfSine,
 }
 
 /// `[particles]`
@@ -268,47 +219,10 @@ impl FluidCfg {
     }
 }
 
-/// `[integrator]`, selected by `kind`.
-#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
-#[serde(tag = "kind", rename_all = "snake_case")]
-pub enum IntegratorCfg {
-    /// Groot–Warren modified velocity Verlet.
-    GrootWarren(GrootWarrenCfg),
-    /// Symplectic kick–drift–kick (velocity Verlet with predicted velocities).
-    KickDriftKick(KickDriftKickCfg),
-    /// Heun's second-order predictor–corrector.
-    Heun(TwoStageCfg),
-    /// The explicit midpoint rule.
-    Midpoint(TwoStageCfg),
-    /// Ellero 2004's predictor–corrector as printed (first order; to reproduce the text).
-    ThesisPredictorCorrector(TwoStageCfg),
-}
-
 impl Case {
     /// Whether a DPD body force drives the flow (the velocity profile is then binned along y).
     pub fn body_forced(&self) -> bool {
         self.fluid.model().body_force().drives()
-    }
-}
-
-impl IntegratorCfg {
-    /// Time step.
-    pub fn dt(&self) -> f64 {
-        match self {
-            IntegratorCfg::GrootWarren(g) => g.dt,
-            IntegratorCfg::KickDriftKick(k) => k.dt,
-            IntegratorCfg::Heun(t)
-            | IntegratorCfg::Midpoint(t)
-            | IntegratorCfg::ThesisPredictorCorrector(t) => t.dt,
-        }
-    }
-
-    /// Force evaluations per step.
-    pub fn stages(&self) -> usize {
-        match self {
-            IntegratorCfg::GrootWarren(_) | IntegratorCfg::KickDriftKick(_) => 1,
-            _ => 2,
-        }
     }
 }
 
@@ -362,106 +276,6 @@ fn ten_f() -> f64 {
     10.0
 }
 
-/// Observables a run can average.
-#[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq, Eq, Hash, PartialOrd, Ord)]
-#[serde(rename_all = "snake_case")]
-pub enum Observable {
-    /// Kinetic k_BT (profile-unbiased under shear).
-    Temperature,
-    /// Scalar pressure tr(P)/D.
-    Pressure,
-    /// Full pressure tensor components (kinetic + conservative + dissipative + random).
-    Stress,
-    /// η = −⟨P_xy⟩ / γ̇ (needs shear), P the momentum flux: kinetic part plus the pair forces'
-    /// virial (every fluid kind; for SPH `crate::models::sph::momentum_flux`, whose P_xy is
-    /// the x-momentum crossing planes y = const).
-    Viscosity,
-    /// N₁ = σ_xx − σ_yy = P_yy − P_xx (needs shear).
-    FirstNormalStressDifference,
-    /// N₂ = σ_yy − σ_zz = P_zz − P_yy (needs shear, 3D).
-    SecondNormalStressDifference,
-    /// The SPH fluid particles' own constitutive stress σ̄ = η_s (G + Gᵀ − (2/d) tr G I) + τ
-    /// (the thesis's unweighted particle mean, Eq. 3.18; needs an SPH fluid in a sheared box):
-    /// `viscosity_constitutive`, `first_normal_stress_difference_constitutive` and, in 3D,
-    /// `second_normal_stress_difference_constitutive`. It holds whatever the pair forces do
-    /// (the corrected gradient is exact for a linear field): compare it with the flux-based
-    /// `viscosity` to see the coupling at work.
-    ConstitutiveStress,
-    /// Total peculiar momentum Σ m (v − γ̇ (y − L_y/2) x̂).
-    Momentum,
-    /// Binned mean velocity u_x(y) (needs shear, or walls).
-    VelocityProfile,
-    /// Force along x per unit area that the fluid exerts on each wall of boundary particles
-    /// (needs `[walls]`): `wall_shear_stress_lower`, `wall_shear_stress_upper`.
-    WallShearStress,
-    /// Binned mean SPH density ρ(y) of the fluid particles (needs `[fluid] kind = "sph"`),
-    /// `diagnostics.profile_bins` bins across the box along y.
-    DensityProfile,
-    /// Mean |tr τ| of the SPH fluid particles' polymer stress (needs `[fluid.polymer]`): the
-    /// corotational Maxwell model keeps τ traceless, so this monitors its integration.
-    PolymerStressTrace,
-    /// The composite (cell) shear viscosity of an SPH suspension (needs `[inclusions]` and
-    /// shear): `composite_viscosity` = [Σ_fluid (m/ρ_i) σ_i,xy + Σ_inclusions ∮ (σ·n)_x y dS]
-    /// / (V γ̇), the fluid's stress plus the inclusions' traction moments; and
-    /// `inclusion_torque`, the mean torque per inclusion about z, ∮ (x − c) × (σ·n) dS. Only a
-    /// case that lists it makes the momentum pass accumulate the traction moments.
-    CompositeViscosity,
-    /// The Green–Kubo shear viscosity η = V/(k_BT) ∫₀^τ ⟨P̃(0):P̃(t)⟩/((D−1)(D+2)) dt from the
-    /// equilibrium autocorrelation of the whole pressure tensor, random-force stress included
-    /// (needs a DPD fluid at rest, no walls; [`crate::green_kubo`]). τ =
-    /// `diagnostics.green_kubo_time`; OUT/green_kubo.csv holds G(t) and its running integral.
-    GreenKuboViscosity,
-    /// The shear viscosity from the transverse-current autocorrelation of a fluid at rest
-    /// ([`crate::transverse_current`]): η_k at k_j = 2πj/L, j = 1 …
-    /// `diagnostics.transverse_current_modes` (`transverse_current_viscosity_k1`, …, Maxwell
-    /// fits of C⊥(k, t)/C⊥(k, 0)), and `transverse_current_viscosity`, their k → 0 limit η₀
-    /// from η_k = η₀ + a k² over the 4 smallest k. OUT/transverse_current.csv holds the
-    /// curves and the fits.
-    TransverseCurrentViscosity,
-    /// The binned shear stress τ_xy(y) = −P_xy(y) of a DPD fluid, `diagnostics.profile_bins`
-    /// bins along y: the Irving–Kirkwood volume average over each bin, the kinetic part
-    /// −Σ_{i∈b} m V_x V_y (V about the local mean velocity) and the pair part −Σ_pairs r_y F_x
-    /// ℓ_b/|r_y| (ℓ_b: the length of the pair's segment inside the bin), over the bin's
-    /// volume. The summary lists it as `shear_stress_profile`.
-    ShearStressProfile,
-}
-
-impl Observable {
-    /// Name in summary.json.
-    /// Whether it is formed from the momentum flux of the pair forces (the pair virial).
-    pub fn needs_pair_virial(self) -> bool {
-        matches!(
-            self,
-            Observable::Pressure
-                | Observable::Stress
-                | Observable::Viscosity
-                | Observable::FirstNormalStressDifference
-                | Observable::SecondNormalStressDifference
-        )
-    }
-
-    pub fn name(self) -> &'static str {
-        match self {
-            Observable::Temperature => "temperature",
-            Observable::Pressure => "pressure",
-            Observable::Stress => "stress",
-            Observable::Viscosity => "viscosity",
-            Observable::FirstNormalStressDifference => "first_normal_stress_difference",
-            Observable::SecondNormalStressDifference => "second_normal_stress_difference",
-            Observable::ConstitutiveStress => "constitutive_stress",
-            Observable::Momentum => "momentum",
-            Observable::VelocityProfile => "velocity_profile",
-            Observable::WallShearStress => "wall_shear_stress",
-            Observable::DensityProfile => "density_profile",
-            Observable::PolymerStressTrace => "polymer_stress_trace",
-            Observable::CompositeViscosity => "composite_viscosity",
-            Observable::GreenKuboViscosity => "green_kubo_viscosity",
-            Observable::TransverseCurrentViscosity => "transverse_current_viscosity",
-            Observable::ShearStressProfile => "shear_stress_profile",
-        }
-    }
-}
-
 /// `[diagnostics]`
 #[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
@@ -509,9 +323,8 @@ fn ten_usize() -> usize {
 fn default_blocks() -> usize {
     10
 }
-/// Temperature and pressure: what a thermal fluid reports when nothing is listed.
-pub fn default_observables() -> Vec<Observable> {
-    vec![Observable::Temperature, Observable::Pressure]
+fn default_observables() -> Vec<Observable> {
+    Observable::thermal_defaults()
 }
 
 impl Default for DiagnosticsCfg {
@@ -924,5 +737,78 @@ impl Case {
     /// Whether an observable was asked for.
     pub fn wants(&self, o: Observable) -> bool {
         self.diagnostics.observables.contains(&o)
+    }
+}
+
+impl crate::models::fluid_model::CaseView for Case {
+    fn dimension(&self) -> usize {
+        self.dimension
+    }
+    fn seed(&self) -> u64 {
+        self.seed
+    }
+    fn lengths(&self) -> &[f64] {
+        &self.domain.lengths
+    }
+    fn shear_rate(&self) -> f64 {
+        self.domain.shear_rate
+    }
+    fn boundaries(&self) -> Vec<Boundary> {
+        Case::boundaries(self)
+    }
+    fn decomposition_axis(&self) -> Axis {
+        self.decomposition.axis
+    }
+    fn mass(&self) -> f64 {
+        self.particles.mass
+    }
+    fn number_density(&self) -> f64 {
+        self.particles.density
+    }
+    fn lattice(&self) -> Lattice {
+        self.particles.lattice
+    }
+    fn lattice_spacing(&self) -> f64 {
+        Case::lattice_spacing(self)
+    }
+    fn lattice_counts(&self) -> (Vec<usize>, u64) {
+        Case::lattice_counts(self)
+    }
+    fn velocity_profile(&self) -> (VelocityProfile, f64) {
+        (
+            self.particles.velocity_profile,
+            self.particles.velocity_amplitude,
+        )
+    }
+    fn integrator(&self) -> &IntegratorCfg {
+        &self.integrator
+    }
+    fn exponential_friction_factor(&self) -> Option<f64> {
+        Case::exponential_friction_factor(self)
+    }
+    fn steps(&self) -> u64 {
+        self.run.steps
+    }
+    fn wants(&self, o: Observable) -> bool {
+        Case::wants(self, o)
+    }
+    fn profile_bins(&self) -> usize {
+        self.diagnostics.profile_bins
+    }
+    fn transverse_current_sampling(&self) -> crate::models::fluid_model::TransverseCurrentSampling {
+        crate::models::fluid_model::TransverseCurrentSampling {
+            every: self.diagnostics.transverse_current_every,
+            modes: self.diagnostics.transverse_current_modes,
+            time: self.diagnostics.transverse_current_time,
+        }
+    }
+    fn walls(&self) -> Option<&WallsCfg> {
+        self.walls.as_ref()
+    }
+    fn inclusions(&self) -> Option<&InclusionsCfg> {
+        self.inclusions.as_ref()
+    }
+    fn wall_layer_count(&self, axis: usize) -> usize {
+        Case::wall_layer_count(self, axis)
     }
 }

@@ -30,8 +30,7 @@ pub fn stress_components(case: &Case) -> Vec<(usize, usize, String)> {
         .collect()
 }
 
-/// Contributions of the stress tensor of a pairwise-central fluid (DPD).
-pub const STRESS_PARTS: [&str; 5] = ["total", "kinetic", "conservative", "dissipative", "random"];
+pub use crate::models::fluid_model::CENTRAL_STRESS_PARTS as STRESS_PARTS;
 
 /// The contributions the `stress` observable of this case reports (the fluid model's).
 pub fn stress_parts(case: &Case) -> [&'static str; 5] {

@@ -20,9 +20,47 @@ pub mod groot_warren;
 pub mod sph_schemes;
 
 use crate::particles::Particles;
+use serde::{Deserialize, Serialize};
 
-pub use groot_warren::{GrootWarren, Thermostat, exponential_friction_factor};
+pub use groot_warren::{GrootWarren, GrootWarrenCfg, Thermostat, exponential_friction_factor};
 pub use sph_schemes::{KickDriftKick, KickDriftKickCfg, TwoStage, TwoStageCfg, TwoStageVariant};
+
+/// `[integrator]`, selected by `kind`.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum IntegratorCfg {
+    /// Groot–Warren modified velocity Verlet.
+    GrootWarren(GrootWarrenCfg),
+    /// Symplectic kick–drift–kick (velocity Verlet with predicted velocities).
+    KickDriftKick(KickDriftKickCfg),
+    /// Heun's second-order predictor–corrector.
+    Heun(TwoStageCfg),
+    /// The explicit midpoint rule.
+    Midpoint(TwoStageCfg),
+    /// Ellero 2004's predictor–corrector as printed (first order; to reproduce the text).
+    ThesisPredictorCorrector(TwoStageCfg),
+}
+
+impl IntegratorCfg {
+    /// Time step.
+    pub fn dt(&self) -> f64 {
+        match self {
+            IntegratorCfg::GrootWarren(g) => g.dt,
+            IntegratorCfg::KickDriftKick(k) => k.dt,
+            IntegratorCfg::Heun(t)
+            | IntegratorCfg::Midpoint(t)
+            | IntegratorCfg::ThesisPredictorCorrector(t) => t.dt,
+        }
+    }
+
+    /// Force evaluations per step.
+    pub fn stages(&self) -> usize {
+        match self {
+            IntegratorCfg::GrootWarren(_) | IntegratorCfg::KickDriftKick(_) => 1,
+            _ => 2,
+        }
+    }
+}
 
 /// A state field the integrator advances: `state` with `rate`, both extra fields of equal
 /// width (indices into [`Particles::extra`]).

@@ -17,7 +17,77 @@
 //! default method is what a model without the feature answers.
 
 use super::interface::ParticleModel;
-use crate::config::{Case, CaseError, IntegratorCfg, Observable, SpanIndex};
+use crate::geometry::{Axis, Boundary, Lattice, VelocityProfile};
+use crate::integrators::IntegratorCfg;
+use crate::models::sph::{InclusionsCfg, WallsCfg};
+use crate::observable::Observable;
+use crate::spans::{CaseError, SpanIndex};
+
+/// Contributions of the momentum flux of a fluid with central pair forces (DPD).
+pub const CENTRAL_STRESS_PARTS: [&str; 5] =
+    ["total", "kinetic", "conservative", "dissipative", "random"];
+
+/// How the transverse-current correlators sample (`diagnostics.transverse_current_*`).
+#[derive(Clone, Copy, Debug)]
+pub struct TransverseCurrentSampling {
+    /// Steps between samples.
+    pub every: u64,
+    /// Wavenumbers 2πj/L, j = 1 … modes.
+    pub modes: usize,
+    /// Longest lag of the correlators.
+    pub time: f64,
+}
+
+/// What a fluid model may ask of the case it is part of (implemented by
+/// [`crate::config::Case`]; the model layer does not depend on the case-file schema).
+pub trait CaseView {
+    /// 2 or 3.
+    fn dimension(&self) -> usize;
+    /// Seed of every random number of the run.
+    fn seed(&self) -> u64;
+    /// Box edge lengths.
+    fn lengths(&self) -> &[f64];
+    /// Shear rate γ̇ of the Lees–Edwards box (0: none).
+    fn shear_rate(&self) -> f64;
+    /// Boundary kind of each axis.
+    fn boundaries(&self) -> Vec<Boundary>;
+    /// The slab decomposition's axis.
+    fn decomposition_axis(&self) -> Axis;
+    /// Particle mass m.
+    fn mass(&self) -> f64;
+    /// The number density asked for (`particles.density`).
+    fn number_density(&self) -> f64;
+    /// The initial arrangement.
+    fn lattice(&self) -> Lattice;
+    /// Spacing Δ of the initial lattice.
+    fn lattice_spacing(&self) -> f64;
+    /// Cells of the initial lattice per axis and the particle count.
+    fn lattice_counts(&self) -> (Vec<usize>, u64);
+    /// The initial mean velocity field and its amplitude.
+    fn velocity_profile(&self) -> (VelocityProfile, f64);
+    /// The integrator.
+    fn integrator(&self) -> &IntegratorCfg;
+    /// Its time step Δt.
+    fn dt(&self) -> f64 {
+        self.integrator().dt()
+    }
+    /// φ of the exponential thermostat, when the case integrates its friction exactly.
+    fn exponential_friction_factor(&self) -> Option<f64>;
+    /// Steps of the run.
+    fn steps(&self) -> u64;
+    /// Whether the case lists observable `o`.
+    fn wants(&self, o: Observable) -> bool;
+    /// Bins of the profiles across y.
+    fn profile_bins(&self) -> usize;
+    /// Sampling of the transverse currents (`diagnostics.transverse_current_*`).
+    fn transverse_current_sampling(&self) -> TransverseCurrentSampling;
+    /// Boundary-particle walls.
+    fn walls(&self) -> Option<&WallsCfg>;
+    /// Rigid inclusions.
+    fn inclusions(&self) -> Option<&InclusionsCfg>;
+    /// Rows of wall particles beyond each face of the wall axis.
+    fn wall_layer_count(&self, axis: usize) -> usize;
+}
 
 /// A body force that drives a fluid: the acceleration g, and whether it is the "reverse"
 /// (double-Poiseuille) profile, g in one half of the box along y and −g in the other.
@@ -90,7 +160,7 @@ pub trait FluidModel: Send + Sync {
 
     /// Checks its `[fluid]` table (and the tables only it reads, `[walls]`, `[inclusions]`)
     /// against the case; the error names the file, line and column through `ix`.
-    fn validate(&self, case: &Case, ix: &SpanIndex) -> Result<(), CaseError>;
+    fn validate(&self, case: &dyn CaseView, ix: &SpanIndex) -> Result<(), CaseError>;
 
     /// Whether it carries boundary particles (`[walls]`, `[inclusions]`).
     fn carries_boundary_particles(&self) -> bool {
@@ -110,10 +180,10 @@ pub trait FluidModel: Send + Sync {
 
     /// Its time-step limits, each with its name, for the case's integrator; the run refuses a
     /// Δt above the smallest unless `run.beyond_stability_limits`.
-    fn time_step_limits(&self, case: &Case) -> Vec<(String, f64)>;
+    fn time_step_limits(&self, case: &dyn CaseView) -> Vec<(String, f64)>;
 
     /// Why a Δt beyond `limit` (the named, binding one) is refused, with what would help.
-    fn time_step_error(&self, case: &Case, dt: f64) -> Option<String> {
+    fn time_step_error(&self, case: &dyn CaseView, dt: f64) -> Option<String> {
         let limits = self.time_step_limits(case);
         let (name, limit) = binding_limit(&limits)?;
         (dt > limit).then(|| {
@@ -131,11 +201,11 @@ pub trait FluidModel: Send + Sync {
 
     /// The observables a case of this fluid records when `[diagnostics] observables` is left
     /// out.
-    fn default_observables(&self, case: &Case) -> Vec<Observable>;
+    fn default_observables(&self, case: &dyn CaseView) -> Vec<Observable>;
 
     /// Whether it can produce observable `o` in this case; `Err(message)` otherwise (the
     /// generic conditions, shear or dimension, are checked by the caller).
-    fn supports(&self, case: &Case, o: Observable) -> Result<(), String>;
+    fn supports(&self, case: &dyn CaseView, o: Observable) -> Result<(), String>;
 
     /// The contributions its momentum flux (the `stress` observable) is split into; the first
     /// is "total" and the second "kinetic".
@@ -148,14 +218,14 @@ pub trait FluidModel: Send + Sync {
     }
 
     /// Its lines of the `check` report, at the case's number density `density`.
-    fn report(&self, case: &Case, density: f64, line: &mut dyn FnMut(String));
+    fn report(&self, case: &dyn CaseView, density: f64, line: &mut dyn FnMut(String));
 
     /// Its lines of the `check` report's cost estimate, for `particles` particles (an upper
     /// bound where wall and inclusion particles are counted).
-    fn cost_report(&self, _case: &Case, _particles: f64, _line: &mut dyn FnMut(String)) {}
+    fn cost_report(&self, _case: &dyn CaseView, _particles: f64, _line: &mut dyn FnMut(String)) {}
 
     /// Its memory per particle ([`ModelMemory`]).
-    fn memory(&self, case: &Case) -> ModelMemory;
+    fn memory(&self, case: &dyn CaseView) -> ModelMemory;
 
     /// k_BT of a thermostatted fluid (the runaway and heating detectors, the fluctuation
     /// methods of the viscosity need it); `None` for an athermal fluid.
@@ -203,10 +273,13 @@ pub trait FluidModel: Send + Sync {
 /// What a fluid model runs in D dimensions.
 pub trait BuildModels<const D: usize> {
     /// The fluid's particle model.
-    fn build_fluid(&self, case: &Case) -> Box<dyn ParticleModel<D>>;
+    fn build_fluid(&self, case: &dyn CaseView) -> Box<dyn ParticleModel<D>>;
 
     /// The models it needs beside the fluid (attached after the species are known).
-    fn build_companions(&self, _case: &Case) -> Result<Vec<Box<dyn ParticleModel<D>>>, String> {
+    fn build_companions(
+        &self,
+        _case: &dyn CaseView,
+    ) -> Result<Vec<Box<dyn ParticleModel<D>>>, String> {
         Ok(Vec::new())
     }
 }

@@ -2,6 +2,7 @@
 
 pub mod dpd;
 pub mod dumbbell_ensemble;
+pub mod dumbbell_settings;
 pub mod dumbbells;
 pub mod fluid_model;
 pub mod gather;

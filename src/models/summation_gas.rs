@@ -205,9 +205,12 @@ impl<const D: usize> ParticleModel<D> for SummationGas<D> {
 /// What the summation gas owns besides its passes ([`crate::models::FluidModel`]).
 mod spec {
     use super::{SummationGas, SummationGasCfg};
-    use crate::config::{Case, CaseError, IntegratorCfg, Observable, Segment, SpanIndex};
+    use crate::integrators::IntegratorCfg;
+    use crate::models::fluid_model::CaseView;
     use crate::models::fluid_model::{BuildModels, FluidModel, ModelMemory, generic_support};
     use crate::models::interface::ParticleModel;
+    use crate::observable::Observable;
+    use crate::spans::{CaseError, Segment, SpanIndex};
 
     impl SummationGasCfg {
         /// The acoustic (CFL) limit 0.25 h/c.
@@ -229,7 +232,7 @@ mod spec {
             "smoothing_length"
         }
 
-        fn validate(&self, _case: &Case, ix: &SpanIndex) -> Result<(), CaseError> {
+        fn validate(&self, _case: &dyn CaseView, ix: &SpanIndex) -> Result<(), CaseError> {
             let fl = |key: &str| vec![Segment::Key("fluid".into()), Segment::Key(key.into())];
             if !(self.smoothing_length.is_finite() && self.smoothing_length > 0.0) {
                 return Err(ix.error(
@@ -250,11 +253,11 @@ mod spec {
             crate::models::dpd::spec::groot_warren_only(integrator)
         }
 
-        fn time_step_limits(&self, _case: &Case) -> Vec<(String, f64)> {
+        fn time_step_limits(&self, _case: &dyn CaseView) -> Vec<(String, f64)> {
             vec![("acoustic (CFL) 0.25 h/c".to_string(), self.acoustic_limit())]
         }
 
-        fn time_step_error(&self, _case: &Case, dt: f64) -> Option<String> {
+        fn time_step_error(&self, _case: &dyn CaseView, dt: f64) -> Option<String> {
             let cfl = self.acoustic_limit();
             (dt > cfl).then(|| {
                 format!(
@@ -264,11 +267,11 @@ mod spec {
             })
         }
 
-        fn default_observables(&self, _case: &Case) -> Vec<Observable> {
+        fn default_observables(&self, _case: &dyn CaseView) -> Vec<Observable> {
             vec![Observable::Temperature, Observable::Momentum]
         }
 
-        fn supports(&self, _case: &Case, o: Observable) -> Result<(), String> {
+        fn supports(&self, _case: &dyn CaseView, o: Observable) -> Result<(), String> {
             if o.needs_pair_virial() {
                 return Err(format!(
                     "\"{}\" needs the pair virial, which the summation gas does not compute \
@@ -281,11 +284,11 @@ mod spec {
         }
 
         fn stress_parts(&self) -> [&'static str; 5] {
-            crate::config::observables::STRESS_PARTS
+            crate::models::fluid_model::CENTRAL_STRESS_PARTS
         }
 
-        fn report(&self, case: &Case, _density: f64, line: &mut dyn FnMut(String)) {
-            let dt = case.integrator.dt();
+        fn report(&self, case: &dyn CaseView, _density: f64, line: &mut dyn FnMut(String)) {
+            let dt = case.dt();
             let cfl = self.acoustic_limit();
             line(format!(
                 "summation gas (the engine's two-pass test model): Lucy kernel h = {}, sound \
@@ -298,14 +301,14 @@ mod spec {
             ));
         }
 
-        fn memory(&self, _case: &Case) -> ModelMemory {
+        fn memory(&self, _case: &dyn CaseView) -> ModelMemory {
             ModelMemory::default()
         }
     }
 
     impl<const D: usize> BuildModels<D> for SummationGasCfg {
-        fn build_fluid(&self, case: &Case) -> Box<dyn ParticleModel<D>> {
-            Box::new(SummationGas::<D>::new(self, case.particles.mass))
+        fn build_fluid(&self, case: &dyn CaseView) -> Box<dyn ParticleModel<D>> {
+            Box::new(SummationGas::<D>::new(self, case.mass()))
         }
     }
 }

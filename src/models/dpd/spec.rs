@@ -3,11 +3,12 @@
 //! runaway particle, a fluid heating without bound) and how it is built.
 
 use super::DpdCfg;
-use crate::config::{
-    Case, CaseError, IntegratorCfg, Observable, Segment, SpanIndex, default_observables,
-};
+use crate::integrators::IntegratorCfg;
+use crate::models::fluid_model::CaseView;
 use crate::models::fluid_model::{BodyForce, BuildModels, FluidModel, ModelMemory};
 use crate::models::interface::ParticleModel;
+use crate::observable::Observable;
+use crate::spans::{CaseError, Segment, SpanIndex};
 
 impl FluidModel for DpdCfg {
     fn kind(&self) -> &'static str {
@@ -22,8 +23,8 @@ impl FluidModel for DpdCfg {
         "cutoff"
     }
 
-    fn validate(&self, case: &Case, ix: &SpanIndex) -> Result<(), CaseError> {
-        validate_dpd(self, case.dimension, ix)
+    fn validate(&self, case: &dyn CaseView, ix: &SpanIndex) -> Result<(), CaseError> {
+        validate_dpd(self, case.dimension(), ix)
     }
 
     fn accepts_integrator(&self, integrator: &IntegratorCfg) -> Result<(), String> {
@@ -34,15 +35,14 @@ impl FluidModel for DpdCfg {
         Some(super::time_step::dpd_mean_field_rate(self, dimension, n, m))
     }
 
-    fn time_step_limits(&self, case: &Case) -> Vec<(String, f64)> {
-        super::time_step::dpd_limits_of(case)
-            .map(|l| vec![("measured DPD limit".to_string(), l.combined)])
-            .unwrap_or_default()
+    fn time_step_limits(&self, case: &dyn CaseView) -> Vec<(String, f64)> {
+        let l = super::time_step::dpd_limits_of(self, case);
+        vec![("measured DPD limit".to_string(), l.combined)]
     }
 
-    fn time_step_error(&self, case: &Case, dt: f64) -> Option<String> {
+    fn time_step_error(&self, case: &dyn CaseView, dt: f64) -> Option<String> {
         use super::time_step::dpd_fit;
-        let l = super::time_step::dpd_limits_of(case)?;
+        let l = super::time_step::dpd_limits_of(self, case);
         if dt <= l.combined {
             return None;
         }
@@ -71,11 +71,11 @@ impl FluidModel for DpdCfg {
         ))
     }
 
-    fn default_observables(&self, _case: &Case) -> Vec<Observable> {
-        default_observables()
+    fn default_observables(&self, _case: &dyn CaseView) -> Vec<Observable> {
+        crate::observable::Observable::thermal_defaults()
     }
 
-    fn supports(&self, _case: &Case, o: Observable) -> Result<(), String> {
+    fn supports(&self, _case: &dyn CaseView, o: Observable) -> Result<(), String> {
         match o {
             Observable::ShearStressProfile
             | Observable::GreenKuboViscosity
@@ -85,15 +85,15 @@ impl FluidModel for DpdCfg {
     }
 
     fn stress_parts(&self) -> [&'static str; 5] {
-        crate::config::observables::STRESS_PARTS
+        crate::models::fluid_model::CENTRAL_STRESS_PARTS
     }
 
-    fn report(&self, case: &Case, density: f64, line: &mut dyn FnMut(String)) {
+    fn report(&self, case: &dyn CaseView, density: f64, line: &mut dyn FnMut(String)) {
         dpd_report(case, self, density, line);
         transverse_current_report(case, self, line);
     }
 
-    fn memory(&self, _case: &Case) -> ModelMemory {
+    fn memory(&self, _case: &dyn CaseView) -> ModelMemory {
         ModelMemory::default()
     }
 
@@ -139,16 +139,16 @@ impl FluidModel for DpdCfg {
 }
 
 impl<const D: usize> BuildModels<D> for DpdCfg {
-    fn build_fluid(&self, case: &Case) -> Box<dyn ParticleModel<D>> {
+    fn build_fluid(&self, case: &dyn CaseView) -> Box<dyn ParticleModel<D>> {
         let d = &as_integrated(case, self);
-        let ly = case.domain.lengths[1];
-        let model = super::DpdModel::<D>::new(d, case.integrator.dt(), case.seed).with_body_force(
+        let ly = case.lengths()[1];
+        let model = super::DpdModel::<D>::new(d, case.dt(), case.seed()).with_body_force(
             d,
-            case.particles.mass,
+            case.mass(),
             ly,
         );
         if case.wants(Observable::ShearStressProfile) {
-            Box::new(model.with_shear_stress_profile(case.diagnostics.profile_bins, ly))
+            Box::new(model.with_shear_stress_profile(case.profile_bins(), ly))
         } else {
             Box::new(model)
         }
@@ -157,7 +157,7 @@ impl<const D: usize> BuildModels<D> for DpdCfg {
 
 /// The DPD fluid the step integrates: as given, or with the friction φγ (and so the noise
 /// √φ σ) of the exponential thermostat ([`crate::integrators::groot_warren`]).
-pub fn as_integrated(case: &Case, d: &DpdCfg) -> DpdCfg {
+pub fn as_integrated(case: &dyn CaseView, d: &DpdCfg) -> DpdCfg {
     let mut d = d.clone();
     if let Some(phi) = case.exponential_friction_factor() {
         d.gamma *= phi;
@@ -241,18 +241,18 @@ pub fn runaway_energy_in_kt(dpd: &DpdCfg, dimension: usize, density: f64) -> f64
 
 /// What the transverse-current viscosity will resolve: each mode's Newtonian decay time
 /// ρ/(η k²) with the kinetic-theory η, against the sampling interval and the longest lag.
-fn transverse_current_report(case: &Case, d: &DpdCfg, line: &mut dyn FnMut(String)) {
-    if !case.wants(crate::config::Observable::TransverseCurrentViscosity) {
+fn transverse_current_report(case: &dyn CaseView, d: &DpdCfg, line: &mut dyn FnMut(String)) {
+    if !case.wants(crate::observable::Observable::TransverseCurrentViscosity) {
         return;
     }
-    let Ok(dimension) = crate::dpd_parameters::Dimension::try_from(case.dimension) else {
+    let Ok(dimension) = crate::dpd_parameters::Dimension::try_from(case.dimension()) else {
         return;
     };
     let fluid = crate::dpd_parameters::DpdFluid {
         dimension,
         kt: d.kt,
-        number_density: case.particles.density,
-        mass: case.particles.mass,
+        number_density: case.number_density(),
+        mass: case.mass(),
         cutoff: d.cutoff,
         a: d.a,
         conservative_exponent: d.conservative_exponent,
@@ -262,19 +262,19 @@ fn transverse_current_report(case: &Case, d: &DpdCfg, line: &mut dyn FnMut(Strin
     let Ok(prediction) = fluid.predict() else {
         return;
     };
-    let diag = &case.diagnostics;
+    let diag = case.transverse_current_sampling();
     let eta = prediction.total_viscosity;
-    let rho = case.particles.density * case.particles.mass;
-    let length = case.domain.lengths[0];
-    let interval = diag.transverse_current_every as f64 * case.integrator.dt();
+    let rho = case.number_density() * case.mass();
+    let length = case.lengths()[0];
+    let interval = diag.every as f64 * case.dt();
     let decay = |j: usize| {
         let k = std::f64::consts::TAU * j as f64 / length;
         rho / (eta * k * k)
     };
-    let modes = diag.transverse_current_modes;
+    let modes = diag.modes;
     let slowest = decay(1);
     let fastest = decay(modes);
-    let verdict_slow = if diag.transverse_current_time >= 3.0 * slowest {
+    let verdict_slow = if diag.time >= 3.0 * slowest {
         "ok"
     } else {
         "SHORT: the slowest mode will not have decayed; raise diagnostics.transverse_current_time"
@@ -289,31 +289,23 @@ fn transverse_current_report(case: &Case, d: &DpdCfg, line: &mut dyn FnMut(Strin
          the kinetic-theory η = {eta:.4}: {slowest:.4} (k₁) … {fastest:.4} (k_{modes}); sampled \
          every {interval:.4} [{verdict_fast}], lags to {} [{verdict_slow}]; the error of η_k₁ \
          falls like √({slowest:.3}/run time)",
-        diag.transverse_current_time
+        diag.time
     ));
 }
 
 /// The DPD lines of the report: parameters, kinetic-theory estimates, time-step limits.
-fn dpd_report(case: &Case, d: &DpdCfg, density: f64, line: &mut dyn FnMut(String)) {
-    let dim = case.dimension;
-    let m = case.particles.mass;
-    let dt = case.integrator.dt();
-    let Some(lim) = super::time_step::dpd_limits_of(case) else {
-        return;
-    };
+fn dpd_report(case: &dyn CaseView, d: &DpdCfg, density: f64, line: &mut dyn FnMut(String)) {
+    let dim = case.dimension();
+    let m = case.mass();
+    let dt = case.dt();
+    let lim = super::time_step::dpd_limits_of(d, case);
     let alpha = d.gamma * d.gamma * d.cutoff / (m * d.a.max(f64::MIN_POSITIVE));
     if let Some(physical) = &d.physical
-        && let Ok(inputs) = crate::config::dpd_physical::inputs_of(
-            physical,
-            dim,
-            d.kt,
-            d.cutoff,
-            case.particles.density,
-            m,
-        )
+        && let Ok(inputs) =
+            super::physical::inputs_of(physical, dim, d.kt, d.cutoff, case.number_density(), m)
         && let Ok(mapped) = crate::dpd_parameters::map(&inputs)
     {
-        for l in crate::config::dpd_physical::report(&inputs, &mapped) {
+        for l in super::physical::report(&inputs, &mapped) {
             line(l);
         }
     }
@@ -341,9 +333,9 @@ fn dpd_report(case: &Case, d: &DpdCfg, density: f64, line: &mut dyn FnMut(String
              lower: LAMMPS and mesorheo), sound speed c ≈ {:.3}",
             c2.sqrt()
         ));
-        let shear = case.domain.shear_rate;
+        let shear = case.shear_rate();
         if shear != 0.0 {
-            let ly = case.domain.lengths[1];
+            let ly = case.lengths()[1];
             let u = shear.abs() * ly / 2.0;
             line(format!(
                 "shear: γ̇ = {shear}, Re = ρ γ̇ L_y²/η ≈ {:.3}, Ma = (γ̇ L_y/2)/c ≈ {:.3}",
@@ -352,7 +344,7 @@ fn dpd_report(case: &Case, d: &DpdCfg, density: f64, line: &mut dyn FnMut(String
             ));
         }
     }
-    let omega = super::time_step::dpd_mean_field_rate(d, dim, case.particles.density, m);
+    let omega = super::time_step::dpd_mean_field_rate(d, dim, case.number_density(), m);
     let phi = case.exponential_friction_factor();
     match phi {
         Some(phi) => line(format!(

@@ -85,6 +85,7 @@
 
 use super::DpdCfg;
 use crate::geometry::ball_volume;
+use crate::models::fluid_model::CaseView;
 
 /// Time-step limits of a DPD case (module doc for the formulas and their measurement).
 #[derive(Clone, Copy, Debug)]
@@ -244,27 +245,24 @@ fn relieved_friction_limit(rate: f64, coefficient: f64, relief: f64) -> f64 {
     lo
 }
 
-/// [`dpd_limits`] of a case whose fluid is DPD.
-pub fn dpd_limits_of(case: &crate::config::Case) -> Option<DpdLimits> {
-    let crate::config::FluidCfg::Dpd(d) = &case.fluid else {
-        return None;
-    };
-    let (lambda, exponential) = match &case.integrator {
-        crate::config::IntegratorCfg::GrootWarren(gw) => (
+/// [`dpd_limits`] of the DPD fluid `d` in `case`.
+pub fn dpd_limits_of(d: &DpdCfg, case: &dyn CaseView) -> DpdLimits {
+    let (lambda, exponential) = match case.integrator() {
+        crate::integrators::IntegratorCfg::GrootWarren(gw) => (
             gw.lambda,
-            gw.thermostat == crate::config::Thermostat::Exponential,
+            gw.thermostat == crate::integrators::Thermostat::Exponential,
         ),
         _ => (0.5, false),
     };
-    Some(dpd_limits(
+    dpd_limits(
         d,
-        case.dimension,
-        case.particles.density,
-        case.particles.mass,
+        case.dimension(),
+        case.number_density(),
+        case.mass(),
         lambda,
         exponential,
-        case.particles.lattice == crate::config::Lattice::Random,
-    ))
+        case.lattice() == crate::geometry::Lattice::Random,
+    )
 }
 
 /// The mean-field rate of the DPD friction, ω₀ = γ n [w_D]/(d m) = γ Σ_j w_D/(d m) (spec

@@ -28,7 +28,7 @@
 //! The stress is stored packed, the upper triangle row by row: (xx, xy, yy) in 2D,
 //! (xx, xy, xz, yy, yz, zz) in 3D.
 
-use crate::config::flow::{Precision as ConnectorPrecision, SchemeKind, SpringKind};
+use crate::models::dumbbell_settings::{Precision as ConnectorPrecision, SchemeKind, SpringKind};
 use crate::models::dumbbells::{DumbbellParams, Scheme, Spring};
 use crate::particles::Precision;
 use serde::{Deserialize, Serialize};
@@ -73,12 +73,15 @@ impl PolymerCfg {
 
     /// The ensembles' spring law (Hookean unless `spring = "fene"`).
     pub fn spring_law(&self) -> Spring {
-        crate::config::flow::spring_law(self.spring.unwrap_or(SpringKind::Hookean), self.b)
+        crate::models::dumbbell_settings::spring_law(
+            self.spring.unwrap_or(SpringKind::Hookean),
+            self.b,
+        )
     }
 
     /// The ensembles' scheme, with its default (Heun for Hookean, semi-implicit for FENE).
     pub fn scheme_or_default(&self) -> Scheme {
-        crate::config::flow::scheme_or_default(
+        crate::models::dumbbell_settings::scheme_or_default(
             self.scheme,
             self.spring.unwrap_or(SpringKind::Hookean),
         )

@@ -233,7 +233,7 @@ pub enum ViscousTerm {
 pub struct WallsCfg {
     /// The wall axis (its box boundaries must be "wall").
     #[serde(default = "axis_y")]
-    pub axis: crate::config::Axis,
+    pub axis: crate::geometry::Axis,
     /// Thickness of each boundary layer (default: two kernel supports).
     #[serde(default)]
     pub thickness: Option<f64>,
@@ -257,8 +257,8 @@ pub struct WallsCfg {
     pub repulsion_range: Option<f64>,
 }
 
-fn axis_y() -> crate::config::Axis {
-    crate::config::Axis::Y
+fn axis_y() -> crate::geometry::Axis {
+    crate::geometry::Axis::Y
 }
 fn beta_max() -> f64 {
     1.5

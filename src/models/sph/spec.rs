@@ -4,11 +4,14 @@
 //! ensembles of CONNFFESSIT).
 
 use super::{DensityMethod, Derivatives, SphCfg, SphModel, ViscousTerm};
-use crate::config::{Case, CaseError, IntegratorCfg, Observable, SpanIndex};
+use crate::integrators::IntegratorCfg;
+use crate::models::fluid_model::CaseView;
 use crate::models::fluid_model::{
     BodyForce, BuildModels, Continuum, ContinuumPolymer, FluidModel, ModelMemory, generic_support,
 };
 use crate::models::interface::ParticleModel;
+use crate::observable::Observable;
+use crate::spans::{CaseError, SpanIndex};
 
 impl FluidModel for SphCfg {
     fn kind(&self) -> &'static str {
@@ -23,7 +26,7 @@ impl FluidModel for SphCfg {
         "smoothing_length"
     }
 
-    fn validate(&self, case: &Case, ix: &SpanIndex) -> Result<(), CaseError> {
+    fn validate(&self, case: &dyn CaseView, ix: &SpanIndex) -> Result<(), CaseError> {
         super::validate::validate_sph(case, self, ix)
     }
 
@@ -44,36 +47,36 @@ impl FluidModel for SphCfg {
         Ok(())
     }
 
-    fn time_step_limits(&self, case: &Case) -> Vec<(String, f64)> {
-        super::time_step::sph_limits(self, case.inclusions.is_some())
+    fn time_step_limits(&self, case: &dyn CaseView) -> Vec<(String, f64)> {
+        super::time_step::sph_limits(self, case.inclusions().is_some())
             .into_iter()
             .map(|(n, l)| (n.to_string(), l))
             .collect()
     }
 
     /// Momentum and, in a sheared box, the viscometric functions.
-    fn default_observables(&self, case: &Case) -> Vec<Observable> {
+    fn default_observables(&self, case: &dyn CaseView) -> Vec<Observable> {
         let mut o = vec![Observable::Momentum];
-        if case.domain.shear_rate != 0.0 {
+        if case.shear_rate() != 0.0 {
             o.extend([
                 Observable::Viscosity,
                 Observable::FirstNormalStressDifference,
             ]);
-            if case.dimension == 3 {
+            if case.dimension() == 3 {
                 o.push(Observable::SecondNormalStressDifference);
             }
         }
         o
     }
 
-    fn supports(&self, case: &Case, o: Observable) -> Result<(), String> {
+    fn supports(&self, case: &dyn CaseView, o: Observable) -> Result<(), String> {
         match o {
             // The SPH constitutive stress σ̄ (viscous stress of the nested summation + polymer
             // stress) must be the whole deviatoric stress to be a viscometric measurement.
             Observable::ConstitutiveStress
                 if self.viscous_term == ViscousTerm::NestedSummation
                     || self.polymer.is_some()
-                    || (case.inclusions.is_some() && self.viscosity > 0.0) =>
+                    || (case.inclusions().is_some() && self.viscosity > 0.0) =>
             {
                 Ok(())
             }
@@ -101,9 +104,9 @@ impl FluidModel for SphCfg {
         false
     }
 
-    fn report(&self, case: &Case, _density: f64, line: &mut dyn FnMut(String)) {
+    fn report(&self, case: &dyn CaseView, _density: f64, line: &mut dyn FnMut(String)) {
         let sph = self;
-        let dt = case.integrator.dt();
+        let dt = case.dt();
         line(format!(
             "SPH: {} kernel h = {} (support {}), ρ₀ = {}, c₀ = {}, η = {}, {:?} EOS, {:?} \
              density, {:?} viscous term",
@@ -127,7 +130,7 @@ impl FluidModel for SphCfg {
             line(format!(
                 "derivatives: MSPH (Zhang–Batra {0}×{0} moment systems, exact for quadratic \
                  fields); Morris (damping) viscosity {morris}",
-                crate::models::sph::msph::unknowns(case.dimension)
+                crate::models::sph::msph::unknowns(case.dimension())
             ));
             if morris == 0.0 {
                 line(
@@ -153,7 +156,7 @@ impl FluidModel for SphCfg {
             ));
         }
         if let Some(poly) = &sph.polymer {
-            let gamma = case.domain.shear_rate;
+            let gamma = case.shear_rate();
             let de = if gamma != 0.0 {
                 format!(", De = λγ̇ = {}", poly.relaxation_time * gamma.abs())
             } else {
@@ -173,7 +176,7 @@ impl FluidModel for SphCfg {
             // FENE dumbbells: the zero-shear polymer viscosity is Gλ b/(b + D + 2).
             let fene = match poly.spring_law() {
                 crate::models::dumbbells::Spring::Fene { b } if poly.is_ensemble() => {
-                    b / (b + case.dimension as f64 + 2.0)
+                    b / (b + case.dimension() as f64 + 2.0)
                 }
                 _ => 1.0,
             };
@@ -200,15 +203,15 @@ impl FluidModel for SphCfg {
             // (A support of more than 16 spacings has sums within 10⁻³ of 1 and would cost
             // a long loop.)
             if sph.derivatives == crate::models::sph::Derivatives::Sph
-                && case.particles.lattice == crate::config::Lattice::Cubic
+                && case.lattice() == crate::geometry::Lattice::Cubic
                 && sph.support() / spacing <= 16.0
             {
                 let sum =
-                    crate::with_kernel!(sph.kernel, sph.smoothing_length, case.dimension, |k| {
+                    crate::with_kernel!(sph.kernel, sph.smoothing_length, case.dimension(), |k| {
                         crate::models::sph::kernels::cubic_lattice_derivative_sum(
                             &k,
                             spacing,
-                            case.dimension,
+                            case.dimension(),
                         )
                     });
                 let corrected =
@@ -276,19 +279,19 @@ impl FluidModel for SphCfg {
                 }
             }
         }
-        let (binding, _) = super::time_step::sph_binding_limit(sph, case.inclusions.is_some());
-        for (name, limit) in super::time_step::sph_limits(sph, case.inclusions.is_some()) {
+        let (binding, _) = super::time_step::sph_binding_limit(sph, case.inclusions().is_some());
+        for (name, limit) in super::time_step::sph_limits(sph, case.inclusions().is_some()) {
             line(format!(
                 "time step Δt = {dt}: {name} = {limit:.4e} [{}{}]",
                 if dt <= limit { "ok" } else { "VIOLATED" },
                 if name == binding { ", binding" } else { "" }
             ));
         }
-        if let Some(w) = &case.walls {
+        if let Some(w) = case.walls() {
             let axis = w.axis.index();
             let layers = case.wall_layer_count(axis);
             let (cells, _) = case.lattice_counts();
-            let across: usize = (0..case.dimension)
+            let across: usize = (0..case.dimension())
                 .filter(|&d| d != axis)
                 .map(|d| cells[d])
                 .product();
@@ -316,9 +319,9 @@ impl FluidModel for SphCfg {
                 ));
             }
         }
-        if let Some(inc) = &case.inclusions {
-            let phi = inc.volume_fraction(&case.domain.lengths);
-            let shape = if case.dimension == 2 {
+        if let Some(inc) = case.inclusions() {
+            let phi = inc.volume_fraction(case.lengths());
+            let shape = if case.dimension() == 2 {
                 "discs"
             } else {
                 "spheres"
@@ -331,7 +334,7 @@ impl FluidModel for SphCfg {
                 inc.radius,
                 inc.morris_cap,
                 1.0 / (1.0 - phi),
-                if case.dimension == 2 {
+                if case.dimension() == 2 {
                     format!(
                         "; dilute composite viscosity η(1 + 3φ) = {:.5} η (fixed discs)",
                         1.0 + 3.0 * phi
@@ -344,10 +347,10 @@ impl FluidModel for SphCfg {
     }
 
     /// The dumbbell-steps of the ensembles and their time.
-    fn cost_report(&self, case: &Case, particles: f64, line: &mut dyn FnMut(String)) {
+    fn cost_report(&self, case: &dyn CaseView, particles: f64, line: &mut dyn FnMut(String)) {
         if let Some(p) = self.polymer.as_ref().filter(|p| p.is_ensemble()) {
             // An upper bound: wall and inclusion particles carry none.
-            let work = particles * p.per_particle.unwrap_or(0) as f64 * case.run.steps as f64;
+            let work = particles * p.per_particle.unwrap_or(0) as f64 * case.steps() as f64;
             line(format!(
                 "dumbbells: ≤ {work:.3e} dumbbell-steps; at ~5·10⁷ per second per core \
                  (Hookean, docs/performance.md) about {:.1} core-seconds",
@@ -358,9 +361,9 @@ impl FluidModel for SphCfg {
 
     /// The fluid's fields, its full neighbour list and the interleaved rows of its lanes, and
     /// the dumbbells a fluid particle carries.
-    fn memory(&self, case: &Case) -> ModelMemory {
+    fn memory(&self, case: &dyn CaseView) -> ModelMemory {
         ModelMemory {
-            numbers_per_particle: if case.dimension == 2 {
+            numbers_per_particle: if case.dimension() == 2 {
                 field_numbers::<2>(case, self)
             } else {
                 field_numbers::<3>(case, self)
@@ -370,7 +373,7 @@ impl FluidModel for SphCfg {
                 .polymer
                 .as_ref()
                 .filter(|p| p.is_ensemble())
-                .map_or(0.0, |p| p.bytes_per_particle(case.dimension)),
+                .map_or(0.0, |p| p.bytes_per_particle(case.dimension())),
         }
     }
 
@@ -393,8 +396,9 @@ impl FluidModel for SphCfg {
                     oldroyd_b: match p.model {
                         PolymerModel::UpperConvectedMaxwell => true,
                         PolymerModel::Dumbbells => {
-                            p.spring.unwrap_or(crate::config::flow::SpringKind::Hookean)
-                                == crate::config::flow::SpringKind::Hookean
+                            p.spring
+                                .unwrap_or(crate::models::dumbbell_settings::SpringKind::Hookean)
+                                == crate::models::dumbbell_settings::SpringKind::Hookean
                         }
                         PolymerModel::CorotationalMaxwell => false,
                     },
@@ -405,7 +409,7 @@ impl FluidModel for SphCfg {
 }
 
 /// Numbers per particle of the fluid's fields (checkpointed ones twice).
-fn field_numbers<const D: usize>(case: &Case, sph: &SphCfg) -> f64 {
+fn field_numbers<const D: usize>(case: &dyn CaseView, sph: &SphCfg) -> f64 {
     BuildModels::<D>::build_fluid(sph, case)
         .fields()
         .iter()
@@ -417,17 +421,17 @@ fn field_numbers<const D: usize>(case: &Case, sph: &SphCfg) -> f64 {
 }
 
 impl<const D: usize> BuildModels<D> for SphCfg {
-    fn build_fluid(&self, case: &Case) -> Box<dyn ParticleModel<D>> {
-        let lengths = std::array::from_fn(|d| case.domain.lengths[d]);
+    fn build_fluid(&self, case: &dyn CaseView) -> Box<dyn ParticleModel<D>> {
+        let lengths = std::array::from_fn(|d| case.lengths()[d]);
         let composite = case.wants(Observable::CompositeViscosity);
         Box::new(
             SphModel::<D>::new(
                 self,
-                case.particles.mass,
+                case.mass(),
                 &lengths,
                 case.lattice_spacing(),
-                case.walls.as_ref(),
-                case.inclusions.as_ref(),
+                case.walls(),
+                case.inclusions(),
             )
             .with_traction_moments(composite),
         )
@@ -436,16 +440,19 @@ impl<const D: usize> BuildModels<D> for SphCfg {
     /// The dumbbell ensembles of a CONNFFESSIT fluid (`[fluid.polymer] model =
     /// "dumbbells"`), carried by the fluid species only, stepping with the SPH velocity
     /// gradient.
-    fn build_companions(&self, case: &Case) -> Result<Vec<Box<dyn ParticleModel<D>>>, String> {
+    fn build_companions(
+        &self,
+        case: &dyn CaseView,
+    ) -> Result<Vec<Box<dyn ParticleModel<D>>>, String> {
         let mut out: Vec<Box<dyn ParticleModel<D>>> = Vec::new();
         if let Some(poly) = self.polymer.as_ref().filter(|p| p.is_ensemble()) {
             let carrier =
-                (case.walls.is_some() || case.inclusions.is_some()).then_some(super::FLUID);
+                (case.walls().is_some() || case.inclusions().is_some()).then_some(super::FLUID);
             out.push(Box::new(
                 crate::models::dumbbell_ensemble::DumbbellEnsemble::<D>::of_fluid(
                     poly,
-                    case.integrator.dt(),
-                    case.seed,
+                    case.dt(),
+                    case.seed(),
                     super::VELOCITY_GRADIENT,
                     carrier,
                 )?,

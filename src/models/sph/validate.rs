@@ -1,9 +1,10 @@
 //! Validation of `[fluid] kind = "sph"` and of the tables only SPH reads, `[walls]` and
 //! `[inclusions]`: what [`crate::models::FluidModel::validate`] runs for an SPH case.
 
-use crate::config::spans::{Segment, SpanIndex};
-use crate::config::*;
-use crate::geometry::Boundary;
+use crate::geometry::{Boundary, Lattice};
+use crate::integrators::IntegratorCfg;
+use crate::models::fluid_model::CaseView;
+use crate::spans::{CaseError, Segment, SpanIndex};
 
 fn k(s: &str) -> Segment {
     Segment::Key(s.to_owned())
@@ -11,11 +12,11 @@ fn k(s: &str) -> Segment {
 
 /// `[inclusions]`: each inside the box (none straddles a boundary, so a sheared image never
 /// splits one), none overlapping another or a wall layer, each holding boundary particles.
-fn validate_inclusions(case: &Case, ix: &SpanIndex) -> Result<(), CaseError> {
-    let Some(inc) = &case.inclusions else {
+fn validate_inclusions(case: &dyn CaseView, ix: &SpanIndex) -> Result<(), CaseError> {
+    let Some(inc) = case.inclusions() else {
         return Ok(());
     };
-    let dim = case.dimension;
+    let dim = case.dimension();
     let ik = |key: &str| vec![k("inclusions"), k(key)];
     let spacing = case.lattice_spacing();
     if !(inc.radius.is_finite() && inc.radius >= spacing) {
@@ -57,7 +58,7 @@ fn validate_inclusions(case: &Case, ix: &SpanIndex) -> Result<(), CaseError> {
             ));
         }
         for d in 0..dim {
-            let l = case.domain.lengths[d];
+            let l = case.lengths()[d];
             if c[d] - r < 0.0 || c[d] + r > l {
                 return Err(ix.error(
                     &at,
@@ -89,7 +90,7 @@ fn validate_inclusions(case: &Case, ix: &SpanIndex) -> Result<(), CaseError> {
 
 /// `[fluid] kind = "sph"` and `[walls]`.
 pub(super) fn validate_sph(
-    case: &Case,
+    case: &dyn CaseView,
     s: &crate::models::sph::SphCfg,
     ix: &SpanIndex,
 ) -> Result<(), CaseError> {
@@ -132,7 +133,7 @@ pub(super) fn validate_sph(
             ),
         ));
     }
-    if s.xsph != 0.0 && !matches!(case.integrator, IntegratorCfg::KickDriftKick(_)) {
+    if s.xsph != 0.0 && !matches!(case.integrator(), IntegratorCfg::KickDriftKick(_)) {
         return Err(ix.error(
             &[k("integrator"), k("kind")],
             format!(
@@ -187,7 +188,7 @@ pub(super) fn validate_sph(
                     .to_string(),
             ));
         }
-        if case.inclusions.is_some() {
+        if case.inclusions().is_some() {
             return Err(ix.error(
                 &fl("derivatives"),
                 "MSPH derivatives do not support [inclusions] yet; use derivatives = \"sph\""
@@ -248,11 +249,11 @@ pub(super) fn validate_sph(
                         .to_string(),
                 ));
             };
-            crate::config::flow::validate_ensemble(
+            crate::models::dumbbell_settings::validate_ensemble(
                 &[k("fluid"), k("polymer")],
                 n_d,
                 poly.spring
-                    .unwrap_or(crate::config::flow::SpringKind::Hookean),
+                    .unwrap_or(crate::models::dumbbell_settings::SpringKind::Hookean),
                 poly.b,
                 poly.scheme,
                 ix,
@@ -267,7 +268,7 @@ pub(super) fn validate_sph(
             ));
         }
     }
-    let dim = case.dimension;
+    let dim = case.dimension();
     if !s.body_force.is_empty() && s.body_force.len() != dim {
         return Err(ix.error(
             &fl("body_force"),
@@ -281,8 +282,8 @@ pub(super) fn validate_sph(
         return Err(ix.error(&fl("body_force"), "components must be finite".to_string()));
     }
     // The mass must make the lattice density ρ₀ (m = ρ₀/n), within 5 %.
-    let want = s.rest_density / case.particles.density;
-    let m = case.particles.mass;
+    let want = s.rest_density / case.number_density();
+    let m = case.mass();
     if ((m - want) / want).abs() > 0.05 {
         return Err(ix.error(
             &[k("particles"), k("mass")],
@@ -293,7 +294,7 @@ pub(super) fn validate_sph(
         ));
     }
     validate_inclusions(case, ix)?;
-    let Some(w) = &case.walls else {
+    let Some(w) = case.walls() else {
         return Ok(());
     };
     let wk = |key: &str| vec![k("walls"), k(key)];
@@ -313,14 +314,14 @@ pub(super) fn validate_sph(
             ),
         ));
     }
-    if case.particles.lattice != Lattice::Cubic {
+    if case.lattice() != Lattice::Cubic {
         return Err(ix.error(
             &[k("particles"), k("lattice")],
             "walls continue a \"cubic\" lattice beyond the faces; use lattice = \"cubic\""
                 .to_string(),
         ));
     }
-    if case.domain.shear_rate != 0.0 {
+    if case.shear_rate() != 0.0 {
         return Err(ix.error(
             &[k("box"), k("shear_rate")],
             "walls and Lees–Edwards shear do not mix; move the walls instead".to_string(),
@@ -371,7 +372,7 @@ pub(super) fn validate_sph(
     // A fluid particle sees one support deep: layers beyond the channel's own width (or two
     // supports, for a narrow channel) only cost memory; an absurd value would overflow the
     // layer count.
-    let thickest = case.domain.lengths[w.axis.index()].max(2.0 * s.support());
+    let thickest = case.lengths()[w.axis.index()].max(2.0 * s.support());
     if let Some(t) = w.thickness
         && t > thickest
     {
@@ -403,7 +404,7 @@ pub(super) fn validate_sph(
                     .to_string(),
             ));
         }
-        crate::models::sph::WallTreatment::Mirror if case.decomposition.axis == w.axis => {
+        crate::models::sph::WallTreatment::Mirror if case.decomposition_axis() == w.axis => {
             return Err(ix.error(
                 &[k("decomposition"), k("axis")],
                 "mirror walls fit the fluid beside each boundary particle, so the slabs must be \

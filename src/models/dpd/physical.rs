@@ -7,12 +7,11 @@
 //! case echo of a checkpoint, which holds both, parses again), any other value is refused.
 //! The particle density and mass come from `[particles]`, k_BT and r_c from `[fluid]`.
 
-use super::CaseError;
-use super::spans::{Segment, SpanIndex};
+use super::PhysicalDpdCfg;
 use crate::dpd_parameters::{
     self, DissipationConstraint, DpdFluid, DpdParameters, PhysicalInputs, RepulsionRule,
 };
-use crate::models::dpd::PhysicalDpdCfg;
+use crate::spans::{CaseError, Segment, SpanIndex};
 
 /// The raw DPD keys the mapping fills, with the mapped value of each.
 fn mapped_keys(p: &DpdParameters) -> [(&'static str, f64); 4] {
@@ -128,7 +127,7 @@ pub fn resolve(table: &mut toml::Table, index: &SpanIndex) -> Result<(), CaseErr
     let physical: PhysicalDpdCfg = serde_path_to_error::deserialize(physical_value.clone())
         .map_err(|e| {
             let mut path = vec![k("fluid"), k("physical")];
-            path.extend(super::spans::segments(e.path()));
+            path.extend(crate::spans::segments(e.path()));
             index.structural_error(&path, e.inner().message(), None)
         })?;
     let number = |t: Option<&toml::Value>, default: f64| -> Option<f64> {
