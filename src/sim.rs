@@ -210,7 +210,7 @@ impl ParticleStress {
     /// σ_ab of particle k, viscous + polymer.
     #[inline]
     fn component<const D: usize>(&self, p: &Particles<D>, k: usize, a: usize, b: usize) -> f64 {
-        use crate::models::sph::maxwell::{packed_index, packed_width};
+        use crate::models::sph::polymer::{packed_index, packed_width};
         let mut s = self
             .viscous
             .map_or(0.0, |v| p.extra[v].data[k * D * D + a * D + b]);
@@ -1222,7 +1222,7 @@ impl<'c, const D: usize> Simulation<'c, D> {
     /// Eq. 3.18), and the mean |tr τ|; summed exactly over the ranks (collective).
     fn sph_mean_stress(&self) -> (Vec<f64>, f64) {
         use crate::models::sph::POLYMER_STRESS;
-        use crate::models::sph::maxwell::{packed_index, packed_width};
+        use crate::models::sph::polymer::{packed_index, packed_width};
         let p = &self.particles;
         let dd = D * D;
         let stress = ParticleStress::of(p);

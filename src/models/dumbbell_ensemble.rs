@@ -28,7 +28,7 @@ use super::dumbbells::{
 };
 use super::homogeneous_flow::Flow;
 use super::interface::{FieldKind, FieldSpec, ParticleModel, StateBlowUp};
-use super::sph::maxwell::{PolymerCfg, packed_index, packed_width};
+use super::sph::polymer::{PolymerCfg, packed_index, packed_width};
 use crate::particles::{FieldFlags, Particles, Precision, VarData, tensor_rows};
 use rayon::prelude::*;
 

@@ -61,10 +61,10 @@
 
 pub mod kernels;
 mod lanes;
-pub mod maxwell;
 pub mod mirror;
 mod momentum_flux;
 pub mod msph;
+pub mod polymer;
 mod spec;
 pub mod time_step;
 mod validate;
@@ -83,10 +83,10 @@ use crate::simd::Isa;
 use crate::species::{Motion, Species};
 use crate::with_kernel;
 use kernels::{Kernel, KernelKind};
-use maxwell::{Maxwell, PolymerCfg, packed_index, packed_width};
 use mirror::{FitFallbacks, MirrorWalls};
 pub use momentum_flux::SPH_STRESS_PARTS;
 use msph::{Local, MomentKernel, unknowns};
+use polymer::{ConstitutiveLaw, PolymerCfg, packed_index, packed_width};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
@@ -1121,7 +1121,7 @@ pub struct SphModel<const D: usize> {
     /// The traction moments of the inclusion particles ([`INCLUSION_TRACTION_MOMENT`]).
     traction_moment: Option<usize>,
     /// The constitutive polymer model (none for a Newtonian fluid or dumbbell ensembles).
-    polymer: Option<Maxwell>,
+    polymer: Option<ConstitutiveLaw>,
     /// τ (either kind of polymer), dτ/dt (constitutive) and G (dumbbells).
     polymer_stress: Option<usize>,
     polymer_rate: Option<usize>,
@@ -1232,7 +1232,7 @@ impl<const D: usize> SphModel<D> {
             stress: None,
             xsph: None,
             traction_moment: None,
-            polymer: cfg.polymer.as_ref().and_then(Maxwell::constitutive),
+            polymer: cfg.polymer.as_ref().and_then(ConstitutiveLaw::of),
             polymer_stress: None,
             polymer_rate: None,
             velocity_gradient: None,

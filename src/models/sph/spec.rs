@@ -173,13 +173,9 @@ impl FluidModel for SphCfg {
                     poly.modulus()
                 ));
             }
-            // FENE dumbbells: the zero-shear polymer viscosity is Gλ b/(b + D + 2).
-            let fene = match poly.spring_law() {
-                crate::models::dumbbells::Spring::Fene { b } if poly.is_ensemble() => {
-                    b / (b + case.dimension() as f64 + 2.0)
-                }
-                _ => 1.0,
-            };
+            // A finitely extensible law: the zero-shear polymer viscosity is below η_p.
+            let zero_shear = poly.model.zero_shear_factor(poly, case.dimension());
+            let fene = zero_shear.map_or(1.0, |(f, _)| f);
             line(format!(
                 "polymer: {:?}{}, η_p = {}, λ = {}, modulus η_p/λ = {}{de}; zero-shear \
                  viscosity η₀ = η + η_p{} = {:.6}, background pressure {}",
@@ -192,7 +188,7 @@ impl FluidModel for SphCfg {
                 poly.viscosity,
                 poly.relaxation_time,
                 poly.viscosity / poly.relaxation_time,
-                if fene < 1.0 { " b/(b + D + 2)" } else { "" },
+                zero_shear.map_or(String::new(), |(_, label)| format!(" {label}")),
                 sph.viscosity + poly.viscosity * fene,
                 sph.background_pressure
             ));
@@ -237,16 +233,10 @@ impl FluidModel for SphCfg {
                 }
             }
             if gamma != 0.0 {
-                use crate::models::sph::maxwell::PolymerModel;
-                // Steady-shear tension: corotational τ_xx = η_p De γ̇/(1 + De²); upper-
-                // convected and Hookean dumbbells 2η_pλγ̇² (FENE less).
                 let de = poly.relaxation_time * gamma.abs();
-                let tension = match poly.model {
-                    PolymerModel::CorotationalMaxwell => {
-                        poly.viscosity * de * gamma.abs() / (1.0 + de * de)
-                    }
-                    _ => 2.0 * poly.viscosity * poly.relaxation_time * gamma * gamma,
-                };
+                let tension = poly
+                    .model
+                    .steady_shear_tension(poly, gamma, case.dimension());
                 line(format!(
                     "  steady-shear tension τ_xx ≈ {tension:.4}; background pressure {} = \
                      {:.1} τ_xx",
@@ -262,7 +252,7 @@ impl FluidModel for SphCfg {
                             .into(),
                     );
                 }
-                if poly.model == PolymerModel::Dumbbells {
+                if poly.is_ensemble() {
                     // The measured bias of the coupled shear (tools/coupled_bias.py, the
                     // table in docs/validation.md): what a user can expect at these settings.
                     line(format!(
@@ -388,21 +378,10 @@ impl FluidModel for SphCfg {
         Some(Continuum {
             density: self.rest_density,
             solvent_viscosity: self.viscosity,
-            polymer: self.polymer.as_ref().map(|p| {
-                use super::maxwell::PolymerModel;
-                ContinuumPolymer {
-                    viscosity: p.viscosity,
-                    relaxation_time: p.relaxation_time,
-                    oldroyd_b: match p.model {
-                        PolymerModel::UpperConvectedMaxwell => true,
-                        PolymerModel::Dumbbells => {
-                            p.spring
-                                .unwrap_or(crate::models::dumbbell_settings::SpringKind::Hookean)
-                                == crate::models::dumbbell_settings::SpringKind::Hookean
-                        }
-                        PolymerModel::CorotationalMaxwell => false,
-                    },
-                }
+            polymer: self.polymer.as_ref().map(|p| ContinuumPolymer {
+                viscosity: p.viscosity,
+                relaxation_time: p.relaxation_time,
+                oldroyd_b: p.model.is_oldroyd_b(p),
             }),
         })
     }

@@ -223,32 +223,46 @@ pub(super) fn validate_sph(
                 ),
             ));
         }
-        if !poly.rotation
-            && poly.model != crate::models::sph::maxwell::PolymerModel::CorotationalMaxwell
-        {
-            return Err(ix.error(
-                &pl("rotation"),
-                "switching the rotation terms off is the linear variant of the corotational \
-                 model; use model = \"corotational_maxwell\" or leave rotation out"
-                    .to_string(),
-            ));
-        }
-        let ensemble_keys = [
+        // The optional keys, each read by some laws only.
+        let optional = [
+            ("rotation", !poly.rotation),
             ("per_particle", poly.per_particle.is_some()),
             ("spring", poly.spring.is_some()),
             ("b", poly.b.is_some()),
             ("scheme", poly.scheme.is_some()),
             ("precision", poly.precision.is_some()),
         ];
-        if poly.is_ensemble() {
-            let Some(n_d) = poly.per_particle else {
-                return Err(ix.error(
-                    &pl("model"),
-                    "model = \"dumbbells\" needs per_particle = N_d, the dumbbells each fluid \
-                     particle carries (10²–10⁴ typical)"
-                        .to_string(),
-                ));
+        if let Some((key, _)) = optional
+            .iter()
+            .find(|(key, given)| *given && !poly.model.reads(key))
+        {
+            let owners: Vec<String> = super::polymer::PolymerModel::ALL
+                .iter()
+                .filter(|(m, _)| m.reads(key))
+                .map(|(_, name)| format!("\"{name}\""))
+                .collect();
+            let what = match *key {
+                "rotation" => "switching the rotation terms off is the linear variant of the \
+                               corotational model"
+                    .to_string(),
+                _ if owners == ["\"dumbbells\""] => {
+                    format!("`{key}` describes dumbbell ensembles")
+                }
+                _ => format!("`{key}` is not a key of model = \"{}\"", poly.model.name()),
             };
+            return Err(ix.error(
+                &pl(key),
+                format!(
+                    "{what}; only model = {} reads it (remove it for model = \"{}\")",
+                    owners.join(" | "),
+                    poly.model.name()
+                ),
+            ));
+        }
+        if let Err((key, message)) = poly.model.validate(poly) {
+            return Err(ix.error(&pl(key), message));
+        }
+        if let (true, Some(n_d)) = (poly.is_ensemble(), poly.per_particle) {
             crate::models::dumbbell_settings::validate_ensemble(
                 &[k("fluid"), k("polymer")],
                 n_d,
@@ -258,14 +272,6 @@ pub(super) fn validate_sph(
                 poly.scheme,
                 ix,
             )?;
-        } else if let Some((key, _)) = ensemble_keys.iter().find(|(_, given)| *given) {
-            return Err(ix.error(
-                &pl(key),
-                format!(
-                    "`{key}` describes dumbbell ensembles; it belongs to model = \"dumbbells\" \
-                     (remove it for a constitutive model)"
-                ),
-            ));
         }
     }
     let dim = case.dimension();

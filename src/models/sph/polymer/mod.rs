@@ -1,32 +1,20 @@
-//! Maxwell-type polymer stress of an SPH particle (`[fluid.polymer]`): the constitutive rate
-//! τ̇_i = f(τ_i, G_i) that the integrator advances with the particle, from the particle's own
-//! stress τ_i and its velocity-gradient estimate G_i^{ab} = ∂v^a/∂x^b (Ellero 2004 Eq. 3.7,
-//! ×2). Spec `sph-maxwell.md` §1.9, with the thesis's printed sign corrected.
+//! The polymer stress τ an SPH particle carries (`[fluid.polymer]`), and the registry of its
+//! constitutive laws: the rate τ̇_i = f(τ_i, G_i) that the integrator advances with the
+//! particle, from the particle's own stress τ_i and its velocity-gradient estimate
+//! G_i^{ab} = ∂v^a/∂x^b; or, for `dumbbells`, the Kramers stress of an ensemble the particle
+//! carries ([`crate::models::dumbbell_ensemble`]).
 //!
-//! ```text
-//! Ω = ½ (G − Gᵀ)   (vorticity, Ω^{ab} = ½(∂_b v^a − ∂_a v^b))
-//! D = ½ (G + Gᵀ)   (rate of strain),   D̄ = D − (1/d) tr G · I   (its deviatoric part)
-//!
-//! corotational (Jaumann) Maxwell   dτ/dt = Ωτ − τΩ + (2η_p/λ) D̄ − τ/λ
-//! linear ("SPH2")                  dτ/dt =            (2η_p/λ) D̄ − τ/λ
-//! upper-convected Maxwell          dτ/dt = Gτ + τGᵀ  + (2η_p/λ) D  − τ/λ
-//! ```
-//!
-//! **Departure from the printed text.** The thesis's Eq. 3.4 and Eq. 3.6 combine the rotation
-//! terms into σω + ωσ, an antisymmetric tensor for symmetric σ: with it steady shear gives
-//! σ_xx = σ_yy = 0 and σ_xy = ηγ̇, no shear thinning and no normal stresses, which contradicts
-//! the thesis's own Figs. 3.5–3.6. The Jaumann form above is what is implemented (spec §1.9
-//! erratum); in simple shear v_x = γ̇y it gives dτ_xx/dt = γ̇τ_xy − τ_xx/λ,
-//! dτ_yy/dt = −γ̇τ_xy − τ_yy/λ, dτ_xy/dt = (γ̇/2)(τ_yy − τ_xx) + η_pγ̇/λ − τ_xy/λ.
-//!
-//! The corotational and linear models keep tr τ = 0 (tr(Ωτ − τΩ) = tr D̄ = 0); it is monitored,
-//! not enforced (`stress_trace` observable). The upper-convected model (Oldroyd-B with a
-//! solvent viscosity `fluid.viscosity`) has a non-zero trace: in steady shear
-//! τ_xx = 2η_pλγ̇², τ_yy = τ_zz = 0, so η = η_s + η_p, Ψ₁ = 2η_pλ, Ψ₂ = 0; it uses the full
-//! rate of strain D (= D̄ for an incompressible flow; the weakly compressible tr G is O(M²)).
+//! **Adding a constitutive law is one file in this directory plus one line of
+//! [`polymer_laws!`]**: a unit struct implementing [`Law`] (its rate, its keys and their
+//! checks, its zero-shear viscosity and steady-shear tension for `check`, whether its start-up
+//! is Oldroyd-B's). Each law's file opens with its equations.
 //!
 //! The stress is stored packed, the upper triangle row by row: (xx, xy, yy) in 2D,
 //! (xx, xy, xz, yy, yz, zz) in 3D.
+
+mod corotational_maxwell;
+mod dumbbells;
+mod upper_convected_maxwell;
 
 use crate::models::dumbbell_settings::{Precision as ConnectorPrecision, SchemeKind, SpringKind};
 use crate::models::dumbbells::{DumbbellParams, Scheme, Spring};
@@ -68,7 +56,7 @@ impl PolymerCfg {
     /// Whether the stress comes from dumbbell ensembles (CONNFFESSIT) rather than a
     /// constitutive equation.
     pub fn is_ensemble(&self) -> bool {
-        self.model == PolymerModel::Dumbbells
+        self.model.is_ensemble()
     }
 
     /// The ensembles' spring law (Hookean unless `spring = "fene"`).
@@ -124,21 +112,6 @@ fn yes() -> bool {
     true
 }
 
-/// `[fluid.polymer] model`
-#[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq, Eq)]
-#[serde(rename_all = "snake_case")]
-pub enum PolymerModel {
-    /// The corotational (Jaumann) Maxwell model of Ellero 2004 ch. 3 (sign corrected).
-    CorotationalMaxwell,
-    /// The upper-convected Maxwell model (Oldroyd-B with `fluid.viscosity` > 0).
-    UpperConvectedMaxwell,
-    /// Every fluid particle carries `per_particle` Brownian dumbbells advanced with its own
-    /// velocity gradient; their Kramers stress G(⟨QF(Q)⟩ − I), G = η_p/λ, is τ (CONNFFESSIT,
-    /// [`crate::models::dumbbell_ensemble`]). Hookean dumbbells are the stochastic
-    /// counterpart of `upper_convected_maxwell`.
-    Dumbbells,
-}
-
 /// Components of the packed symmetric stress in D dimensions.
 pub const fn packed_width(dimension: usize) -> usize {
     dimension * (dimension + 1) / 2
@@ -158,77 +131,183 @@ pub fn unpack<const D: usize>(packed: &[f64]) -> [[f64; D]; D] {
     std::array::from_fn(|a| std::array::from_fn(|b| packed[packed_index::<D>(a, b)]))
 }
 
-/// A polymer model with its parameters, as the gradient pass applies it.
+/// The parameters a constitutive law's rate reads.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Maxwell {
-    /// Which model.
-    pub model: PolymerModel,
+pub struct LawParams {
     /// η_p.
     pub viscosity: f64,
     /// λ.
     pub relaxation_time: f64,
     /// Whether the corotational rotation terms are on.
     pub rotation: bool,
+    /// The maximum extensibility b of a finitely extensible law (NaN: none).
+    pub b: f64,
 }
 
-impl Maxwell {
-    /// The constitutive model of a `[fluid.polymer]` table (none for dumbbell ensembles, whose
+/// What a polymer law declares (module doc). Associated functions only: the registry
+/// dispatches by [`PolymerModel`], statically.
+pub trait Law {
+    /// Whether the stress comes from a dumbbell ensemble the particle carries (no rate).
+    const ENSEMBLE: bool = false;
+    /// The optional `[fluid.polymer]` keys it reads (besides model, viscosity and
+    /// relaxation_time).
+    const KEYS: &'static [&'static str] = &[];
+
+    /// dτ/dt (packed) at stress `tau` (packed) and velocity gradient `g`, into `rate`.
+    fn rate<const D: usize>(p: &LawParams, tau: &[f64], g: &[[f64; D]; D], rate: &mut [f64]);
+
+    /// Checks of its keys: `Err((key under fluid.polymer, message))`.
+    fn validate(_cfg: &PolymerCfg) -> Result<(), (&'static str, String)> {
+        Ok(())
+    }
+
+    /// Whether its start-up in unidirectional flow is the Oldroyd-B series.
+    fn oldroyd_b(_cfg: &PolymerCfg) -> bool {
+        false
+    }
+
+    /// Its zero-shear polymer viscosity over η_p in `dimension` dimensions, with the formula
+    /// (`None`: η_p itself).
+    fn zero_shear_factor(_cfg: &PolymerCfg, _dimension: usize) -> Option<(f64, &'static str)> {
+        None
+    }
+
+    /// Its steady-shear tension τ_xx at shear rate γ̇ in `dimension` dimensions.
+    fn steady_shear_tension(cfg: &PolymerCfg, shear_rate: f64, dimension: usize) -> f64;
+}
+
+/// The registry of polymer laws: `[fluid.polymer] model = "…"` → the law's unit struct.
+macro_rules! polymer_laws {
+    ($( $(#[$doc:meta])* $variant:ident($law:ty) = $name:literal, )*) => {
+        /// `[fluid.polymer] model`: one variant per registered law.
+        #[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq, Eq)]
+        pub enum PolymerModel {
+            $( $(#[$doc])* #[serde(rename = $name)] $variant, )*
+        }
+
+        impl PolymerModel {
+            /// Every registered law with its `model` name.
+            pub const ALL: &'static [(PolymerModel, &'static str)] =
+                &[$( (PolymerModel::$variant, $name), )*];
+
+            /// Its `model` name.
+            pub fn name(self) -> &'static str {
+                match self {
+                    $( PolymerModel::$variant => $name, )*
+                }
+            }
+
+            /// [`Law::ENSEMBLE`].
+            pub fn is_ensemble(self) -> bool {
+                match self {
+                    $( PolymerModel::$variant => <$law as Law>::ENSEMBLE, )*
+                }
+            }
+
+            /// [`Law::oldroyd_b`].
+            pub fn is_oldroyd_b(self, cfg: &PolymerCfg) -> bool {
+                match self {
+                    $( PolymerModel::$variant => <$law as Law>::oldroyd_b(cfg), )*
+                }
+            }
+
+            /// Whether it reads the optional key `key` ([`Law::KEYS`]).
+            pub fn reads(self, key: &str) -> bool {
+                match self {
+                    $( PolymerModel::$variant => <$law as Law>::KEYS.contains(&key), )*
+                }
+            }
+
+            /// [`Law::validate`].
+            pub fn validate(self, cfg: &PolymerCfg) -> Result<(), (&'static str, String)> {
+                match self {
+                    $( PolymerModel::$variant => <$law as Law>::validate(cfg), )*
+                }
+            }
+
+            /// [`Law::zero_shear_factor`].
+            pub fn zero_shear_factor(
+                self,
+                cfg: &PolymerCfg,
+                dimension: usize,
+            ) -> Option<(f64, &'static str)> {
+                match self {
+                    $( PolymerModel::$variant => <$law as Law>::zero_shear_factor(cfg, dimension), )*
+                }
+            }
+
+            /// [`Law::steady_shear_tension`].
+            pub fn steady_shear_tension(
+                self,
+                cfg: &PolymerCfg,
+                shear_rate: f64,
+                dimension: usize,
+            ) -> f64 {
+                match self {
+                    $( PolymerModel::$variant => {
+                        <$law as Law>::steady_shear_tension(cfg, shear_rate, dimension)
+                    } )*
+                }
+            }
+
+            /// [`Law::rate`].
+            #[inline]
+            fn rate<const D: usize>(
+                self,
+                p: &LawParams,
+                tau: &[f64],
+                g: &[[f64; D]; D],
+                rate: &mut [f64],
+            ) {
+                match self {
+                    $( PolymerModel::$variant => <$law as Law>::rate::<D>(p, tau, g, rate), )*
+                }
+            }
+        }
+    };
+}
+
+polymer_laws! {
+    /// The corotational (Jaumann) Maxwell model of Ellero 2004 ch. 3 (sign corrected).
+    CorotationalMaxwell(corotational_maxwell::CorotationalMaxwell) = "corotational_maxwell",
+    /// The upper-convected Maxwell model (Oldroyd-B with `fluid.viscosity` > 0).
+    UpperConvectedMaxwell(upper_convected_maxwell::UpperConvectedMaxwell) = "upper_convected_maxwell",
+    /// Every fluid particle carries `per_particle` Brownian dumbbells advanced with its own
+    /// velocity gradient; their Kramers stress G(⟨QF(Q)⟩ − I), G = η_p/λ, is τ (CONNFFESSIT,
+    /// [`crate::models::dumbbell_ensemble`]). Hookean dumbbells are the stochastic
+    /// counterpart of `upper_convected_maxwell`.
+    Dumbbells(dumbbells::Dumbbells) = "dumbbells",
+}
+
+/// A constitutive polymer law with its parameters, as the gradient pass applies it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ConstitutiveLaw {
+    /// Which law.
+    pub model: PolymerModel,
+    /// Its parameters.
+    pub params: LawParams,
+}
+
+impl ConstitutiveLaw {
+    /// The constitutive law of a `[fluid.polymer]` table (none for dumbbell ensembles, whose
     /// stress is no function of τ and G).
-    pub fn constitutive(c: &PolymerCfg) -> Option<Self> {
+    pub fn of(c: &PolymerCfg) -> Option<Self> {
         (!c.is_ensemble()).then_some(Self {
             model: c.model,
-            viscosity: c.viscosity,
-            relaxation_time: c.relaxation_time,
-            rotation: c.rotation,
+            params: LawParams {
+                viscosity: c.viscosity,
+                relaxation_time: c.relaxation_time,
+                rotation: c.rotation,
+                b: c.b.unwrap_or(f64::NAN),
+            },
         })
     }
-}
 
-impl Maxwell {
     /// The rate dτ/dt (packed) at stress `tau` (packed) and velocity gradient `g`
     /// (g[a][b] = ∂v^a/∂x^b), written into `rate`.
     #[inline]
     pub fn rate<const D: usize>(&self, tau: &[f64], g: &[[f64; D]; D], rate: &mut [f64]) {
-        let t = unpack::<D>(tau);
-        let inv_lambda = 1.0 / self.relaxation_time;
-        let modulus = self.viscosity * inv_lambda; // G = η_p/λ
-        let trace_over_d = (0..D).map(|a| g[a][a]).sum::<f64>() / D as f64;
-        for a in 0..D {
-            for b in a..D {
-                let strain = 0.5 * (g[a][b] + g[b][a]);
-                let mut r = match self.model {
-                    PolymerModel::CorotationalMaxwell => {
-                        let deviatoric = if a == b {
-                            strain - trace_over_d
-                        } else {
-                            strain
-                        };
-                        2.0 * modulus * deviatoric
-                    }
-                    PolymerModel::UpperConvectedMaxwell => 2.0 * modulus * strain,
-                    PolymerModel::Dumbbells => unreachable!("`constitutive` builds none"),
-                };
-                r -= t[a][b] * inv_lambda;
-                match self.model {
-                    PolymerModel::CorotationalMaxwell if self.rotation => {
-                        // (Ωτ − τΩ)^{ab} = Σ_c Ω^{ac} τ^{cb} − τ^{ac} Ω^{cb}.
-                        for c in 0..D {
-                            let omega_ac = 0.5 * (g[a][c] - g[c][a]);
-                            let omega_cb = 0.5 * (g[c][b] - g[b][c]);
-                            r += omega_ac * t[c][b] - t[a][c] * omega_cb;
-                        }
-                    }
-                    PolymerModel::CorotationalMaxwell | PolymerModel::Dumbbells => {}
-                    PolymerModel::UpperConvectedMaxwell => {
-                        // (Gτ + τGᵀ)^{ab} = Σ_c G^{ac} τ^{cb} + τ^{ac} G^{bc}.
-                        for c in 0..D {
-                            r += g[a][c] * t[c][b] + t[a][c] * g[b][c];
-                        }
-                    }
-                }
-                rate[packed_index::<D>(a, b)] = r;
-            }
-        }
+        self.model.rate::<D>(&self.params, tau, g, rate);
     }
 }
 
@@ -254,7 +333,7 @@ mod tests {
 
     /// Integrates dτ/dt = rate(τ, G) for a particle in the prescribed simple shear
     /// v = γ̇ y x̂ (G_xy = γ̇) with classical RK4, from τ = 0 to `t_end`.
-    fn start_up<const D: usize>(m: &Maxwell, rate_of_shear: f64, t_end: f64) -> Vec<f64> {
+    fn start_up<const D: usize>(m: &ConstitutiveLaw, rate_of_shear: f64, t_end: f64) -> Vec<f64> {
         let mut g = [[0.0; D]; D];
         g[0][1] = rate_of_shear;
         let w = packed_width(D);
@@ -290,17 +369,20 @@ mod tests {
     fn corotational_start_up_follows_the_analytic_solution() {
         let (eta, gamma) = (10.0, 1.0);
         for wi in [0.1, 1.0, 3.2] {
-            let m = Maxwell {
+            let m = ConstitutiveLaw {
                 model: PolymerModel::CorotationalMaxwell,
-                viscosity: eta,
-                relaxation_time: wi / gamma,
-                rotation: true,
+                params: LawParams {
+                    viscosity: eta,
+                    relaxation_time: wi / gamma,
+                    rotation: true,
+                    b: f64::NAN,
+                },
             };
             for t in [0.3, 1.0, 2.5, 7.0] {
                 let tau2 = start_up::<2>(&m, gamma, t);
                 let tau3 = start_up::<3>(&m, gamma, t);
                 let scale = eta * gamma / (1.0 + wi * wi);
-                let decay = (-t / m.relaxation_time).exp();
+                let decay = (-t / m.params.relaxation_time).exp();
                 let (c, s) = ((gamma * t).cos(), (gamma * t).sin());
                 let xy = scale * (1.0 - decay * (c - wi * s));
                 let xx = scale * (wi - decay * (wi * c + s));
@@ -327,11 +409,14 @@ mod tests {
     /// stresses.
     #[test]
     fn linear_variant_has_no_normal_stresses() {
-        let m = Maxwell {
+        let m = ConstitutiveLaw {
             model: PolymerModel::CorotationalMaxwell,
-            viscosity: 2.0,
-            relaxation_time: 0.5,
-            rotation: false,
+            params: LawParams {
+                viscosity: 2.0,
+                relaxation_time: 0.5,
+                rotation: false,
+                b: f64::NAN,
+            },
         };
         let tau = start_up::<2>(&m, 3.0, 1.0);
         let want = 2.0 * 3.0 * (1.0 - (-2.0f64).exp());
@@ -344,11 +429,14 @@ mod tests {
     #[test]
     fn upper_convected_start_up_follows_the_analytic_solution() {
         let (eta, lambda, gamma) = (3.0, 0.7, 2.0);
-        let m = Maxwell {
+        let m = ConstitutiveLaw {
             model: PolymerModel::UpperConvectedMaxwell,
-            viscosity: eta,
-            relaxation_time: lambda,
-            rotation: true,
+            params: LawParams {
+                viscosity: eta,
+                relaxation_time: lambda,
+                rotation: true,
+                b: f64::NAN,
+            },
         };
         for t in [0.2, 1.0, 4.0] {
             let tau = start_up::<3>(&m, gamma, t);
