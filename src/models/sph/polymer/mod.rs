@@ -5,16 +5,12 @@
 //! carries ([`crate::models::dumbbell_ensemble`]).
 //!
 //! **Adding a constitutive law is one file in this directory plus one line of
-//! [`polymer_laws!`]**: a unit struct implementing [`Law`] (its rate, its keys and their
+//! `polymer_laws!`**: a unit struct implementing [`Law`] (its rate, its keys and their
 //! checks, its zero-shear viscosity and steady-shear tension for `check`, whether its start-up
 //! is Oldroyd-B's). Each law's file opens with its equations.
 //!
 //! The stress is stored packed, the upper triangle row by row: (xx, xy, yy) in 2D,
 //! (xx, xy, xz, yy, yz, zz) in 3D.
-
-mod corotational_maxwell;
-mod dumbbells;
-mod upper_convected_maxwell;
 
 use crate::models::dumbbell_settings::{Precision as ConnectorPrecision, SchemeKind, SpringKind};
 use crate::models::dumbbells::{DumbbellParams, Scheme, Spring};
@@ -176,9 +172,12 @@ pub trait Law {
     fn steady_shear_tension(cfg: &PolymerCfg, shear_rate: f64, dimension: usize) -> f64;
 }
 
-/// The registry of polymer laws: `[fluid.polymer] model = "…"` → the law's unit struct.
+/// The registry of polymer laws: `Variant in module = "model name"`, the law being the unit
+/// struct `module::Variant` in `module.rs` of this directory.
 macro_rules! polymer_laws {
-    ($( $(#[$doc:meta])* $variant:ident($law:ty) = $name:literal, )*) => {
+    ($( $(#[$doc:meta])* $variant:ident in $module:ident = $name:literal, )*) => {
+        $( mod $module; )*
+
         /// `[fluid.polymer] model`: one variant per registered law.
         #[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq, Eq)]
         pub enum PolymerModel {
@@ -200,28 +199,28 @@ macro_rules! polymer_laws {
             /// [`Law::ENSEMBLE`].
             pub fn is_ensemble(self) -> bool {
                 match self {
-                    $( PolymerModel::$variant => <$law as Law>::ENSEMBLE, )*
+                    $( PolymerModel::$variant => <$module::$variant as Law>::ENSEMBLE, )*
                 }
             }
 
             /// [`Law::oldroyd_b`].
             pub fn is_oldroyd_b(self, cfg: &PolymerCfg) -> bool {
                 match self {
-                    $( PolymerModel::$variant => <$law as Law>::oldroyd_b(cfg), )*
+                    $( PolymerModel::$variant => <$module::$variant as Law>::oldroyd_b(cfg), )*
                 }
             }
 
             /// Whether it reads the optional key `key` ([`Law::KEYS`]).
             pub fn reads(self, key: &str) -> bool {
                 match self {
-                    $( PolymerModel::$variant => <$law as Law>::KEYS.contains(&key), )*
+                    $( PolymerModel::$variant => <$module::$variant as Law>::KEYS.contains(&key), )*
                 }
             }
 
             /// [`Law::validate`].
             pub fn validate(self, cfg: &PolymerCfg) -> Result<(), (&'static str, String)> {
                 match self {
-                    $( PolymerModel::$variant => <$law as Law>::validate(cfg), )*
+                    $( PolymerModel::$variant => <$module::$variant as Law>::validate(cfg), )*
                 }
             }
 
@@ -232,7 +231,7 @@ macro_rules! polymer_laws {
                 dimension: usize,
             ) -> Option<(f64, &'static str)> {
                 match self {
-                    $( PolymerModel::$variant => <$law as Law>::zero_shear_factor(cfg, dimension), )*
+                    $( PolymerModel::$variant => <$module::$variant as Law>::zero_shear_factor(cfg, dimension), )*
                 }
             }
 
@@ -245,7 +244,7 @@ macro_rules! polymer_laws {
             ) -> f64 {
                 match self {
                     $( PolymerModel::$variant => {
-                        <$law as Law>::steady_shear_tension(cfg, shear_rate, dimension)
+                        <$module::$variant as Law>::steady_shear_tension(cfg, shear_rate, dimension)
                     } )*
                 }
             }
@@ -260,7 +259,7 @@ macro_rules! polymer_laws {
                 rate: &mut [f64],
             ) {
                 match self {
-                    $( PolymerModel::$variant => <$law as Law>::rate::<D>(p, tau, g, rate), )*
+                    $( PolymerModel::$variant => <$module::$variant as Law>::rate::<D>(p, tau, g, rate), )*
                 }
             }
         }
@@ -269,14 +268,14 @@ macro_rules! polymer_laws {
 
 polymer_laws! {
     /// The corotational (Jaumann) Maxwell model of Ellero 2004 ch. 3 (sign corrected).
-    CorotationalMaxwell(corotational_maxwell::CorotationalMaxwell) = "corotational_maxwell",
+    CorotationalMaxwell in corotational_maxwell = "corotational_maxwell",
     /// The upper-convected Maxwell model (Oldroyd-B with `fluid.viscosity` > 0).
-    UpperConvectedMaxwell(upper_convected_maxwell::UpperConvectedMaxwell) = "upper_convected_maxwell",
+    UpperConvectedMaxwell in upper_convected_maxwell = "upper_convected_maxwell",
     /// Every fluid particle carries `per_particle` Brownian dumbbells advanced with its own
     /// velocity gradient; their Kramers stress G(⟨QF(Q)⟩ − I), G = η_p/λ, is τ (CONNFFESSIT,
     /// [`crate::models::dumbbell_ensemble`]). Hookean dumbbells are the stochastic
     /// counterpart of `upper_convected_maxwell`.
-    Dumbbells(dumbbells::Dumbbells) = "dumbbells",
+    Dumbbells in dumbbells = "dumbbells",
 }
 
 /// A constitutive polymer law with its parameters, as the gradient pass applies it.
