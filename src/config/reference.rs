@@ -279,9 +279,9 @@ pub const KEYS: &[KeyDoc] = &[
     ),
     key(
         "fluid.polymer.model",
-        "\"corotational_maxwell\" | \"upper_convected_maxwell\" | \"dumbbells\"",
+        "\"corotational_maxwell\" | \"upper_convected_maxwell\" | \"dumbbells\" | \"fene_p\"",
         "required ([fluid.polymer])",
-        "A polymer stress τ carried by every particle (sph): the corotational (Jaumann) Maxwell model of Ellero 2004 ch. 3 with its printed sign corrected, dτ/dt = Ωτ − τΩ + (2η_p/λ)D̄ − τ/λ, or the upper-convected Maxwell model dτ/dt = Gτ + τGᵀ + (2η_p/λ)D − τ/λ (Oldroyd-B with fluid.viscosity > 0): τ starts at 0, is advanced by the integrator and checkpointed. \"dumbbells\" (CONNFFESSIT): every fluid particle carries per_particle Brownian dumbbells advanced once per step with the traceless part of its own velocity gradient; τ is their Kramers stress G(⟨QF(Q)⟩ − I), G = η_p/λ; the connectors start at equilibrium and are checkpointed; walls and inclusions carry none.",
+        "A polymer stress τ carried by every particle (sph): the corotational (Jaumann) Maxwell model of Ellero 2004 ch. 3 with its printed sign corrected, dτ/dt = Ωτ − τΩ + (2η_p/λ)D̄ − τ/λ, or the upper-convected Maxwell model dτ/dt = Gτ + τGᵀ + (2η_p/λ)D − τ/λ (Oldroyd-B with fluid.viscosity > 0): τ starts at 0, is advanced by the integrator and checkpointed. \"dumbbells\" (CONNFFESSIT): every fluid particle carries per_particle Brownian dumbbells advanced once per step with the traceless part of its own velocity gradient; τ is their Kramers stress G(⟨QF(Q)⟩ − I), G = η_p/λ; the connectors start at equilibrium and are checkpointed; walls and inclusions carry none. \"fene_p\": the FENE-P closure of FENE dumbbells (needs b), dc/dt = Gc + cGᵀ − (Zc − I)/λ, Z = 1/(1 − tr c/b), τ = (η_p/λ)(Zc − I), advanced in τ; zero-shear polymer viscosity η_p b/(b + D).",
     ),
     key(
         "fluid.polymer.per_particle",
@@ -297,9 +297,9 @@ pub const KEYS: &[KeyDoc] = &[
     ),
     key(
         "fluid.polymer.b",
-        "float > 2",
-        "required (fene)",
-        "FENE extensibility b = H Q₀²/k_BT (model = \"dumbbells\", spring = \"fene\").",
+        "float > 2 (dumbbells), > 0 (fene_p)",
+        "required (fene, fene_p)",
+        "FENE extensibility b = H Q₀²/k_BT (model = \"dumbbells\" with spring = \"fene\", or model = \"fene_p\").",
     ),
     key(
         "fluid.polymer.scheme",

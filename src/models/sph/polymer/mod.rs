@@ -276,6 +276,8 @@ polymer_laws! {
     /// [`crate::models::dumbbell_ensemble`]). Hookean dumbbells are the stochastic
     /// counterpart of `upper_convected_maxwell`.
     Dumbbells in dumbbells = "dumbbells",
+    /// The FENE-P closure of FENE dumbbells (`b`), as a conformation law advanced in τ.
+    FeneP in fene_p = "fene_p",
 }
 
 /// A constitutive polymer law with its parameters, as the gradient pass applies it.
