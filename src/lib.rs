@@ -2,7 +2,7 @@
 //!
 //! An MPI domain-decomposed particle solver for polymeric and viscoelastic flows.
 //!
-//! Architecture (see `../shared/DESIGN.md`). Module map, from the top down:
+//! Architecture (see `docs/architecture.md`). Module map, from the top down:
 //!
 //! - [`driver`] sets a case up (fresh, or restarted from a checkpoint with the fallback to
 //!   older ones) and hands it to the one step loop of [`scene`], which runs every scene — the

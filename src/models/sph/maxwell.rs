@@ -1,7 +1,7 @@
 //! Maxwell-type polymer stress of an SPH particle (`[fluid.polymer]`): the constitutive rate
 //! τ̇_i = f(τ_i, G_i) that the integrator advances with the particle, from the particle's own
 //! stress τ_i and its velocity-gradient estimate G_i^{ab} = ∂v^a/∂x^b (Ellero 2004 Eq. 3.7,
-//! ×2). Spec `sph-maxwell.md` §1.9, with the thesis's printed sign corrected.
+//! ×2). docs/theory/sph_maxwell.md §1.9, with the thesis's printed sign corrected.
 //!
 //! ```text
 //! Ω = ½ (G − Gᵀ)   (vorticity, Ω^{ab} = ½(∂_b v^a − ∂_a v^b))
@@ -15,9 +15,10 @@
 //! **Departure from the printed text.** The thesis's Eq. 3.4 and Eq. 3.6 combine the rotation
 //! terms into σω + ωσ, an antisymmetric tensor for symmetric σ: with it steady shear gives
 //! σ_xx = σ_yy = 0 and σ_xy = ηγ̇, no shear thinning and no normal stresses, which contradicts
-//! the thesis's own Figs. 3.5–3.6. The Jaumann form above is what is implemented (spec §1.9
-//! erratum); in simple shear v_x = γ̇y it gives dτ_xx/dt = γ̇τ_xy − τ_xx/λ,
-//! dτ_yy/dt = −γ̇τ_xy − τ_yy/λ, dτ_xy/dt = (γ̇/2)(τ_yy − τ_xx) + η_pγ̇/λ − τ_xy/λ.
+//! the thesis's own Figs. 3.5–3.6. The Jaumann form above is what is implemented
+//! (docs/theory/sph_maxwell.md §1.9 erratum); in simple shear v_x = γ̇y it gives
+//! dτ_xx/dt = γ̇τ_xy − τ_xx/λ, dτ_yy/dt = −γ̇τ_xy − τ_yy/λ,
+//! dτ_xy/dt = (γ̇/2)(τ_yy − τ_xx) + η_pγ̇/λ − τ_xy/λ.
 //!
 //! The corotational and linear models keep tr τ = 0 (tr(Ωτ − τΩ) = tr D̄ = 0); it is monitored,
 //! not enforced (`stress_trace` observable). The upper-convected model (Oldroyd-B with a
@@ -278,7 +279,7 @@ mod tests {
         tau
     }
 
-    /// Spec §3 T4 (B2): start-up of simple shear from τ = 0, Wi = λγ̇,
+    /// docs/theory/sph_maxwell.md §3 T4 (B2): start-up of simple shear from τ = 0, Wi = λγ̇,
     /// τ_xy(t) = (ηγ̇/(1+Wi²)) [1 − e^{−t/λ}(cos γ̇t − Wi sin γ̇t)],
     /// τ_xx(t) = −τ_yy(t) = (ηγ̇/(1+Wi²)) [Wi − e^{−t/λ}(Wi cos γ̇t + sin γ̇t)],
     /// to 1e-6 relative (RK4 with 20 000 steps is exact to ~1e-12 here). The thesis's printed
