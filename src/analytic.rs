@@ -1,6 +1,6 @@
 //! Analytic solutions the runs check themselves against: start-up flows in a channel of width
 //! L between walls at y = 0 and y = L, fluid at rest at t = 0, kinematic viscosity ν = η/ρ₀
-//! (spec `sph-maxwell.md` §3 T1–T2; Ellero 2004 Eqs. 2.54 and 2.57, the latter with its
+//! (docs/theory/sph_maxwell.md §3 T1–T2; Ellero 2004 Eqs. 2.54 and 2.57, the latter with its
 //! printed sign corrected).
 //!
 //! ```text
@@ -26,7 +26,7 @@ use std::f64::consts::PI;
 /// ```
 ///
 /// (Backer, Lowe, Hoefsloot & Iedema, J. Chem. Phys. 122, 154503 (2005); Nguyen 2021 §3.4,
-/// spec `dpd-physical-parameters.md` §7.)
+/// docs/theory/dpd_physical_parameters.md §7.)
 pub fn double_poiseuille_mean(y0: f64, y1: f64, ly: f64, rho: f64, g: f64, eta: f64) -> f64 {
     let h = |y: f64| {
         let s = y - 0.5 * ly;
@@ -132,9 +132,9 @@ pub struct OldroydB {
 
 /// Start-up Poiseuille velocity u(y, t) of an Oldroyd-B fluid (solvent viscosity η_s, polymer
 /// viscosity η_p, relaxation time λ; the upper-convected Maxwell fluid when η_s = 0) of
-/// density ρ driven by the body force F per unit mass from rest, τ = 0 at t = 0 (spec
-/// `msph-dumbbells.md` §3 T2). In unidirectional flow τ_yy stays 0, so the shear stress obeys
-/// a linear equation and each odd sine mode k_n = nπ/L decays independently:
+/// density ρ driven by the body force F per unit mass from rest, τ = 0 at t = 0
+/// (docs/theory/msph_dumbbells.md §3 T2). In unidirectional flow τ_yy stays 0, so the shear stress
+/// obeys a linear equation and each odd sine mode k_n = nπ/L decays independently:
 ///
 /// ```text
 /// u(y, t) = F y (L − y)/(2ν₀) − Σ_{n odd} a_n(t) sin(k_n y),   ν₀ = (η_s + η_p)/ρ, ν_s = η_s/ρ
@@ -226,7 +226,7 @@ fn oldroyd_b_mode(t: f64, k: f64, a0: f64, slope0: f64, fluid: &OldroydB) -> f64
 /// The amplitude a(t) of u_x = a(t) sin(ky), k = π/L, relaxing from a(0) = A with zero stress,
 /// in the linearised Jeffreys fluid (no advection, no rotation terms: the linear corotational
 /// variant, or any Maxwell model at small amplitude) of density ρ, solvent viscosity η_s, and
-/// polymer viscosity η_p with relaxation time λ (spec `sph-maxwell.md` §3 T3, Ellero 2004
+/// polymer viscosity η_p with relaxation time λ (docs/theory/sph_maxwell.md §3 T3, Ellero 2004
 /// Eqs. 3.12–3.15). With τ_xy = b(t) cos(ky):
 ///
 /// ```text
@@ -235,9 +235,9 @@ fn oldroyd_b_mode(t: f64, k: f64, a0: f64, slope0: f64, fluid: &OldroydB) -> f64
 /// ```
 ///
 /// (cos/sin with ω = √(−s²) when s² < 0). With η_s = 0, ρ = 1, η_p = 1/Re, λ = De this is the
-/// spec's corrected initial-value solution e^{−t/(2De)}[cos ωt + (β/ω) sin ωt]; the thesis's
-/// printed form e^{−βt} cos ωt does not satisfy ∂_t u(y, 0) = 0. Without a polymer
-/// (η_p = 0) it is the viscous decay A e^{−νk²t}.
+/// corrected initial-value solution (docs/theory/sph_maxwell.md §3 T3)
+/// e^{−t/(2De)}[cos ωt + (β/ω) sin ωt]; the thesis's printed form e^{−βt} cos ωt does not satisfy
+/// ∂_t u(y, 0) = 0. Without a polymer (η_p = 0) it is the viscous decay A e^{−νk²t}.
 pub fn relaxation(
     t: f64,
     amplitude: f64,
@@ -274,9 +274,9 @@ mod tests {
 
     const YS: [f64; 5] = [0.1, 0.25, 0.5, 0.75, 0.9];
 
-    /// Spec §3 T3 table, the initial-value (IVP) columns, to one unit of its 4th decimal: (a) Re = 1,
-    /// De = 0.25; (b) Re = 2.5, De = 0.1. The thesis's printed form (cos ωt alone) fails it by
-    /// up to 0.33.
+    /// docs/theory/sph_maxwell.md §3 T3 table, the initial-value (IVP) columns, to one unit of its
+    /// 4th decimal: (a) Re = 1, De = 0.25; (b) Re = 2.5, De = 0.1. The thesis's printed form
+    /// (cos ωt alone) fails it by up to 0.33.
     #[test]
     fn relaxation_reproduces_the_spec_table() {
         let table = [
@@ -293,8 +293,8 @@ mod tests {
             let got_a = relaxation(t, 1.0, 1.0, 1.0, 0.0, Some((1.0, 0.25)));
             let got_b = relaxation(t, 1.0, 1.0, 1.0, 0.0, Some((1.0 / 2.5, 0.1)));
             // One unit of the table's last decimal: the table is rounded loosely ((b) at
-            // t = 0.5 prints 0.0753 for 0.075249, which direct evaluation of the spec's own
-            // formula confirms).
+            // t = 0.5 prints 0.0753 for 0.075249, which direct evaluation of the formula of
+            // docs/theory/sph_maxwell.md §3 T3 confirms).
             assert!((got_a - a).abs() <= 1e-4, "(a) t {t}: {got_a} vs {a}");
             assert!((got_b - b).abs() <= 1e-4, "(b) t {t}: {got_b} vs {b}");
         }
@@ -323,7 +323,7 @@ mod tests {
         assert!((got - a).abs() < 1e-7, "overdamped {got} vs {a}");
     }
 
-    /// Spec `msph-dumbbells.md` §3 T1 and T2 (H = 24, F = 10⁻³, ρ = 1, η₀ = 1), to their
+    /// docs/theory/msph_dumbbells.md §3 T1 and T2 (H = 24, F = 10⁻³, ρ = 1, η₀ = 1), to their
     /// printed 5 decimals: the Newtonian table (λ → 0), the UCM tables λ = 10 and 1000 (η_s = 0)
     /// and the Oldroyd-B table η_s = 0.1 (η_p = 0.9).
     #[test]
@@ -444,7 +444,7 @@ mod tests {
         }
     }
 
-    /// Spec `sph-maxwell.md` §3 T1: Re = 1 (ν = 1), U = L = 1, to the table's 4 decimals.
+    /// docs/theory/sph_maxwell.md §3 T1: Re = 1 (ν = 1), U = L = 1, to the table's 4 decimals.
     #[test]
     fn couette_reproduces_the_spec_table() {
         let table = [
@@ -546,7 +546,8 @@ mod tests {
         }
     }
 
-    /// Spec §3 T2: Re = 8 (ν = 1/8, F = 1), to the table's 4 decimals, and the steady state.
+    /// docs/theory/sph_maxwell.md §3 T2: Re = 8 (ν = 1/8, F = 1), to the table's 4 decimals, and
+    /// the steady state.
     #[test]
     fn poiseuille_reproduces_the_corrected_spec_table() {
         let table = [

@@ -1,26 +1,30 @@
-//! DPD parameters from physical fluid properties (Nguyen 2021, Ch. 3–4; spec
-//! `dpd-physical-parameters.md` §1–§3, §10).
+//! DPD parameters from physical fluid properties (Nguyen 2021, Ch. 3–4;
+//! docs/theory/dpd_physical_parameters.md §1–§3, §10).
 //!
-//! The thesis builds the DPD weights as
+//! The thesis builds the DPD weights as (docs/theory/dpd_physical_parameters.md §1.2–1.3, Eq. 3.29)
 //!
 //! ```text
-//! w_C = (1 − r/r_c)^s̄,   w_D = (1 − r/r_c)^s,   w_R = √w_D,   σ² = 2 k_BT γ      (spec §1.2–1.3, Eq. 3.29)
+//! w_C = (1 − r/r_c)^s̄,   w_D = (1 − r/r_c)^s,   w_R = √w_D,   σ² = 2 k_BT γ
 //! ```
 //!
 //! and chooses the four free numbers (a, s̄, γ, s) so that the DPD fluid has a prescribed
 //! viscosity η, compressibility κ⁻¹, time-scale ratio α and, optionally, Schmidt number Sc or
-//! particle diffusion time τ_P (spec §2.7). Everything here is a pure function of its
-//! arguments, in reduced DPD units (numeric m, r_c, k_BT; spec §3):
+//! particle diffusion time τ_P (docs/theory/dpd_physical_parameters.md §2.7). Everything here is
+//! a pure function of its arguments, in reduced DPD units
+//! (numeric m, r_c, k_BT; docs/theory/dpd_physical_parameters.md §3):
 //!
 //! - [`map`]: physical inputs ([`PhysicalInputs`]) → [`DpdParameters`], with every
-//!   feasibility check of spec §2.2–§2.5, each failure explained in the `Err` message;
-//! - [`DpdFluid`]: the inverse direction, the kinetic-theory predictions of spec §2.6
-//!   (viscosity, Schmidt number, α, compressibility, speed of sound, correlation length, τ_P);
-//! - [`coarse_grain`] and [`fuchslin_scaling`]: the coarse-graining rules of spec §3.
+//!   feasibility check of docs/theory/dpd_physical_parameters.md §2.2–§2.5, each failure explained
+//!   in the `Err` message;
+//! - [`DpdFluid`]: the inverse direction, the kinetic-theory predictions of
+//!   docs/theory/dpd_physical_parameters.md §2.6 (viscosity, Schmidt number, α, compressibility,
+//!   speed of sound, correlation length, τ_P);
+//! - [`coarse_grain`] and [`fuchslin_scaling`]: the coarse-graining rules
+//!   of docs/theory/dpd_physical_parameters.md §3.
 //!
 //! `P_k(x) = (x+1)(x+2)…(x+k)` throughout (the rising product of the weight integrals).
 //!
-//! # Where this departs from the printed thesis (spec §10)
+//! # Where this departs from the printed thesis (docs/theory/dpd_physical_parameters.md §10)
 //!
 //! - Eq. 4.48 prints `k_B T^2` inside the cube root; it is `(k_BT)²` (A8), as (4.45) requires.
 //! - Eq. 4.2 prints ω₀ = n\[w_D\]γ/3; the mass and dimension are restored,
@@ -39,11 +43,11 @@
 use std::f64::consts::PI;
 
 /// Dimensionless inverse compressibility κ⁻¹ = (1/k_BT) ∂p/∂n of water at 300 K
-/// (spec §2.1, thesis L544, Eq. 2.17).
+/// (docs/theory/dpd_physical_parameters.md §2.1, thesis L544, Eq. 2.17).
 pub const WATER_INVERSE_COMPRESSIBILITY: f64 = 15.9835;
 
 /// The "modified DPD" dissipative exponent s = 1/2, used when no Sc or τ_P is imposed
-/// (spec §1.2, thesis L680, L798).
+/// (docs/theory/dpd_physical_parameters.md §1.2, thesis L680, L798).
 pub const MODIFIED_DISSIPATIVE_EXPONENT: f64 = 0.5;
 
 /// Spatial dimension d of the fluid.
@@ -90,25 +94,30 @@ pub enum RepulsionRule {
     /// Match a time-scale ratio α = γ² r_c/(m a) (Eq. 3.3/3.5) and the compressibility κ⁻¹
     /// through s̄ (Eq. 3.6/3.7). The value is α.
     TimeScaleRatio(f64),
-    /// The "classical water" choice of the thesis's Ch. 4/5 (spec §2.1, §10-A4; L1233, L1349):
-    /// a linear conservative weight, s̄ = 1, with a fixed by the compressibility alone,
-    /// a = 15(κ⁻¹ − 1) k_BT/(π n r_c⁴) in 3D and a = 12(κ⁻¹ − 1) k_BT/(π n r_c³) in 2D
-    /// (Eq. 2.18/2.19 with exact coefficients). α is then an output.
+    /// The "classical water" choice of the thesis's Ch. 4/5
+    /// (docs/theory/dpd_physical_parameters.md §2.1, §10-A4; L1233, L1349): a linear conservative
+    /// weight, s̄ = 1, with a fixed by the compressibility alone, a = 15(κ⁻¹ − 1) k_BT/(π n r_c⁴)
+    /// in 3D and a = 12(κ⁻¹ − 1) k_BT/(π n r_c³) in 2D (Eq. 2.18/2.19 with exact coefficients).
+    /// α is then an output.
     ClassicalWater,
 }
 
-/// The extra physical input that fixes the dissipative exponent s (spec §2.7).
+/// The extra physical input that fixes the dissipative exponent s
+/// (docs/theory/dpd_physical_parameters.md §2.7).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum DissipationConstraint {
-    /// Viscosity only: s = 1/2 (spec §2.3, thesis L680, L798).
+    /// Viscosity only: s = 1/2 (docs/theory/dpd_physical_parameters.md §2.3, thesis L680, L798).
     ViscosityOnly,
-    /// Impose the Schmidt number Sc = η̄_D/(ρD) (spec §2.4, Eqs. 3.11–3.20).
+    /// Impose the Schmidt number Sc = η̄_D/(ρD)
+    /// (docs/theory/dpd_physical_parameters.md §2.4, Eqs. 3.11–3.20).
     SchmidtNumber(f64),
-    /// Impose the particle diffusion time τ_P = R²/D (spec §2.5, Eqs. 4.43–4.51); 3D only.
+    /// Impose the particle diffusion time τ_P = R²/D
+    /// (docs/theory/dpd_physical_parameters.md §2.5, Eqs. 4.43–4.51); 3D only.
     ParticleDiffusionTime(f64),
 }
 
-/// The physical description of a DPD fluid: the inputs of spec §2.7.
+/// The physical description of a DPD fluid: the inputs of
+/// docs/theory/dpd_physical_parameters.md §2.7.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PhysicalInputs {
     /// Spatial dimension d.
@@ -183,7 +192,7 @@ impl PhysicalInputs {
     }
 }
 
-/// The DPD force parameters produced by [`map`] (spec §2.7).
+/// The DPD force parameters produced by [`map`] (docs/theory/dpd_physical_parameters.md §2.7).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct DpdParameters {
     /// s: w_D = (1 − r/r_c)^s, w_R = (1 − r/r_c)^{s/2}.
@@ -201,7 +210,8 @@ pub struct DpdParameters {
     pub alpha: f64,
 }
 
-/// Maps physical fluid properties to DPD parameters: the algorithm of spec §2.7.
+/// Maps physical fluid properties to DPD parameters: the algorithm
+/// of docs/theory/dpd_physical_parameters.md §2.7.
 ///
 /// ```text
 /// s  = 1/2                                         no extra constraint
@@ -217,7 +227,8 @@ pub struct DpdParameters {
 /// s̄  = 1/(3B) + B − 2,  B = ∛(C/2 + √(C²/4 − 1/27)),  C = 2π a n r_c³/((κ⁻¹ − 1) k_BT)   2D (3.7), needs C > 6
 /// ```
 ///
-/// Under [`RepulsionRule::ClassicalWater`], a and s̄ = 1 come from κ⁻¹ alone (spec §2.1).
+/// Under [`RepulsionRule::ClassicalWater`], a and s̄ = 1 come from κ⁻¹ alone
+/// (docs/theory/dpd_physical_parameters.md §2.1).
 ///
 /// Every input must be finite and positive, and κ⁻¹ > 1. An infeasible input returns `Err`
 /// with a message naming the violated condition, the numbers, and what to change.
@@ -295,7 +306,8 @@ pub fn map(inputs: &PhysicalInputs) -> Result<DpdParameters, String> {
     Ok(parameters)
 }
 
-/// The dissipative exponent s fixed by `inputs.constraint` (first step of spec §2.7).
+/// The dissipative exponent s fixed by `inputs.constraint`
+/// (first step of docs/theory/dpd_physical_parameters.md §2.7).
 ///
 /// - no constraint: s = 1/2;
 /// - Sc, 3D: s = (−9 + √(1 + 4C))/2, C = 6 Sc m k_BT n² r_c²/(5η²) (Eq. 3.13); s > 0 needs
@@ -303,8 +315,9 @@ pub fn map(inputs: &PhysicalInputs) -> Result<DpdParameters, String> {
 /// - Sc, 2D: s = (−7 + √(1 + 4C))/2, C = 3 Sc m k_BT n² r_c²/(4η²) (Eq. 3.17); s > 0 needs
 ///   C > 12, i.e. η < √(Sc m k_BT n² r_c²/16) (3.19), Sc > 16η²/(m k_BT n² r_c²) (3.20);
 /// - τ_P (3D only): s = (−9 + √(1 + 4E))/2, E = (6 k_BT n r_c²/(5η)) ∛(36π² η² τ_P/(k_BT)²)
-///   (Eqs. 4.48/4.49; the thesis prints `k_B T^2`, read (k_BT)², spec §10-A8); s > 0 needs
-///   E > 20, i.e. τ_P > 31250 η/(243π² k_BT n³ r_c⁶) (4.50), η < 243π² k_BT n³ r_c⁶ τ_P/31250 (4.51).
+///   (Eqs. 4.48/4.49; the thesis prints `k_B T^2`, read (k_BT)²,
+///   docs/theory/dpd_physical_parameters.md §10-A8); s > 0 needs E > 20, i.e.
+///   τ_P > 31250 η/(243π² k_BT n³ r_c⁶) (4.50), η < 243π² k_BT n³ r_c⁶ τ_P/31250 (4.51).
 ///
 /// The constraint is checked as s > 0 (equivalently C > 20 / 12, E > 20).
 pub fn dissipative_exponent(inputs: &PhysicalInputs) -> Result<f64, String> {
@@ -406,7 +419,7 @@ pub fn dissipative_exponent(inputs: &PhysicalInputs) -> Result<f64, String> {
 }
 
 /// Dissipation γ that makes the kinetic-theory dissipative viscosity equal η for exponent s
-/// (spec §2.3/§2.4):
+/// (docs/theory/dpd_physical_parameters.md §2.3/§2.4):
 ///
 /// ```text
 /// η̄_D = γ n² [R² w_D]_R / (2d(d+2)) = η                                      (3.8 = 4.41)
@@ -430,7 +443,7 @@ pub fn gamma_from_viscosity(
 }
 
 /// The compressibility constant C of Eqs. 3.6/3.7: with w_C = (1 − r/r_c)^s̄, matching κ⁻¹
-/// means P₄(s̄) = C in 3D and P₃(s̄) = C in 2D (spec §2.2), where
+/// means P₄(s̄) = C in 3D and P₃(s̄) = C in 2D (docs/theory/dpd_physical_parameters.md §2.2), where
 ///
 /// ```text
 /// 3D: C = 8π a n r_c⁴/((κ⁻¹ − 1) k_BT)      2D: C = 2π a n r_c³/((κ⁻¹ − 1) k_BT)
@@ -451,7 +464,7 @@ pub fn compressibility_constant(
 }
 
 /// The conservative exponent s̄ that gives a fluid of repulsion a the inverse compressibility
-/// κ⁻¹ (spec §2.2, Eqs. 3.6/3.7):
+/// κ⁻¹ (docs/theory/dpd_physical_parameters.md §2.2, Eqs. 3.6/3.7):
 ///
 /// ```text
 /// 3D: s̄ = (√(5 + 4√(C + 1)) − 5)/2                                  needs C > 24
@@ -500,8 +513,9 @@ pub fn conservative_exponent(
     Ok(conservative_exponent_for_constant(dimension, c))
 }
 
-/// The repulsion of the "classical water" variant (s̄ = 1; spec §2.1, Eqs. 2.18/2.19 with
-/// exact coefficients; thesis Ch. 4/5 a = 3.5328):
+/// The repulsion of the "classical water" variant
+/// (s̄ = 1; docs/theory/dpd_physical_parameters.md §2.1, Eqs. 2.18/2.19 with exact coefficients;
+/// thesis Ch. 4/5 a = 3.5328):
 ///
 /// ```text
 /// 3D: a = 15 (κ⁻¹ − 1) k_BT/(π n r_c⁴)   (≈ 71.54 k_BT/(n r_c⁴) for water)
@@ -523,7 +537,8 @@ pub fn classical_water_repulsion(
     }
 }
 
-/// \[w\]_R = ∫ dR w(R) over the cutoff ball for w = (1 − R/r_c)^s (spec §2.6, Eq. 4.2/4.46):
+/// \[w\]_R = ∫ dR w(R) over the cutoff ball for w = (1 − R/r_c)^s
+/// (docs/theory/dpd_physical_parameters.md §2.6, Eq. 4.2/4.46):
 /// 8π r_c³/P₃(s) in 3D, 2π r_c²/P₂(s) in 2D.
 /// (Eq. 4.2's 4π r_c³ [1/(1+s) − 2/(2+s) + 1/(3+s)] is the same number.)
 pub fn weight_integral(dimension: Dimension, exponent: f64, cutoff: f64) -> f64 {
@@ -533,7 +548,8 @@ pub fn weight_integral(dimension: Dimension, exponent: f64, cutoff: f64) -> f64 
     }
 }
 
-/// [R² w]_R = ∫ dR R² w(R) for w = (1 − R/r_c)^s (spec §2.3, Eq. 3.8/4.41):
+/// [R² w]_R = ∫ dR R² w(R) for w = (1 − R/r_c)^s
+/// (docs/theory/dpd_physical_parameters.md §2.3, Eq. 3.8/4.41):
 /// 96π r_c⁵/P₅(s) in 3D, 12π r_c⁴/P₄(s) in 2D (1024π r_c⁵/3465 and 64π r_c⁴/315 at s = 1/2).
 pub fn second_moment_integral(dimension: Dimension, exponent: f64, cutoff: f64) -> f64 {
     match dimension {
@@ -543,7 +559,7 @@ pub fn second_moment_integral(dimension: Dimension, exponent: f64, cutoff: f64) 
 }
 
 /// Particle diffusion time from the Schmidt number, τ_P = ρ³ Sc³ (k_BT)²/(36π² η⁵)
-/// (spec §2.5, Eq. 4.52; 3D). With Sc = η/(ρD) this is Eq. 4.45.
+/// (docs/theory/dpd_physical_parameters.md §2.5, Eq. 4.52; 3D). With Sc = η/(ρD) this is Eq. 4.45.
 pub fn particle_diffusion_time_from_schmidt(
     mass_density: f64,
     schmidt_number: f64,
@@ -557,8 +573,8 @@ pub fn particle_diffusion_time_from_schmidt(
     Ok((mass_density * schmidt_number).powi(3) * kt * kt / (36.0 * PI * PI * viscosity.powi(5)))
 }
 
-/// A complete DPD fluid: the state the kinetic theory of spec §2.6 is evaluated on
-/// (the inverse direction of [`map`]).
+/// A complete DPD fluid: the state the kinetic theory of docs/theory/dpd_physical_parameters.md
+/// §2.6 is evaluated on (the inverse direction of [`map`]).
 ///
 /// The methods are the bare formulas; [`DpdFluid::predict`] checks the fluid first.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -583,7 +599,7 @@ pub struct DpdFluid {
     pub dissipative_exponent: f64,
 }
 
-/// The kinetic-theory properties of a [`DpdFluid`] (spec §2.6).
+/// The kinetic-theory properties of a [`DpdFluid`] (docs/theory/dpd_physical_parameters.md §2.6).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct KineticTheoryPrediction {
     /// Dissipative viscosity η̄_D (Eq. 3.8).
@@ -596,7 +612,8 @@ pub struct KineticTheoryPrediction {
     pub self_diffusion: f64,
     /// Sc = η̄_D/(ρD): the Schmidt number the mapping imposes (Eq. 3.12, η̄ ≈ η̄_D).
     pub schmidt_number_dissipative: f64,
-    /// Sc = η̄/(ρD) with the total viscosity (the convention of the thesis's L840, spec §10-A5).
+    /// Sc = η̄/(ρD) with the total viscosity
+    /// (the convention of the thesis's L840, docs/theory/dpd_physical_parameters.md §10-A5).
     pub schmidt_number_total: f64,
     /// Time-scale ratio α = γ² r_c/(m a) (Eq. 3.3).
     pub time_scale_ratio: f64,
@@ -681,7 +698,7 @@ impl DpdFluid {
         self.cutoff * (self.mass / self.kt).sqrt()
     }
 
-    /// Virial pressure with g ≡ 1 (Eq. 2.14, spec §2.1):
+    /// Virial pressure with g ≡ 1 (Eq. 2.14, docs/theory/dpd_physical_parameters.md §2.1):
     /// p = n k_BT + 4π a n² r_c⁴/P₄(s̄) (3D, Eq. 3.1), p = n k_BT + π a n² r_c³/P₃(s̄) (2D, Eq. 3.2).
     pub fn pressure(&self) -> f64 {
         let n = self.number_density;
@@ -717,8 +734,9 @@ impl DpdFluid {
         1.0 + c_at_unit_excess / p_sbar
     }
 
-    /// Isothermal speed of sound c_s = √(κ⁻¹ k_BT/m) (spec §2.6; Eq. 3.42 is the 3D s̄ = 1
-    /// case, c_s² = k_BT/m + (π/15) a n r_c⁴/m).
+    /// Isothermal speed of sound c_s = √(κ⁻¹ k_BT/m)
+    /// (docs/theory/dpd_physical_parameters.md §2.6; Eq. 3.42 is the 3D s̄ = 1 case,
+    /// c_s² = k_BT/m + (π/15) a n r_c⁴/m).
     pub fn speed_of_sound(&self) -> f64 {
         (self.inverse_compressibility() * self.kt / self.mass).sqrt()
     }
@@ -738,7 +756,8 @@ impl DpdFluid {
             / (2.0 * d * (d + 2.0))
     }
 
-    /// Self-diffusion D = d k_BT/(γ n \[w_D\]_R) (Eq. 4.46, spec §2.6):
+    /// Self-diffusion D = d k_BT/(γ n \[w_D\]_R)
+    /// (Eq. 4.46, docs/theory/dpd_physical_parameters.md §2.6):
     /// 3D: 3 k_BT P₃(s)/(8π γ n r_c³); 2D: k_BT P₂(s)/(π γ n r_c²).
     pub fn self_diffusion(&self) -> f64 {
         self.dimension.as_f64() * self.kt
@@ -749,7 +768,8 @@ impl DpdFluid {
 
     /// Kinetic viscosity η̄_K = ρD/2 (Eq. 3.12). In 3D this equals
     /// (3/5) ρ k_BT n r_c²/(η̄_D (s+4)(s+5)), the first term of Eq. 3.37; in 2D
-    /// (3/8) ρ k_BT n r_c²/(η̄_D (s+3)(s+4)) [spec D]. Equivalently η̄_K = η̄_D/(2 Sc).
+    /// (3/8) ρ k_BT n r_c²/(η̄_D (s+3)(s+4)) (docs/theory/dpd_physical_parameters.md §2.6).
+    /// Equivalently η̄_K = η̄_D/(2 Sc).
     pub fn kinetic_viscosity(&self) -> f64 {
         self.mass_density() * self.self_diffusion() / 2.0
     }
@@ -761,19 +781,21 @@ impl DpdFluid {
 
     /// Sc = η̄_D/(ρD), the Schmidt number of Eq. 3.12 (η̄ ≈ η̄_D) that the mapping imposes:
     /// 3D 5 η̄_D² (s+4)(s+5)/(6 m k_BT n² r_c²), 2D 4 η̄_D² (s+3)(s+4)/(3 m k_BT n² r_c²)
-    /// (spec §2.6). The thesis's Sc_KT = 290/319/365 (L811) are this one.
+    /// (docs/theory/dpd_physical_parameters.md §2.6). The thesis's Sc_KT = 290/319/365 (L811) are
+    /// this one.
     pub fn schmidt_number_dissipative(&self) -> f64 {
         self.dissipative_viscosity() / (self.mass_density() * self.self_diffusion())
     }
 
     /// Sc = η̄/(ρD) with the total viscosity: the convention of the standard-DPD value
-    /// Sc = 164.52 quoted at L840 (spec §2.8, §10-A5).
+    /// Sc = 164.52 quoted at L840 (docs/theory/dpd_physical_parameters.md §2.8, §10-A5).
     pub fn schmidt_number_total(&self) -> f64 {
         self.total_viscosity() / (self.mass_density() * self.self_diffusion())
     }
 
-    /// Collision frequency ω₀ = n \[w_D\]_R γ/(d m) (Eq. 4.2 with m and d restored, spec §10-A7;
-    /// the thesis prints n\[w_D\]γ/3).
+    /// Collision frequency ω₀ = n \[w_D\]_R γ/(d m)
+    /// (Eq. 4.2 with m and d restored, docs/theory/dpd_physical_parameters.md §10-A7; the thesis
+    /// prints n\[w_D\]γ/3).
     pub fn collision_frequency(&self) -> f64 {
         self.number_density
             * weight_integral(self.dimension, self.dissipative_exponent, self.cutoff)
@@ -805,32 +827,34 @@ impl DpdFluid {
 }
 
 /// Coarse-graining scale factor φ = ν′/ν between levels ν = N_phys/N and ν′ = N_phys/N′
-/// (spec §3, Eq. 3.21). φ > 1 means fewer, larger particles.
+/// (docs/theory/dpd_physical_parameters.md §3, Eq. 3.21). φ > 1 means fewer, larger particles.
 pub fn scale_factor(level: f64, new_level: f64) -> Result<f64, String> {
     require_positive("coarse-graining level ν", level)?;
     require_positive("new coarse-graining level ν′", new_level)?;
     Ok(new_level / level)
 }
 
-/// The thesis's coarse-graining rules for physical inputs (spec §3, §10-A9). Both keep k_BT,
-/// ρ = m n, η, κ⁻¹, α and Sc/τ_P, and set n′ = n/φ, m′ = φ m; (a, s̄, γ, s) are then
-/// recomputed by [`map`] at the new level.
+/// The thesis's coarse-graining rules for physical inputs
+/// (docs/theory/dpd_physical_parameters.md §3, §10-A9). Both keep k_BT, ρ = m n, η, κ⁻¹, α and
+/// Sc/τ_P, and set n′ = n/φ, m′ = φ m; (a, s̄, γ, s) are then recomputed by [`map`] at the new
+/// level.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum CoarseGrainingRule {
     /// r_c′ = φ^{1/3} r_c (n r_c³ fixed): the 3D scheme of Ch. 3 §3 (L798–804; n = 8, 6, 4 with
     /// r_c = 1, 1.1006, 1.2599). Time unit ×φ^{5/6} [from Eq. 3.28].
     CubeRootCutoff,
     /// r_c′ = φ r_c (n r_c fixed): the 2D scheme of Ch. 3 §4 (Eqs. 3.38–3.40, L850–862).
-    /// Time unit ×φ^{3/2} (Eq. 3.40; L852's "k_BT scaling φ^{3/2}" is this, spec §10-A9).
+    /// Time unit ×φ^{3/2} (Eq. 3.40; L852's "k_BT scaling φ^{3/2}" is this,
+    /// docs/theory/dpd_physical_parameters.md §10-A9).
     LinearCutoff,
 }
 
-/// The physical inputs of the same fluid at coarse-graining scale factor φ = ν′/ν (spec §3):
-/// n′ = n/φ, m′ = φ m, r_c′ = φ^{1/3} r_c or φ r_c per `rule`, everything else unchanged.
-/// Pass the result to [`map`] to get the level's DPD parameters; under
-/// [`CoarseGrainingRule::CubeRootCutoff`] with the α rule, a comes out unchanged [spec D].
-/// The particle count scales as N′ = N/φ; the time-unit ratio is
-/// `result.time_unit() / inputs.time_unit()`.
+/// The physical inputs of the same fluid at coarse-graining scale factor φ = ν′/ν
+/// (docs/theory/dpd_physical_parameters.md §3): n′ = n/φ, m′ = φ m, r_c′ = φ^{1/3} r_c or φ r_c per
+/// `rule`, everything else unchanged. Pass the result to [`map`] to get the level's DPD parameters;
+/// under [`CoarseGrainingRule::CubeRootCutoff`] with the α rule, a comes out unchanged
+/// (docs/theory/dpd_physical_parameters.md §3). The particle count scales as N′ = N/φ;
+/// the time-unit ratio is `result.time_unit() / inputs.time_unit()`.
 pub fn coarse_grain(
     inputs: &PhysicalInputs,
     rule: CoarseGrainingRule,
@@ -850,7 +874,8 @@ pub fn coarse_grain(
     })
 }
 
-/// Füchslin et al. (2009) scaling of a 3D DPD fluid by φ = ν′/ν (spec §3, Eq. 3.22):
+/// Füchslin et al. (2009) scaling of a 3D DPD fluid by φ = ν′/ν
+/// (docs/theory/dpd_physical_parameters.md §3, Eq. 3.22):
 ///
 /// ```text
 /// N′ = N/φ, k_BT′ = φ k_BT, n′ = n/φ, m′ = φ m, r_c′ = φ^{1/3} r_c, τ′ = φ^{1/3} τ,
@@ -1060,9 +1085,10 @@ mod tests {
 
     use Dimension::{Three, Two};
 
-    /// Spec §2.8, the 13-row table. Rows with r_c printed as 1.1006 / 1.2599 use those printed
-    /// values (the spec's [D] columns were computed from them); the n = 6 cylinder row uses the
-    /// exact r_c = 8/3, m = 2/3 (its printed 2.6667 / 0.6667 give a = 7.5831, 1.4·10⁻⁴ off).
+    /// docs/theory/dpd_physical_parameters.md §2.8, the 13-row table. Rows with r_c printed as
+    /// 1.1006 / 1.2599 use those printed values (the [D] columns of that table were computed from
+    /// them); the n = 6 cylinder row uses the exact r_c = 8/3, m = 2/3 (its printed
+    /// 2.6667 / 0.6667 give a = 7.5831, 1.4·10⁻⁴ off).
     #[test]
     fn spec_2_8_reference_table() -> Result<(), String> {
         struct Row {
@@ -1187,7 +1213,7 @@ mod tests {
                 schmidt_kt: None,
             },
         ];
-        let mut worst = Worst::new("spec §2.8 table, α rows");
+        let mut worst = Worst::new("§2.8 table, α rows");
         for row in &rows {
             let p = map(&row.inputs)?;
             worst.check(&format!("{} s", row.case), p.dissipative_exponent, row.s);
@@ -1220,14 +1246,14 @@ mod tests {
         worst.report();
 
         // Row 13: Ch4/Ch5 solvent, classical water repulsion with s̄ = 1 (L1233, L1349).
-        let mut worst = Worst::new("spec §2.8 table, Ch4/5 row");
+        let mut worst = Worst::new("§2.8 table, Ch4/5 row");
         let solvent =
             PhysicalInputs::new(Three, 4.0, 1.0, 1.5, 30.0, RepulsionRule::ClassicalWater)
                 .with_constraint(DissipationConstraint::SchmidtNumber(500.0));
         let p = map(&solvent)?;
         worst.check("Ch4 s", p.dissipative_exponent, "0.4244");
         worst.check("Ch4 γ", p.gamma, "6.9710");
-        worst.check("Ch4 a (spec [D] 3.53289)", p.a, "3.53289");
+        worst.check("Ch4 a ([D] 3.53289)", p.a, "3.53289");
         worst.check("Ch4 a (thesis 3.5328)", p.a, "3.5328");
         assert_eq!(p.conservative_exponent, 1.0);
         worst.check("Ch4 α (implied)", p.alpha, "20.63");
@@ -1283,9 +1309,10 @@ mod tests {
     }
 
     /// Feeding the printed (α, η, Sc) of the standard set back through the mapping gives
-    /// s = 0.4923, γ = 4.4533, a = 3.4592, s̄ = 0.9836 (spec §2.8). With the unrounded
-    /// kinetic-theory values instead (Sc = 164.5287, not 164.52) the result moves to
-    /// s = 0.49247, γ = 4.45434: the spec's numbers depend on the printed Sc.
+    /// s = 0.4923, γ = 4.4533, a = 3.4592, s̄ = 0.9836
+    /// (docs/theory/dpd_physical_parameters.md §2.8). With the unrounded kinetic-theory values
+    /// instead (Sc = 164.5287, not 164.52) the result moves to s = 0.49247, γ = 4.45434: the §2.8
+    /// numbers depend on the printed Sc.
     #[test]
     fn standard_set_round_trip() -> Result<(), String> {
         let printed = fluid(Three, 4.0, 1.5, 1.0, 16.9721, 8.5997)
@@ -1370,7 +1397,7 @@ mod tests {
     }
 
     /// τ_P for k_BT = 1 … 1.4 at ρ = 4, Sc = 500, η = 30 (L1282, Eq. 4.52), and the (s, γ, σ)
-    /// the τ_P constraint gives (spec §2.8; E = 24 k_BT).
+    /// the τ_P constraint gives (docs/theory/dpd_physical_parameters.md §2.8; E = 24 k_BT).
     #[test]
     fn particle_diffusion_time_list() -> Result<(), String> {
         let rows = [
@@ -1448,8 +1475,8 @@ mod tests {
         Ok(())
     }
 
-    /// Classical-water coefficients (spec §2.1): 71.541 (3D), 57.233 (2D), a = 3.53289 at
-    /// n = 4, r_c = 1.5; Eq. 3.42 equals c_s² = κ⁻¹ k_BT/m at s̄ = 1.
+    /// Classical-water coefficients (docs/theory/dpd_physical_parameters.md §2.1): 71.541 (3D),
+    /// 57.233 (2D), a = 3.53289 at n = 4, r_c = 1.5; Eq. 3.42 equals c_s² = κ⁻¹ k_BT/m at s̄ = 1.
     #[test]
     fn classical_water_repulsion_coefficients() -> Result<(), String> {
         let w = WATER_INVERSE_COMPRESSIBILITY;
@@ -1490,8 +1517,9 @@ mod tests {
         Ok(())
     }
 
-    /// The kinetic theory of spec §2.6 inverts the mapping exactly: η̄_D = η, Sc_D = Sc,
-    /// α, κ⁻¹ and (3D) τ_P come back; the closed forms of Eq. 3.37 and of spec §2.6 agree.
+    /// The kinetic theory of docs/theory/dpd_physical_parameters.md §2.6 inverts the mapping
+    /// exactly: η̄_D = η, Sc_D = Sc, α, κ⁻¹ and (3D) τ_P come back; the closed forms of Eq. 3.37
+    /// and of docs/theory/dpd_physical_parameters.md §2.6 agree.
     #[test]
     fn kinetic_theory_inverts_mapping() -> Result<(), String> {
         for d in [Two, Three] {
@@ -1785,7 +1813,8 @@ mod tests {
     }
 
     /// Eqs. 3.6/3.7 need C > 24 (3D) / C > 6 (2D); the thesis's α = 100, m = 1 point of
-    /// Fig. 3.11 has C = 4.02 (spec §10-A10) while α = 50 is feasible (s̄ = 0.169).
+    /// Fig. 3.11 has C = 4.02 (docs/theory/dpd_physical_parameters.md §10-A10) while α = 50 is
+    /// feasible (s̄ = 0.169).
     #[test]
     fn too_weak_repulsion_is_rejected() -> Result<(), String> {
         let infeasible = fluid(Two, 10.0, 1.6, 1.0, 100.0, 100.0);

@@ -71,7 +71,7 @@ impl<const D: usize> SimBox<D> {
 
     /// Moves a copy of a particle to its image `k` boxes along `axis` (k L added to the
     /// coordinate); across the Lees–Edwards plane also shifts x by k s and v_x by k γ̇ L_y.
-    /// The one formula every rank uses for every image (DESIGN.md, determinism rule 3).
+    /// The one formula every rank uses for every image (docs/architecture.md, determinism rule 3).
     #[inline]
     pub fn apply_image(
         &self,

@@ -2,7 +2,7 @@
 //!
 //! An MPI domain-decomposed particle solver for polymeric and viscoelastic flows.
 //!
-//! Architecture (see `../shared/DESIGN.md`). Module map, from the top down:
+//! Architecture (see `docs/architecture.md`). Module map, from the top down:
 //!
 //! - [`driver`] sets a case up (fresh, or restarted from a checkpoint with the fallback to
 //!   older ones) and hands it to the one step loop of [`scene`], which runs every scene — the
@@ -12,16 +12,23 @@
 //!   ([`integrators`]), migration and halo exchange ([`domain`], over a [`comm::Comm`]),
 //!   neighbour lists ([`neighbour`]), and the models' pair passes with the ghost-field
 //!   refreshes between them.
-//! - [`models`]: every model implements [`models::ParticleModel`] (the guide to adding one is
-//!   [`models::interface`]); pair passes gather ([`models::gather`]) or, for DPD, scatter
+//! - [`models`]: every particle model implements [`models::ParticleModel`] (the guide to adding
+//!   one is [`models::interface`]); every fluid model, registered once in
+//!   [`config::registry`], owns its validation, time-step limits, `check` report, observables,
+//!   blow-up detectors and build ([`models::FluidModel`]); pair passes gather ([`models::gather`]) or, for DPD, scatter
 //!   ([`models::pair_loop`]) into exact sums ([`fixed_sum`]). Models: DPD, SPH with walls
 //!   ([`models::sph`], its kernels in [`models::sph::kernels`]), dumbbell ensembles, and the
 //!   engine's test model. [`species`] gives walls their boundary particles; [`analytic`] holds
 //!   the series solutions the start-up references compare with.
 //! - [`config`] parses and validates case files (it knows the models' parameter types; no model
-//!   imports it); [`diagnostics`] and [`summary`] average and report; [`output`] writes
-//!   checkpoints and snapshots; [`check`] and [`stability`] say what a case costs and whether
-//!   its time step is safe.
+//!   imports it: models see a case through [`models::fluid_model::CaseView`]); [`diagnostics`]
+//!   and [`summary`] average and report; [`output`] writes checkpoints and snapshots;
+//!   [`check`] says what a case costs and whether its time step is safe, [`capacity`] whether
+//!   it fits a rank count and a node.
+//!
+//! Dependencies run one way (no cycle among top-level modules; `tools/module_graph.py
+//! --check` in `./run test`): config → models → engine (domain, halo, neighbour, sums,
+//! particles) ← sim/scene/driver ← commands.
 //!
 //! Physics never sees MPI; the same code runs on one rank talking to itself, on P in-process
 //! ranks, and under `mpirun`.

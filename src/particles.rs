@@ -11,7 +11,7 @@
 /// Fields store it row-major in D² plain numbers (so it migrates, checkpoints and travels to
 /// ghosts like any field); kernels read and write it as this type through
 /// [`Particles::tensor`] and [`Particles::set_tensor`] (the same bytes, no cost in release
-/// builds; rust-stack.md §1.3).
+/// builds; docs/architecture.md, "Output, checkpoints, runs").
 pub type Tensor<const D: usize> = nalgebra::SMatrix<f64, D, D>;
 
 /// The rows of a [`Tensor`], κ[α][β] = κ_αβ: the form of the hot loops that index components

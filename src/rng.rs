@@ -3,7 +3,7 @@
 //!
 //! A random number is a pure function of a key and a counter, so a draw depends only on *what*
 //! it is for — `(seed, purpose, step, ids)` — and never on which rank or thread evaluates it.
-//! That is what makes trajectories bitwise identical for any decomposition (DESIGN.md,
+//! That is what makes trajectories bitwise identical for any decomposition (docs/architecture.md,
 //! "Determinism"). No generator state exists, so a checkpoint needs none.
 //!
 //! Layout of one draw:
@@ -142,9 +142,10 @@ pub fn mix64(mut z: u64) -> u64 {
 const GOLDEN: u64 = 0x9E37_79B9_7F4A_7C15;
 
 /// A cheap keyed stream for the hot pair-noise path (the SplitMix/Saru style HOOMD uses for DPD,
-/// DESIGN.md): the key words are folded through [`mix64`] into a start value, then SplitMix64
-/// runs from there. About 2 ns per number instead of ~16 ns for a Philox block; its statistics
-/// are tested below (moments, tails, correlations between neighbouring keys, steps and ids).
+/// docs/architecture.md): the key words are folded through [`mix64`] into a start value, then
+/// SplitMix64 runs from there. About 2 ns per number instead of ~16 ns for a Philox block; its
+/// statistics are tested below (moments, tails, correlations between neighbouring keys, steps and
+/// ids).
 #[derive(Clone, Copy, Debug)]
 pub struct HashStream {
     state: u64,
@@ -246,7 +247,7 @@ impl HashStream {
 }
 
 /// A fast sequential stream of standard normals behind a counter-based key, for the dumbbell
-/// ensembles (DESIGN.md, "Determinism" item 1: one fast stream per (particle, step)).
+/// ensembles (docs/architecture.md, "Determinism" item 1: one fast stream per (particle, step)).
 ///
 /// - Key: the [`HashStream`] of `(seed, purpose, step, a, b)` (keyed SplitMix64) produces the
 ///   four state words, so the stream is a pure function of its key — no state to checkpoint,

@@ -1,6 +1,6 @@
 //! Wavenumber-dependent shear viscosity η(k) from the transverse-current autocorrelation
-//! function (TCAF) of a fluid at rest, and its k → 0 limit η₀ (Nguyen 2021 ch. 4; spec
-//! dpd-physical-parameters §6).
+//! function (TCAF) of a fluid at rest, and its k → 0 limit η₀ (Nguyen 2021 ch. 4;
+//! docs/theory/dpd_physical_parameters.md §6).
 //!
 //! ```text
 //! J(k, t)  = Σ_j v_j(t) exp(i k·r_j(t))                         (sum over the fluid particles)
@@ -27,9 +27,11 @@ use crate::diagnostics::Estimate;
 use crate::fixed_sum::FixedSum;
 use crate::tcaf_fit::{extrapolate_to_zero_wavenumber, fit_maxwell, maxwell_tcaf};
 
-/// The fits use the leading lags where C⊥(k, t)/C⊥(k, 0) exceeds this (spec §6.3).
+/// The fits use the leading lags where C⊥(k, t)/C⊥(k, 0) exceeds this
+/// (docs/theory/dpd_physical_parameters.md §6.3).
 pub const FIT_CUTOFF: f64 = 0.05;
-/// η₀ is extrapolated from at most this many of the smallest wavenumbers (spec §6.3).
+/// η₀ is extrapolated from at most this many of the smallest wavenumbers
+/// (docs/theory/dpd_physical_parameters.md §6.3).
 pub const EXTRAPOLATION_MODES: usize = 4;
 
 /// Correlator channels per mode: (axis a, component b ≠ a) pairs × (real, imaginary).

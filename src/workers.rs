@@ -13,7 +13,7 @@ use crate::comm::Comm;
 /// (docs/performance.md); on more threads the caller works instead of waiting. A thread joins
 /// one pool in its life (rayon keeps it marked as that pool's worker), so a second simulation
 /// on the same thread, as in the tests, gets a pool of its own threads. Which threads do the
-/// work changes no bit (the determinism rules of DESIGN.md).
+/// work changes no bit (the determinism rules of docs/architecture.md).
 pub fn worker_pool(comm: &dyn Comm, threads: usize) -> Result<rayon::ThreadPool, String> {
     let builder = || rayon::ThreadPoolBuilder::new().num_threads(threads);
     let pool = builder()

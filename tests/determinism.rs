@@ -1,7 +1,8 @@
 //! Determinism across decompositions: the same case gives a bitwise identical final state
 //! (`state_digest`: ids, positions, velocities, forces, image counts) for 1–4 in-process ranks
-//! and 1–2 rayon threads per rank, with and without Lees–Edwards shear (DESIGN.md rule 5); and
-//! so are the time-averaged observables (every diagnostic sum is exact).
+//! and 1–2 rayon threads per rank, with and without Lees–Edwards shear
+//! (docs/architecture.md rule 5); and so are the time-averaged observables
+//! (every diagnostic sum is exact).
 
 mod common;
 use common::{assert_all_equal, case_from_str, digests_on_1_to_4_ranks, small_dpd};

@@ -1,7 +1,8 @@
-//! DPD given by its physical properties (`[fluid.physical]`, Nguyen 2021; spec
-//! `dpd-physical-parameters.md` §2.7): the case file maps to the thesis's parameters (the
-//! reference rows of spec §2.8, to 10⁻⁴), the echo of a mapped case parses again to the same
-//! fluid, and a contradicting raw key or an infeasible fluid is refused with the reason.
+//! DPD given by its physical properties (`[fluid.physical]`, Nguyen 2021;
+//! docs/theory/dpd_physical_parameters.md §2.7): the case file maps to the thesis's parameters (the
+//! reference rows of docs/theory/dpd_physical_parameters.md §2.8, to 10⁻⁴), the echo of a mapped
+//! case parses again to the same fluid, and a contradicting raw key or an infeasible fluid is
+//! refused with the reason.
 
 mod common;
 use common::case_from_str;
@@ -68,7 +69,8 @@ fn close(got: f64, want: f64, rel: f64, what: &str) {
 #[test]
 fn the_chapter_4_solvent_maps_to_the_thesis_parameters() {
     // η = 30, Sc = 500, n = 4, r_c = 1.5, m = 1, classical-water repulsion: γ = 6.9710,
-    // s = 0.4244, a = 3.5328 (thesis L1233, ✓T in spec §2.8), s̄ = 1.
+    // s = 0.4244, a = 3.5328 (thesis L1233, ✓T in docs/theory/dpd_physical_parameters.md §2.8),
+    // s̄ = 1.
     let d = dpd_of(&case_text(
         3,
         4.0,
@@ -174,7 +176,8 @@ fn an_infeasible_fluid_is_refused_with_what_to_change() {
 #[test]
 fn the_reverse_poiseuille_solution_has_the_thesis_extremes_and_exact_bin_means() {
     use mesorheo::analytic::double_poiseuille_mean;
-    // ρ = 8, g = 1, η = 30, L_y = 20: u_max = 3.333 at s = ±5 (spec §7), antisymmetric.
+    // ρ = 8, g = 1, η = 30, L_y = 20: u_max = 3.333 at s = ±5
+    // (docs/theory/dpd_physical_parameters.md §7), antisymmetric.
     let u = |y: f64| double_poiseuille_mean(y - 1e-4, y + 1e-4, 20.0, 8.0, 1.0, 30.0);
     close(u(15.0), 10.0 / 3.0, 1e-7, "u(s = 5)");
     close(-u(5.0), 10.0 / 3.0, 1e-7, "u(s = −5)");

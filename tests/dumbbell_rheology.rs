@@ -488,8 +488,9 @@ fn hookean_shear_reversal_follows_the_exact_moments_and_ucm_at_wi_1_and_5() {
 // ---------------------------------------------------------------------------------------------
 //
 // FENE-P closed form, in the units of the code (Q in √(k_BT/H), λ = ζ/4H = 1, 3D), with the
-// *same* b as the FENE spring (Bird, Dotson & Johnson 1980; spec polymer-particle §2.1,
-// Eqs. 5.5–5.6 — no b-correction): F = Z Q with Z = 1/(1 − tr A/b), A = ⟨QQ⟩,
+// *same* b as the FENE spring (Bird, Dotson & Johnson 1980;
+// docs/theory/polymer_particle_and_bddfs.md §2.1, Eqs. 5.5–5.6 — no b-correction): F = Z Q with
+// Z = 1/(1 − tr A/b), A = ⟨QQ⟩,
 //   dA/dt = κA + Aκᵀ + I − Z A,     τ/G = Z A − I.
 // Steady shear at Wi: A_yy = A_zz = 1/Z, A_xy = Wi/Z², A_xx = 1/Z + 2Wi²/Z³, and
 // Z = 1/(1 − tr A/b) gives the cubic  b Z³ − (b + 3) Z² − 2 Wi² = 0  (one root > 1), whence

@@ -1,4 +1,5 @@
-//! MSPH derivatives with mirror walls in the paper's channel (spec `msph-dumbbells.md` §3, §5):
+//! MSPH derivatives with mirror walls in the paper's channel
+//! (docs/theory/msph_dumbbells.md §3, §5):
 //!
 //! - a linear Couette profile passes through the mirror walls exactly, in 2D and 3D: every
 //!   fluid particle's MSPH velocity gradient is the imposed shear rate and its acceleration
@@ -10,7 +11,7 @@
 //!   to t = 150 within 3 %;
 //! - the paper's literal walls (boundary particles at rest forming their own MSPH gradients,
 //!   no solvent viscosity) let the first fluid row run 14× too fast — kept so that nobody
-//!   "simplifies" back into them (spec §5.1);
+//!   "simplifies" back into them (docs/theory/msph_dumbbells.md §5.1);
 //! - the coupled channel is the same bits on 1–4 ranks × 1–2 threads.
 
 mod common;
@@ -171,11 +172,12 @@ fn stock_pairwise_sph_ucm_channel_follows_the_oldroyd_b_series() {
     );
 }
 
-/// The paper's walls read literally (spec §5.1): boundary particles at rest form their own
-/// MSPH gradients and stresses from one-sided neighbourhoods and keep their raw summation
-/// density, with no solvent viscosity. By t = 50 the first fluid row runs almost freely:
-/// measured 0.0532 against the series' 0.0038 (14×; the spec's prototype: 0.0455), where the
-/// working scheme gets 0.0055. The bound, 5× the series, fails with the mirror walls.
+/// The paper's walls read literally (docs/theory/msph_dumbbells.md §5.1): boundary particles at
+/// rest form their own MSPH gradients and stresses from one-sided neighbourhoods and keep their raw
+/// summation density, with no solvent viscosity. By t = 50 the first fluid row runs almost freely:
+/// measured 0.0532 against the series' 0.0038
+/// (14×; the prototype of docs/theory/msph_dumbbells.md §5.1: 0.0455), where the working scheme
+/// gets 0.0055. The bound, 5× the series, fails with the mirror walls.
 #[test]
 fn literal_paper_walls_give_a_wrong_near_wall_flow() {
     let text = to_t50(&stock_text("msph_channel_2d.toml"));

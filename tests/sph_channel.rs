@@ -5,7 +5,8 @@
 //! - every integrator has its order in time on both start-up flows (2, or 1 for the thesis's
 //!   scheme as printed);
 //! - the stock start-up Couette and (the early part of) Poiseuille cases pass their series
-//!   references (src/analytic.rs, checked against the spec's tables);
+//!   references (src/analytic.rs, checked against the tables of
+//!   docs/theory/sph_maxwell.md §3);
 //! - total momentum of a periodic box is conserved to round-off (antisymmetric pair terms);
 //! - a walled channel gives the same bits on 1–4 ranks × 1–2 threads, cut across or along it;
 //! - the Poiseuille start-up in 3D (periodic in z) agrees with 2D and with the series;
@@ -322,10 +323,10 @@ fn row_profile<const D: usize>(sim: &Simulation<'_, D>, delta: f64) -> Vec<f64> 
 
 /// The stock Poiseuille problem (walls at rest, F = 1, ν = 0.125, Lucy support 3Δ, Morris
 /// walls) at Δ = 0.04 to t = 0.4, in 2D and in 3D (periodic in z over 8 layers): both rows
-/// profiles against the corrected series (spec §3 T2) and against each other, relative to the
-/// steady centre velocity 1. Measured: 2D 0.67 %, 3D 0.52 %, apart 0.17 %; the bounds (1 %
-/// against the series, the tolerance; 0.5 % between them) fail if the 3D kernel's
-/// normalisation is off by 5 % (105 → 100 in Lucy's 3D constant: 3D error 1.11 %).
+/// profiles against the corrected series (docs/theory/sph_maxwell.md §3 T2) and against each other,
+/// relative to the steady centre velocity 1. Measured: 2D 0.67 %, 3D 0.52 %, apart 0.17 %;
+/// the bounds (1 % against the series, the tolerance; 0.5 % between them) fail if the 3D
+/// kernel's normalisation is off by 5 % (105 → 100 in Lucy's 3D constant: 3D error 1.11 %).
 #[test]
 fn poiseuille_in_3d_agrees_with_2d() {
     let delta: f64 = 0.04;

@@ -23,7 +23,7 @@ fn stock_inclusion_cases_pass_their_references() {
 }
 
 /// Velocity of Stokes flow past a fixed cylinder of radius `r0` at the origin in the simple
-/// shear v = γ̇ y x̂ (γ̇ = 1; spec sph-maxwell.md §3 T5, Eq. 3.23 with Ω = 0):
+/// shear v = γ̇ y x̂ (γ̇ = 1; docs/theory/sph_maxwell.md §3 T5, Eq. 3.23 with Ω = 0):
 /// v = (1 − R⁴/r⁴) Γ·r + (1 − R²/r²) ω×r + 2 (R⁴/r⁴ − R²/r²) r (r̂·Γ·r̂).
 fn stokes_velocity(x: f64, y: f64, r0: f64) -> [f64; 2] {
     let r2 = x * x + y * y;

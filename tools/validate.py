@@ -580,7 +580,8 @@ def maxwell():
 
     print("### Channel relaxation of sin(πy) (cases/maxwell_channel_relaxation_2d.toml)\n")
     print("max over the 32 bins of |u_x − u_exact| / (initial amplitude); exact: the linearised Jeffreys "
-          "solution with η_s = 1 % of η₀ (for η_s = 0 the spec's corrected IVP).\n")
+          "solution with η_s = 1 % of η₀ (for η_s = 0 the corrected IVP of "
+          "docs/theory/sph_maxwell.md §3 T3).\n")
     times = [0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.8, 1.0, 1.2, 1.4, 1.6, 1.8, 2.0]
     print("| case | model | " + " | ".join(f"t = {t}" for t in times) + " | wall s |")
     print("|---|---|" + "---|" * (len(times) + 1))
@@ -1019,7 +1020,8 @@ def msph_channel():
     print("Start-up Poiseuille flow in Murashima & Taniguchi's channel: 20a × 24a of fluid (480 particles) "
           "between walls three rows thick, f = 10⁻³, Δt = 0.01, η₀ = 1, c = 1, truncated Gaussian "
           "h = 2a; the polymer fluids carry η_s = 0.1 by Morris's term and η_p = 0.9 (Oldroyd-B β = 0.1, "
-          "spec §3 T2). Errors: the largest over the 24 rows of |ū − u_series| and the centre rows' "
+          "docs/theory/msph_dumbbells.md §3 T2). Errors: the largest over the 24 rows of "
+          "|ū − u_series| and the centre rows' "
           "error, both in % of the scale (0.072, or the λ = 1000 plug's centre velocity at t = 150, "
           "0.1459). Pairwise SPH (cases/sph_ucm_channel_2d.toml): quintic spline h = 1.2a (support 3.6a, "
           "four wall rows), c = 10, Morris wall images with the cap on β = 1 + d_j/d_i at 6 (and at the "
@@ -1323,7 +1325,8 @@ T8_THESIS_SETD = {5e-4: 0.4928, 2.5e-4: 0.7717, 1e-4: 0.9525, 7.5e-5: 0.9723, 5e
 
 def mean_field_friction_rate(case):
     """ω₀ = γ n [w_D]/(d m) of a DPD case as run (its mapped γ and s): the rate the exponential
-    thermostat integrates exactly (spec §10 A7; src/stability.rs)."""
+    thermostat integrates exactly (docs/theory/dpd_physical_parameters.md §10 A7;
+    src/models/dpd/time_step.rs)."""
     fluid, d = case["fluid"], case["dimension"]
     s, rc = fluid["weight_exponent"], fluid["cutoff"]
     n, m = case["particles"]["density"], case["particles"]["mass"]
@@ -1350,8 +1353,9 @@ def fuzz():
 
 
 def kt_vs_dt_low_mass():
-    """Nguyen 2021 Table 3.1 (spec T8): the low-mass Couette fluid (2D 10 × 10, n = 10, r_c = 1.6,
-    m = 0.01, η = 100, α = 10 → a = 234.08, s̄ = 13.92, γ = 3.825; Lees–Edwards γ̇ = 0.2) under
+    """Nguyen 2021 Table 3.1 (docs/theory/dpd_physical_parameters.md §8 T8): the low-mass Couette
+    fluid (2D 10 × 10, n = 10, r_c = 1.6, m = 0.01, η = 100, α = 10 → a = 234.08, s̄ = 13.92,
+    γ = 3.825; Lees–Edwards γ̇ = 0.2) under
     Groot–Warren velocity Verlet (λ = ½), explicit and with the exponential thermostat (SETD),
     against Δt: the profile-unbiased k_BT (100 bins of 0.1,
     the thesis's bin width along y), and k_BT_x = P_kin,xx/n, the kinetic stress about the same

@@ -275,7 +275,7 @@ pub const KEYS: &[KeyDoc] = &[
         "fluid.morris_share",
         "float in [0, 1)",
         "0.0",
-        "With viscous_term = \"nested_summation\" (sph): the share s of η applied by Morris's pairwise term, (1 − s)η by the nested summation. MSPH's two-pass Newtonian stress leaves particle-scale velocity modes undamped; s = 0.1 damps them (spec msph-dumbbells.md §5.1).",
+        "With viscous_term = \"nested_summation\" (sph): the share s of η applied by Morris's pairwise term, (1 − s)η by the nested summation. MSPH's two-pass Newtonian stress leaves particle-scale velocity modes undamped; s = 0.1 damps them (docs/theory/msph_dumbbells.md §5.1).",
     ),
     key(
         "fluid.polymer.model",
@@ -389,7 +389,7 @@ pub const KEYS: &[KeyDoc] = &[
         "walls.treatment",
         "\"layers\" | \"morris\" | \"mirror\"",
         "\"layers\"",
-        "Velocity a fluid particle sees for a boundary particle: the wall's (thesis method B; slips by ~1 % of U), or Morris's image U − (d_j/d_i)(v_i − U) (exact for linear profiles). \"mirror\" (fluid.derivatives = \"msph\" only): each boundary particle carries the fluid's values fitted (first-order least squares) at its mirror point m: velocity 2U − v̂(m), density ρ̂(m), stress extrapolated linearly from m; it forms no derivative and carries no dumbbells (spec msph-dumbbells.md §5.1). The decomposition axis must differ from the wall axis.",
+        "Velocity a fluid particle sees for a boundary particle: the wall's (thesis method B; slips by ~1 % of U), or Morris's image U − (d_j/d_i)(v_i − U) (exact for linear profiles). \"mirror\" (fluid.derivatives = \"msph\" only): each boundary particle carries the fluid's values fitted (first-order least squares) at its mirror point m: velocity 2U − v̂(m), density ρ̂(m), stress extrapolated linearly from m; it forms no derivative and carries no dumbbells (docs/theory/msph_dumbbells.md §5.1). The decomposition axis must differ from the wall axis.",
     ),
     key(
         "walls.morris_cap",

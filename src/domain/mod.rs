@@ -1,8 +1,8 @@
 //! Domain decomposition: slabs along one axis, halo (ghost) exchange and migration.
 //!
 //! Each rank owns the slab `[lo, hi)` of one axis and the whole box along the others, so a
-//! Lees–Edwards image never changes which rank a ghost goes to (DESIGN.md). The halo is built
-//! in a fixed order — first the slab axis through the communicator (a serial run talks to
+//! Lees–Edwards image never changes which rank a ghost goes to (docs/architecture.md). The halo is
+//! built in a fixed order — first the slab axis through the communicator (a serial run talks to
 //! itself), then local images along the remaining periodic axes, gradient axis before flow axis —
 //! so every rank count produces each ghost by the same arithmetic.
 

@@ -1,5 +1,5 @@
-//! Groot–Warren modified velocity Verlet (Groot & Warren 1997, Eq. 23; spec
-//! `dpd-physical-parameters.md` §1.5):
+//! Groot–Warren modified velocity Verlet (Groot & Warren 1997, Eq. 23;
+//! docs/theory/dpd_physical_parameters.md §1.5):
 //!
 //! ```text
 //! r(t+Δt) = r + Δt v + ½ Δt² f(t)/m
@@ -12,10 +12,11 @@
 //!
 //! ## The exponential thermostat (`thermostat = "exponential"`, SETD)
 //!
-//! The dissipative force is stiff at low mass: its mean-field rate is
+//! The dissipative force is stiff at low mass: its mean-field rate is (n the number density;
+//! docs/theory/dpd_physical_parameters.md §10 A7)
 //!
 //! ```text
-//! ω₀ = γ n [w_D] / (d m),   [w_D] = ∫ w_D(r) dʳ   (spec §10 A7; n the number density)
+//! ω₀ = γ n [w_D] / (d m),   [w_D] = ∫ w_D(r) dʳ
 //! ```
 //!
 //! and the explicit step diverges once ω₀Δt > 2 (Nguyen 2021, Table 3.1: m = 0.01, ω₀ ≈ 8200,
@@ -43,12 +44,12 @@
 //! conservative force. The price: the dissipative momentum transfer, hence the dissipative
 //! viscosity, is φη_D (φ = 0.68 at ω₀Δt = 0.82); `mesorheo check` prints φ.
 //!
-//! Where this departs from the spec's [R] recipe (§1.5): ω₀ is the mean-field rate of the
-//! fluid, one number, not a per-particle Σ_j w_D(r_ij): a per-particle factor would break the
-//! pairwise antisymmetry of the forces (momentum conservation) and need a halo pass for the
-//! ghosts' factors. And the noise variance is the one that makes the *stored* velocity exact;
-//! the exact Ornstein–Uhlenbeck increment variance (1 − e^{−2x})/(2ω₀) would make the
-//! predicted velocity ṽ exact and leave v cold by the factor (1 + e^{−x})/2 (0.72 at x = 0.82).
+//! Where this departs from the [R] recipe of docs/theory/dpd_physical_parameters.md §1.5: ω₀ is
+//! the mean-field rate of the fluid, one number, not a per-particle Σ_j w_D(r_ij): a per-particle
+//! factor would break the pairwise antisymmetry of the forces (momentum conservation) and need
+//! a halo pass for the ghosts' factors. And the noise variance is the one that makes the *stored*
+//! velocity exact; the exact Ornstein–Uhlenbeck increment variance (1 − e^{−2x})/(2ω₀) would make
+//! the predicted velocity ṽ exact and leave v cold by the factor (1 + e^{−x})/2 (0.72 at x = 0.82).
 
 use super::Integrator;
 use crate::particles::Particles;

@@ -1,5 +1,5 @@
 //! The SPH integrators: symplectic kick–drift–kick and three two-stage predictor–correctors
-//! (spec `sph-maxwell.md` §1.12). The state is u = (x, v, s) with s the integrated fields
+//! (docs/theory/sph_maxwell.md §1.12). The state is u = (x, v, s) with s the integrated fields
 //! (a continuity density, a stress), its rate S(u) = (v, a, ṡ) with a = F/m.
 //!
 //! **Kick–drift–kick** (velocity Verlet; one force evaluation per step):
@@ -13,8 +13,8 @@
 //! ```
 //!
 //! Symplectic, hence neutrally stable, for the conservative (pressure) part: no growth of the
-//! undamped sound modes that two-stage schemes amplify by 1 + θ⁴/4 per step (θ = ωΔt, spec
-//! §1.12 stability note).
+//! undamped sound modes that two-stage schemes amplify by 1 + θ⁴/4 per step (θ = ωΔt,
+//! docs/theory/sph_maxwell.md §1.12 stability note).
 //!
 //! **Two-stage schemes** (two force evaluations per step), with c the predictor fraction:
 //!
@@ -26,8 +26,8 @@
 //!
 //! The thesis prints the first line with c = ½ and the averaged corrector and calls it second
 //! order (Eqs. 2.49–2.50). It is **first order**: for u' = −u one step multiplies by
-//! (1 − z/2)² = 1 − z + z²/4, not 1 − z + z²/2 (spec §1.12 erratum). It is offered only to
-//! reproduce the text; Heun and midpoint are its second-order repairs.
+//! (1 − z/2)² = 1 − z + z²/4, not 1 − z + z²/2 (docs/theory/sph_maxwell.md §1.12 erratum). It is
+//! offered only to reproduce the text; Heun and midpoint are its second-order repairs.
 //!
 //! The corrector moves positions by the difference from the predicted ones,
 //! x ← x̃ + [Δt/2 (vⁿ + ṽ) − cΔt vⁿ], so a periodic wrap or a migration between the stages

@@ -1,6 +1,7 @@
 //! Dumbbell ensembles carried by particles (the micro part of CONNFFESSIT; Laso & Öttinger
-//! 1993, spec `msph-dumbbells.md` §2): every particle holds N_d connector vectors Q, advanced
-//! once per step with *that particle's* velocity gradient κ, and reports its Kramers stress
+//! 1993; docs/theory/msph_dumbbells.md §1.5–§1.6): every particle holds N_d connector vectors
+//! Q, advanced once per step with *that particle's* velocity gradient κ, and reports its Kramers
+//! stress
 //!
 //! ```text
 //! dQ = [κ·Q − F(Q)/(2λ)] dt + √(dt/λ) dW,      τ_p = G (⟨Q F(Q)⟩ − I)

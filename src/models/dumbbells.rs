@@ -1,8 +1,8 @@
 //! Ensembles of Brownian dumbbells carried by particles (CONNFFESSIT): the particle's velocity
 //! gradient deforms its N_d connector vectors Q and their Kramers stress is its polymer stress.
 //!
-//! Sources: Murashima & Taniguchi (spec `msph-dumbbells.md` §1.5, eqs. 17–19) and Ellero ch. 5
-//! (spec `polymer-particle-and-bddfs.md` §2.1, §4.1); Öttinger, *Stochastic Processes in
+//! Sources: Murashima & Taniguchi (docs/theory/msph_dumbbells.md §1.5, eqs. 17–19) and Ellero ch. 5
+//! (docs/theory/polymer_particle_and_bddfs.md §2.1, §4.1); Öttinger, *Stochastic Processes in
 //! Polymeric Fluids* (1996) §4.3 for FENE and the semi-implicit scheme.
 //!
 //! Dimensional form (spring force F_s(Q), friction ζ, κ_αβ = ∂v_α/∂x_β, so dQ_x = κ_xy Q_y dt
@@ -23,7 +23,8 @@
 //! during the step:
 //! - Euler–Maruyama: Q' = Q + A(Q) Δt + √(Δt/λ) ξ (weak order 1);
 //! - stochastic Heun, the second-order stochastic Runge–Kutta the paper uses (Brańka & Heyes,
-//!   PRE 58 (1998) 2611; for additive noise the same ξ in both stages, spec §1.5):
+//!   PRE 58 (1998) 2611; for additive noise the same ξ in both stages,
+//!   docs/theory/msph_dumbbells.md §1.5):
 //!   Q̃ = Q + A(Q) Δt + √(Δt/λ) ξ,  Q' = Q + ½ (A(Q) + A(Q̃)) Δt + √(Δt/λ) ξ (weak order 2);
 //! - semi-implicit predictor–corrector (Öttinger §4.3.2), for FENE: predictor Q̃ as above,
 //!   corrector Q' + (Δt/4λ) F(Q') = Q + [½ κ·(Q + Q̃) − F(Q)/(4λ)] Δt + √(Δt/λ) ξ =: R. F(Q')

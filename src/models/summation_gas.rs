@@ -3,7 +3,7 @@
 //! refreshed between its two passes. It exists to exercise the model layer (multi-pass
 //! evaluation, ghost-field refresh, gather passes, per-quantity scales) on every rank count;
 //! the SPH models proper (kernels, viscosity, walls, equations of state) build on the same
-//! interface. Standard SPH (Monaghan 1992; spec `sph-maxwell.md` §1):
+//! interface. Standard SPH (Monaghan 1992; docs/theory/sph_maxwell.md §1):
 //!
 //! ```text
 //! pass 1   ρ_i = m W(0, h) + Σ_j m W(r_ij, h)                          (summation density)

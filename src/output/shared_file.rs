@@ -1,6 +1,7 @@
 //! One HDF5 file written by every rank: all ranks create the same groups, datasets and
-//! attributes, then each writes its own hyperslab (rust-stack.md §1.2: "all ranks create the
-//! same datasets, then each writes its hyperslab; never rank 0 creates metadata").
+//! attributes, then each writes its own hyperslab
+//! (docs/architecture.md, "Output, checkpoints, runs": "all ranks create the same datasets, then
+//! each writes its hyperslab; never rank 0 creates metadata").
 //!
 //! Two transports, one calling sequence:
 //! - **MPI-IO** (an `mpirun` run of the `mpi` build): the file is opened collectively with the

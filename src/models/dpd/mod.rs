@@ -1,5 +1,5 @@
-//! Dissipative particle dynamics (Groot & Warren, J. Chem. Phys. 107, 4423 (1997); spec
-//! `dpd-physical-parameters.md` §1, Nguyen 2021 Eq. 2.1–2.4, 3.23–3.29).
+//! Dissipative particle dynamics (Groot & Warren, J. Chem. Phys. 107, 4423 (1997);
+//! docs/theory/dpd_physical_parameters.md §1, Nguyen 2021 Eq. 2.1–2.4, 3.23–3.29).
 //!
 //! For a pair at r_ij = r_i − r_j (r = |r_ij| < r_c, e_ij = r_ij / r, v_ij = v_i − v_j):
 //!

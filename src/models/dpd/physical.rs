@@ -1,7 +1,7 @@
 //! `[fluid.physical]` of a DPD fluid: the fluid given by its physical properties (viscosity,
 //! compressibility, time-scale ratio, optionally a Schmidt number or a particle diffusion
 //! time) instead of raw force parameters. Before the case is deserialised, the table is mapped
-//! by [`crate::dpd_parameters::map`] (Nguyen 2021, spec `dpd-physical-parameters.md` §2.7) and
+//! by [`crate::dpd_parameters::map`] (Nguyen 2021, docs/theory/dpd_physical_parameters.md §2.7) and
 //! the resulting `a`, `gamma`, `weight_exponent` (s) and `conservative_exponent` (s̄) are written
 //! into `[fluid]`; a raw parameter given beside the table must equal the mapped value (so the
 //! case echo of a checkpoint, which holds both, parses again), any other value is refused.

@@ -70,10 +70,10 @@
 //! few per cent: that accuracy limit is reported, not enforced (see the k_BT-vs-Δt curve in
 //! docs/validation.md).
 //!
-//! SPH (the summation gas): the acoustic CFL limit Δt < 0.25 h / c (Monaghan 1992; spec
-//! `sph-maxwell.md` §1).
+//! SPH (the summation gas): the acoustic CFL limit Δt < 0.25 h / c (Monaghan 1992;
+//! docs/theory/sph_maxwell.md §1.12).
 //!
-//! SPH (`kind = "sph"`, spec `sph-maxwell.md` §1.12), with r_s the kernel support:
+//! SPH (`kind = "sph"`, docs/theory/sph_maxwell.md §1.12), with r_s the kernel support:
 //!
 //! ```text
 //! acoustic (CFL, the thesis's criterion)   Δt ≤ r_s / c₀
@@ -265,9 +265,9 @@ pub fn dpd_limits_of(d: &DpdCfg, case: &dyn CaseView) -> DpdLimits {
     )
 }
 
-/// The mean-field rate of the DPD friction, ω₀ = γ n [w_D]/(d m) = γ Σ_j w_D/(d m) (spec
-/// `dpd-physical-parameters.md` §10 A7): the velocity of a particle among neighbours at rest
-/// relaxes as e^{−ω₀t}.
+/// The mean-field rate of the DPD friction, ω₀ = γ n [w_D]/(d m) = γ Σ_j w_D/(d m)
+/// (docs/theory/dpd_physical_parameters.md §10 A7): the velocity of a particle among neighbours at
+/// rest relaxes as e^{−ω₀t}.
 pub fn dpd_mean_field_rate(d: &DpdCfg, dimension: usize, n: f64, m: f64) -> f64 {
     d.gamma * mean_field_sum_wd(d, dimension, n) / (dimension as f64 * m)
 }

@@ -1,5 +1,5 @@
 //! SPH smoothing kernels W(r, h) with exact normalisation in 2D and 3D, their radial
-//! derivatives dW/dr and their supports (spec `sph-maxwell.md` §1.8; q = r/h).
+//! derivatives dW/dr and their supports (docs/theory/sph_maxwell.md §1.8; q = r/h).
 //!
 //! | kernel | W(r, h) | support | α₂ (2D) | α₃ (3D) |
 //! |---|---|---|---|---|
@@ -10,10 +10,11 @@
 //!
 //! What "h" means depends on the kernel, as in the thesis: for Lucy it is the support (the
 //! thesis's "h = 0.05" with Δ = 0.02 is a support of 2.5 spacings); for the quintic spline the
-//! support is 3h (the thesis's "r_c = 3h = 0.031"). The spec's 3D constants are computed, not
-//! printed in the thesis; the tests below integrate every kernel numerically. The thesis's 2D
-//! Gaussian constant 1/(2πh²) is a misprint for 1/(πh²) (spec §5.22); the Gaussian has
-//! unbounded support and is not offered.
+//! support is 3h (the thesis's "r_c = 3h = 0.031"). The 3D constants
+//! (docs/theory/sph_maxwell.md §1.8) are computed, not printed in the thesis; the tests below
+//! integrate every kernel numerically. The thesis's 2D Gaussian constant 1/(2πh²) is a misprint
+//! for 1/(πh²) (docs/theory/sph_maxwell.md §5.22); the Gaussian has unbounded support and is not
+//! offered.
 //!
 //! Each kernel is a small `Copy` type implementing [`Kernel`], so that the SPH passes are
 //! monomorphised per kernel (no dispatch per pair); [`KernelKind`] is the case-file choice.
@@ -330,8 +331,8 @@ impl Kernel for WendlandC2 {
     }
 }
 
-/// The truncated, shifted Gaussian (Murashima & Taniguchi Eq. 10; Zhang & Batra 2004), spec
-/// `msph-dumbbells.md` §1.2, support 2h:
+/// The truncated, shifted Gaussian (Murashima & Taniguchi Eq. 10; Zhang & Batra 2004),
+/// docs/theory/msph_dumbbells.md §1.2, support 2h:
 ///
 /// ```text
 /// W = A_d/(h√π)^d (e^{−q²} − e^{−4}),  q = r/h < 2;   dW/dr = −(2A_d/(h√π)^d) (r/h²) e^{−q²}
@@ -556,9 +557,10 @@ mod tests {
         }
     }
 
-    /// Δ² Σ_j W(r_ij) over an infinite square lattice of spacing Δ (spec §1.8): Lucy with
-    /// h = 2.5Δ gives 1.0003, with h = 3Δ 1.0029; the quintic with r_c = 3.1Δ gives 1.0001.
-    /// The spec's values are rounded to 4 decimals, hence the tolerance 5·10⁻⁵.
+    /// Δ² Σ_j W(r_ij) over an infinite square lattice of spacing Δ
+    /// (docs/theory/sph_maxwell.md §1.8): Lucy with h = 2.5Δ gives 1.0003, with h = 3Δ 1.0029;
+    /// the quintic with r_c = 3.1Δ gives 1.0001. Those values are rounded to 4 decimals, hence
+    /// the tolerance 5·10⁻⁵.
     #[test]
     fn square_lattice_sums_reproduce_the_spec() {
         fn lattice_sum<K: Kernel>(k: &K) -> f64 {
@@ -578,7 +580,8 @@ mod tests {
         for (got, want) in cases {
             assert!((got - want).abs() < 5e-5, "{got} vs {want}");
         }
-        // The truncated Gaussian at the paper's h = 2a (msph-dumbbells.md §1.2, 7 digits):
+        // The truncated Gaussian at the paper's h = 2a (docs/theory/msph_dumbbells.md §1.2,
+        // 7 digits):
         // K = 0.0875997, W(0) = 0.0859952, bulk summation density 0.9995554.
         let g = TruncatedGaussian::new(2.0, 2);
         assert!(
@@ -608,7 +611,8 @@ mod tests {
     }
 
     /// The normalisation constants A_d = K (h√π)^d are the paper's (Eq. 10 as printed:
-    /// 1.04823, 1.10081, 1.18516, and the spec's 7-digit 1.0482309, 1.1008102, 1.1851650).
+    /// 1.04823, 1.10081, 1.18516, and the 7-digit 1.0482309, 1.1008102, 1.1851650 of
+    /// docs/theory/msph_dumbbells.md §1.2).
     #[test]
     fn truncated_gaussian_constants_are_the_papers() {
         for (dim, a) in [(1usize, 1.0482309), (2, 1.1008102), (3, 1.1851650)] {

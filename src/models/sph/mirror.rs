@@ -1,13 +1,13 @@
-//! The working MSPH wall of spec `msph-dumbbells.md` §5.1 (`[walls] treatment = "mirror"`).
+//! The working MSPH wall of docs/theory/msph_dumbbells.md §5.1 (`[walls] treatment = "mirror"`).
 //!
 //! MSPH's moment systems see boundary particles as ordinary neighbours, so a boundary particle
 //! must carry values that continue the fluid's fields across the wall plane. The paper's
 //! literal reading (boundary particles at the wall velocity, forming their own MSPH gradients
 //! and stresses from one-sided neighbourhoods) is ill-posed: the near-wall flow comes out
-//! grossly wrong (spec §5.1, kept in a test). What works: for boundary particle w of the wall
-//! whose plane is Y, its mirror point m_w = x_w reflected in Y (inside the fluid), and a
-//! first-order moving-least-squares fit over the fluid particles f within the support 2h of
-//! m_w,
+//! grossly wrong (docs/theory/msph_dumbbells.md §5.1, kept in a test). What works: for boundary
+//! particle w of the wall whose plane is Y, its mirror point m_w = x_w reflected in Y
+//! (inside the fluid), and a first-order moving-least-squares fit over the fluid particles f within
+//! the support 2h of m_w,
 //!
 //! ```text
 //! minimise Σ_f W(|x_f − m_w|) (g_f − c₀ − c·(x_f − m_w))²    (a (D + 1)-square solve)

@@ -1,6 +1,6 @@
 //! Weakly compressible SPH for Newtonian fluids (`[fluid] kind = "sph"`), with walls of
 //! boundary particles (`[walls]`). Ellero 2004, ch. 2, as distilled with its printed errors
-//! corrected in spec `sph-maxwell.md` §1–§2; notation x_ij = x_i − x_j, v_ij = v_i − v_j,
+//! corrected in docs/theory/sph_maxwell.md §1–§2; notation x_ij = x_i − x_j, v_ij = v_i − v_j,
 //! ∇_i W_ij = W'(r_ij) x_ij / r_ij.
 //!
 //! ```text
@@ -20,12 +20,13 @@
 //! from G_i; it joins σ̄ in the momentum equation (σ̄_i → σ̄_i + τ_i). Boundary particles advance
 //! their own τ from their own G (method B, the λ → 0 limit of the nested summation's wall
 //! stress); with Morris's images a fluid–boundary pair uses the fluid particle's τ for both ends
-//! (τ_j := τ_i, zero normal gradient, spec §2.3). With Morris's viscous term the Newtonian
-//! stress η(G + Gᵀ − (2/d) tr G I) of a polymer fluid is still formed, for the observables only.
+//! (τ_j := τ_i, zero normal gradient, docs/theory/sph_maxwell.md §2.3). With Morris's viscous term
+//! the Newtonian stress η(G + Gᵀ − (2/d) tr G I) of a polymer fluid is still formed, for
+//! the observables only.
 //!
-//! Departures from the printed text (spec §1.2, §1.12, §2.2): the momentum equation contracts
-//! the stress with ∂_b W (the thesis prints ∂_a); the wall repulsion is made to repel; the
-//! thesis's first-order predictor–corrector is only one of the integrators
+//! Departures from the printed text (docs/theory/sph_maxwell.md §1.2, §1.12, §2.2): the momentum
+//! equation contracts the stress with ∂_b W (the thesis prints ∂_a); the wall repulsion is made to
+//! repel; the thesis's first-order predictor–corrector is only one of the integrators
 //! ([`crate::integrators`]).
 //!
 //! The "nested summation" is two gather passes: pass 1 estimates G_i and stores σ̄_i, the
@@ -52,12 +53,13 @@
 //!
 //! - `layers` (method B): v_j = U;
 //! - `morris` (Morris, Fox & Zhu 1997): v_j = U − (d_j/d_i)(v_i − U), i.e. v_i − v_j = β (v_i − U)
-//!   with β = min(1 + d_j/d_i, β_max), d_i ≥ Δ/2 the distances from the wall plane (spec §2.3).
+//!   with β = min(1 + d_j/d_i, β_max), d_i ≥ Δ/2 the distances from the wall plane
+//!   (docs/theory/sph_maxwell.md §2.3).
 //!
-//! A Lennard-Jones-like repulsion between fluid and boundary particles closer than r₀ (spec
-//! §2.2, Eq. 2.47, with the sign that repels), a_i = D [(r₀/r)⁴ − (r₀/r)²] x_ij / r², keeps
-//! fluid out of the wall; r₀ defaults to the lattice spacing (the initial fluid–wall distance,
-//! where the force vanishes) and D to c₀².
+//! A Lennard-Jones-like repulsion between fluid and boundary particles closer than r₀
+//! (docs/theory/sph_maxwell.md §2.2, Eq. 2.47, with the sign that repels),
+//! a_i = D [(r₀/r)⁴ − (r₀/r)²] x_ij / r², keeps fluid out of the wall; r₀ defaults to the lattice
+//! spacing (the initial fluid–wall distance, where the force vanishes) and D to c₀².
 
 pub mod kernels;
 mod lanes;
@@ -150,7 +152,7 @@ pub struct SphCfg {
     pub derivatives: Derivatives,
     /// With `viscous_term = "nested_summation"`: the share s ∈ [0, 1) of η applied by Morris's
     /// pairwise operator, (1 − s) η by the nested summation (default 0). MSPH's two-pass
-    /// Newtonian stress does not damp particle-scale velocity modes (spec `msph-dumbbells.md`
+    /// Newtonian stress does not damp particle-scale velocity modes (docs/theory/msph_dumbbells.md
     /// §5.1); s = 0.1 does.
     #[serde(default)]
     pub morris_share: f64,
@@ -266,7 +268,7 @@ fn beta_max() -> f64 {
 
 /// `[inclusions]`: rigid, fixed (neither translating nor rotating) inclusions of equal radius
 /// — discs in 2D, spheres in 3D — filled with boundary particles that see Morris's images of
-/// their fluid neighbours (spec §2.3, §2.5).
+/// their fluid neighbours (docs/theory/sph_maxwell.md §2.3, §2.5).
 #[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct InclusionsCfg {
@@ -278,8 +280,8 @@ pub struct InclusionsCfg {
     #[serde(default = "beta_max")]
     pub morris_cap: f64,
     /// Whether an inclusion particle carries its fluid neighbour's pressure in their pair
-    /// (p_j := p_i, the thesis's "von Neumann" condition, spec §2.3; default) or its own, from
-    /// its summation density. Its stress is always mirrored.
+    /// (p_j := p_i, the thesis's "von Neumann" condition, docs/theory/sph_maxwell.md §2.3; default)
+    /// or its own, from its summation density. Its stress is always mirrored.
     #[serde(default = "yes")]
     pub mirror_pressure: bool,
 }
@@ -320,7 +322,7 @@ pub enum WallTreatment {
     Layers,
     /// Morris's extrapolated image velocity, v_j = U − (d_j/d_i)(v_i − U), capped.
     Morris,
-    /// The working MSPH wall of spec `msph-dumbbells.md` §5.1 (needs `derivatives = "msph"`):
+    /// The working MSPH wall of docs/theory/msph_dumbbells.md §5.1 (needs `derivatives = "msph"`):
     /// a boundary particle w carries values fitted (first-order moving least squares over
     /// the fluid) at its mirror point m_w: the velocity 2U − v̂(m_w), the density ρ̂(m_w), and
     /// the stress extrapolated linearly from m_w to x_w; it forms no derivative of its own.
@@ -525,8 +527,8 @@ impl<const D: usize> Boundaries<D> {
     /// The velocity fluid particle i sees for boundary particle j of species `sj`, with
     /// x_ij = x_i − x_j.
     ///
-    /// Inclusion (spec §2.3, a circle of centre c and radius R): with o_j = x_j − c,
-    /// n = (x_ij + o_j)/|x_ij + o_j|, d_i = |x_ij + o_j| − R ≥ Δ/2, d_j = R − o_j·n,
+    /// Inclusion (docs/theory/sph_maxwell.md §2.3, a circle of centre c and radius R): with
+    /// o_j = x_j − c, n = (x_ij + o_j)/|x_ij + o_j|, d_i = |x_ij + o_j| − R ≥ Δ/2, d_j = R − o_j·n,
     /// v_j = U − (d_j/d_i)(v_i − U), i.e. v_i − v_j = β (v_i − U), β = min(1 + d_j/d_i, β_max),
     /// with U = v_j as stored: the inclusion's velocity (0 in the box, the Lees–Edwards image
     /// velocity for an image across the sheared boundary).
@@ -869,8 +871,8 @@ struct StressEnds {
 
 impl<K: Kernel, const D: usize> MomentumKernel<'_, K, D> {
     /// p_i/ρ_i² + p_j/ρ_j² of a pair, with an inclusion particle carrying its fluid
-    /// neighbour's pressure when the inclusions mirror it (zero normal gradient, spec §2.3:
-    /// p_j := p_i).
+    /// neighbour's pressure when the inclusions mirror it
+    /// (zero normal gradient, docs/theory/sph_maxwell.md §2.3: p_j := p_i).
     #[inline(always)]
     fn pressure_sum(
         &self,
@@ -909,8 +911,8 @@ impl<K: Kernel, const D: usize> MomentumKernel<'_, K, D> {
     }
 
     /// The pair's ends as [`Self::pair_stress`] reads them. Morris's images (walls or
-    /// inclusions) carry the fluid end's stress (zero normal gradient, spec §2.3): σ̄_j := σ̄_i,
-    /// τ_j := τ_i; method-B walls carry their own.
+    /// inclusions) carry the fluid end's stress (zero normal gradient, docs/theory/sph_maxwell.md
+    /// §2.3): σ̄_j := σ̄_i, τ_j := τ_i; method-B walls carry their own.
     #[inline(always)]
     fn stress_ends(
         &self,
@@ -1357,8 +1359,8 @@ impl<const D: usize> SphModel<D> {
         }
     }
 
-    /// The MSPH and mirror-wall passes (`[fluid] derivatives = "msph"`, spec
-    /// `msph-dumbbells.md` §1.3, §1.6, §5.1), with the truncated Gaussian kernel.
+    /// The MSPH and mirror-wall passes (`[fluid] derivatives = "msph"`,
+    /// docs/theory/msph_dumbbells.md §1.3, §1.6, §5.1), with the truncated Gaussian kernel.
     fn run_msph(
         &mut self,
         pass: Pass,

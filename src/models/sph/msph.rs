@@ -1,5 +1,5 @@
 //! Modified SPH (MSPH) derivatives: Zhang & Batra (2004) as used by Murashima & Taniguchi
-//! (eqs. 3–9), spec `msph-dumbbells.md` §1.3: the per-particle moment system, its gather
+//! (eqs. 3–9), docs/theory/msph_dumbbells.md §1.3: the per-particle moment system, its gather
 //! pass ([`MomentKernel`]) and its solution ([`Local`]), used by the SPH model's velocity-
 //! gradient and stress-divergence passes when `[fluid] derivatives = "msph"`.
 //!
@@ -14,11 +14,12 @@
 //! ```
 //!
 //! N_i includes j = i and the neighbours at exactly r = 2h, where the truncated Gaussian has
-//! W = 0 but ∂W ≠ 0 (the spec's reference matrix counts them). Quadratic fields are reproduced
-//! exactly for any positive weights ω_j used alike in M and b; ω_j = m_j/ρ_j here. M is not
-//! symmetric: it is factored once per particle (LU with partial pivoting) and reused for every
-//! field. Component order in 2D: (1, x, y, xx, yy, xy); in 3D (1, x, y, z, xx, yy, zz, xy, xz,
-//! yz) — the spec prints 2D as (…, xx, xy, yy); only the order differs.
+//! W = 0 but ∂W ≠ 0 (the reference matrix of docs/theory/msph_dumbbells.md §1.3 counts them).
+//! Quadratic fields are reproduced exactly for any positive weights ω_j used alike in M and b;
+//! ω_j = m_j/ρ_j here. M is not symmetric: it is factored once per particle
+//! (LU with partial pivoting) and reused for every field. Component order in 2D:
+//! (1, x, y, xx, yy, xy); in 3D (1, x, y, z, xx, yy, zz, xy, xz, yz) —
+//! docs/theory/msph_dumbbells.md §1.3 prints 2D as (…, xx, xy, yy); only the order differs.
 
 use super::kernels::{Kernel, TruncatedGaussian};
 use crate::error::UNSTABLE;
@@ -38,7 +39,7 @@ fn pairs<const D: usize>() -> impl Iterator<Item = (usize, usize)> {
 
 /// ψ_r(R): W and its first and second derivatives with respect to ξ = x_i, for R = x_j − x_i
 /// with |R| ≤ 2h (zeros beyond). ∂W/∂ξ^α = (2K/h²) E R^α, ∂²W/∂ξ^α∂ξ^β = K E (4R^αR^β/h⁴ −
-/// 2δ_αβ/h²), E = e^{−|R|²/h²} (spec §1.2).
+/// 2δ_αβ/h²), E = e^{−|R|²/h²} (docs/theory/msph_dumbbells.md §1.2).
 pub fn rows<const D: usize>(g: &TruncatedGaussian, r: &[f64; D]) -> [f64; 10] {
     let mut out = [0.0; 10];
     let r2: f64 = r.iter().map(|x| x * x).sum();
@@ -443,8 +444,9 @@ mod tests {
         (m, b)
     }
 
-    /// The spec's reference matrix (§1.3, rows W, ∂x, ∂y, ∂xx, ∂xy, ∂yy against columns 1, Rx,
-    /// Ry, ½Rx², RxRy, ½Ry²; here ordered 1, x, y, xx, yy, xy), to its 6 decimals.
+    /// The reference matrix of docs/theory/msph_dumbbells.md §1.3 (rows W, ∂x, ∂y, ∂xx, ∂xy, ∂yy
+    /// against columns 1, Rx, Ry, ½Rx², RxRy, ½Ry²; here ordered 1, x, y, xx, yy, xy), to its 6
+    /// decimals.
     #[test]
     fn bulk_matrix_is_the_specs() {
         let (m, _) = bulk(|_, _| 0.0);
@@ -479,7 +481,8 @@ mod tests {
     }
 
     /// Quadratics are reproduced exactly on a disordered neighbourhood with uneven weights, in
-    /// 2D and 3D; a short sine comes out 7.9 % low (spec §1.3: −0.28583 against −0.31029).
+    /// 2D and 3D; a short sine comes out 7.9 % low
+    /// (docs/theory/msph_dumbbells.md §1.3: −0.28583 against −0.31029).
     #[test]
     fn quadratics_are_exact_and_short_waves_are_damped() {
         let key = StreamKey::new(9, Purpose::Test, 1);

@@ -134,9 +134,9 @@ impl FluidModel for SphCfg {
             ));
             if morris == 0.0 {
                 line(
-                    "note: MSPH derivatives do not damp particle-scale velocity modes (spec \
-                     msph-dumbbells.md §5.1); give a Morris viscosity (morris_share ≈ 0.1, \
-                     or viscous_term = \"morris\" for the solvent)"
+                    "note: MSPH derivatives do not damp particle-scale velocity modes \
+                     (docs/theory/msph_dumbbells.md §5.1); give a Morris viscosity \
+                     (morris_share ≈ 0.1, or viscous_term = \"morris\" for the solvent)"
                         .to_string(),
                 );
             }

@@ -1,12 +1,13 @@
 //! The time-step limits of an SPH fluid, which `check` reports and the validation enforces.
 //!
 //! The acoustic limit is where kick–drift–kick stops being stable for the fastest lattice
-//! sound mode (θ = c₀ max|g| Δt ≈ 2 for Lucy at r_s = 2.5Δ, spec §1.6). The viscous limit of
-//! Morris's direct term is measured: the start-up Couette case (Lucy r_s = 2.5Δ, Morris walls
-//! with β_max = 2, kick–drift–kick) runs 3000 steps at ν Δt / r_s² = 0.042 and blows up at
-//! 0.044 (`cases/sph_couette_2d.toml` with `--set integrator.dt=1.1e-4`). The nested
-//! summation's wider stencil damps less at the lattice scale (spec §1.6); Morris's 0.125 is
-//! kept for it (the same case runs at 0.08).
+//! sound mode (θ = c₀ max|g| Δt ≈ 2 for Lucy at r_s = 2.5Δ, docs/theory/sph_maxwell.md §1.6).
+//! The viscous limit of Morris's direct term is measured: the start-up Couette case (Lucy
+//! r_s = 2.5Δ, Morris walls with β_max = 2, kick–drift–kick) runs 3000 steps at
+//! ν Δt / r_s² = 0.042 and blows up at 0.044 (`cases/sph_couette_2d.toml` with
+//! `--set integrator.dt=1.1e-4`). The nested summation's wider stencil damps less at the lattice
+//! scale (docs/theory/sph_maxwell.md §1.6); Morris's 0.125 is kept for it (the same case runs at
+//! 0.08).
 
 use super::SphCfg;
 
@@ -29,13 +30,13 @@ pub fn sph_limits(s: &SphCfg, inclusions: bool) -> Vec<(&'static str, f64)> {
         limits.push((name, c * support * support * s.rest_density / s.viscosity));
     }
     if let Some(poly) = &s.polymer {
-        // Elastic shear waves of speed √(η_p/(ρ₀λ)) travel with the sound (spec §1.12), and the
-        // explicit relaxation needs Δt < λ. The polymer stress is advanced like a velocity-
-        // dependent field (not symplectically), so the elastic limit is tighter than the
-        // acoustic one. The coefficient is measured (`./run validate maxwell_stability`:
-        // maxwell_shear_2d.toml, Lucy 3Δ, η_p = 9.9, bisection on 2000-step runs): the largest
-        // stable Δt is 0.38 r_s/√(c₀² + η_p/(ρ₀λ)) at De = 0.0125 and 0.45 at De = 0.05; 0.35
-        // stays 8 % below the worst.
+        // Elastic shear waves of speed √(η_p/(ρ₀λ)) travel with the sound
+        // (docs/theory/sph_maxwell.md §1.12), and the explicit relaxation needs Δt < λ. The
+        // polymer stress is advanced like a velocity-dependent field (not symplectically), so the
+        // elastic limit is tighter than the acoustic one. The coefficient is measured
+        // (`./run validate maxwell_stability`: maxwell_shear_2d.toml, Lucy 3Δ, η_p = 9.9,
+        // bisection on 2000-step runs): the largest stable Δt is 0.38 r_s/√(c₀² + η_p/(ρ₀λ)) at
+        // De = 0.0125 and 0.45 at De = 0.05; 0.35 stays 8 % below the worst.
         let elastic = poly.viscosity / (s.rest_density * poly.relaxation_time);
         limits.push((
             "elastic wave 0.35 r_s/√(c₀² + η_p/(ρ₀λ))",

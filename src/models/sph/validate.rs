@@ -175,7 +175,7 @@ pub(super) fn validate_sph(
         if s.density != crate::models::sph::DensityMethod::Summation {
             return Err(ix.error(
                 &fl("density"),
-                "MSPH derivatives use the summation density (spec msph-dumbbells.md §1.1); \
+                "MSPH derivatives use the summation density (docs/theory/msph_dumbbells.md §1.1); \
                  remove density or set it to \"summation\""
                     .to_string(),
             ));
@@ -396,7 +396,7 @@ pub(super) fn validate_sph(
         crate::models::sph::WallTreatment::Mirror if !msph => {
             return Err(ix.error(
                 &wk("treatment"),
-                "treatment = \"mirror\" is the MSPH wall (spec msph-dumbbells.md §5.1); it \
+                "treatment = \"mirror\" is the MSPH wall (docs/theory/msph_dumbbells.md §5.1); it \
                  needs fluid.derivatives = \"msph\" (with SPH use \"layers\" or \"morris\")"
                     .to_string(),
             ));
@@ -405,7 +405,7 @@ pub(super) fn validate_sph(
             return Err(ix.error(
                 &wk("treatment"),
                 "with fluid.derivatives = \"msph\" use treatment = \"mirror\" (the working \
-                 scheme of spec msph-dumbbells.md §5.1) or \"layers\" (the paper's literal \
+                 scheme of docs/theory/msph_dumbbells.md §5.1) or \"layers\" (the paper's literal \
                  walls, ill-posed); Morris's pairwise images give no single wall value"
                     .to_string(),
             ));

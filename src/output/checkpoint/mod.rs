@@ -1,6 +1,7 @@
 //! Checkpoints: the complete state of a run in one HDF5 file, in global-id order, so a run can
-//! continue bitwise identically on any rank count (rust-stack.md §4.5). One format for every
-//! scene; what the file holds beside the common part depends on the scene it was written by.
+//! continue bitwise identically on any rank count (docs/architecture.md, "Output, checkpoints,
+//! runs"). One format for every scene; what the file holds beside the common part depends on the
+//! scene it was written by.
 //!
 //! Format `"mesorheo-checkpoint"`, `format_version = 2`:
 //!

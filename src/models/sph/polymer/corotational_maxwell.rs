@@ -1,6 +1,6 @@
-//! The corotational (Jaumann) Maxwell fluid of Ellero 2004 ch. 3 (Eq. 3.7, ×2; spec
-//! `sph-maxwell.md` §1.9), with the thesis's printed sign corrected, and its linear variant
-//! ("SPH2", `rotation = false`):
+//! The corotational (Jaumann) Maxwell fluid of Ellero 2004 ch. 3 (Eq. 3.7, ×2;
+//! docs/theory/sph_maxwell.md §1.9), with the thesis's printed sign corrected, and its linear
+//! variant ("SPH2", `rotation = false`):
 //!
 //! ```text
 //! Ω = ½ (G − Gᵀ)   (vorticity, Ω^{ab} = ½(∂_b v^a − ∂_a v^b))
@@ -13,9 +13,10 @@
 //! **Departure from the printed text.** The thesis's Eq. 3.4 and Eq. 3.6 combine the rotation
 //! terms into σω + ωσ, an antisymmetric tensor for symmetric σ: with it steady shear gives
 //! σ_xx = σ_yy = 0 and σ_xy = ηγ̇, no shear thinning and no normal stresses, which contradicts
-//! the thesis's own Figs. 3.5–3.6. The Jaumann form above is what is implemented (spec §1.9
-//! erratum); in simple shear v_x = γ̇y it gives dτ_xx/dt = γ̇τ_xy − τ_xx/λ,
-//! dτ_yy/dt = −γ̇τ_xy − τ_yy/λ, dτ_xy/dt = (γ̇/2)(τ_yy − τ_xx) + η_pγ̇/λ − τ_xy/λ.
+//! the thesis's own Figs. 3.5–3.6. The Jaumann form above is what is implemented
+//! (docs/theory/sph_maxwell.md §1.9 erratum); in simple shear v_x = γ̇y it gives
+//! dτ_xx/dt = γ̇τ_xy − τ_xx/λ, dτ_yy/dt = −γ̇τ_xy − τ_yy/λ,
+//! dτ_xy/dt = (γ̇/2)(τ_yy − τ_xx) + η_pγ̇/λ − τ_xy/λ.
 //!
 //! Both keep tr τ = 0 (tr(Ωτ − τΩ) = tr D̄ = 0); it is monitored, not enforced
 //! (`polymer_stress_trace` observable).

@@ -361,7 +361,7 @@ mod tests {
         tau
     }
 
-    /// Spec §3 T4 (B2): start-up of simple shear from τ = 0, Wi = λγ̇,
+    /// docs/theory/sph_maxwell.md §3 T4 (B2): start-up of simple shear from τ = 0, Wi = λγ̇,
     /// τ_xy(t) = (ηγ̇/(1+Wi²)) [1 − e^{−t/λ}(cos γ̇t − Wi sin γ̇t)],
     /// τ_xx(t) = −τ_yy(t) = (ηγ̇/(1+Wi²)) [Wi − e^{−t/λ}(Wi cos γ̇t + sin γ̇t)],
     /// to 1e-6 relative (RK4 with 20 000 steps is exact to ~1e-12 here). The thesis's printed
