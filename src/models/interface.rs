@@ -2,9 +2,10 @@
 //!
 //! # Adding a model
 //!
-//! A model is one file in `src/models/` and one registration (a variant of
-//! [`crate::config::FluidCfg`] with its parameter struct, defined in the model's file, and the
-//! line of [`crate::sim::build_fluid`] that constructs it). The file implements
+//! A fluid model is one directory in `src/models/` and one line of the registry
+//! ([`crate::config::registry`]); its parameter struct says everything about the model to the
+//! generic layers ([`crate::models::fluid_model::FluidModel`]) and builds the particle models it
+//! runs ([`crate::models::fluid_model::BuildModels`]). Each particle model implements
 //! [`ParticleModel`]:
 //!
 //! 1. **Fields** ([`ParticleModel::fields`]): every per-particle quantity it keeps, each with its

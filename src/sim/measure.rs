@@ -1,0 +1,700 @@
+//! What a rank measures: the observables of a sample (the momentum flux, profiles, the
+//! constitutive stress, the correlators of the fluctuation methods) and their exact global sums.
+
+#[allow(unused_imports)]
+use super::*;
+
+/// Where an SPH particle's deviatoric stress lives: the Newtonian (viscous) stress, D×D, and
+/// the polymer stress, packed symmetric; either may be absent.
+pub(super) struct ParticleStress {
+    viscous: Option<usize>,
+    polymer: Option<usize>,
+}
+
+impl ParticleStress {
+    fn of<const D: usize>(p: &Particles<D>) -> Self {
+        Self {
+            viscous: p.extra_index(crate::models::sph::VISCOUS_STRESS),
+            polymer: p.extra_index(crate::models::sph::POLYMER_STRESS),
+        }
+    }
+
+    /// σ_ab of particle k, viscous + polymer.
+    #[inline]
+    fn component<const D: usize>(&self, p: &Particles<D>, k: usize, a: usize, b: usize) -> f64 {
+        use crate::models::sph::polymer::{packed_index, packed_width};
+        let mut s = self
+            .viscous
+            .map_or(0.0, |v| p.extra[v].data[k * D * D + a * D + b]);
+        if let Some(t) = self.polymer {
+            s += p.extra[t].data[k * packed_width(D) + packed_index::<D>(a, b)];
+        }
+        s
+    }
+}
+
+/// The bin of coordinate `y` among `bins` equal bins across [0, `ly`) (clamped to the ends).
+pub(super) fn profile_bin(y: f64, ly: f64, bins: usize) -> usize {
+    ((y / ly * bins as f64).floor().max(0.0) as usize).min(bins - 1)
+}
+
+/// Observables at one instant.
+#[derive(Clone, Debug, Default)]
+pub struct Measurement {
+    /// Scalar values by name.
+    pub scalars: Vec<(String, f64)>,
+    /// Σ m|V|²/(degrees of freedom), V about the local mean velocity: k_BT of the fluid,
+    /// whether or not the case asked for the temperature (the heating detector reads it).
+    pub kinetic_temperature: f64,
+    /// Binned u_x(y).
+    pub profile: Option<Vec<f64>>,
+}
+
+/// The virial components the observables need: all for the stress tensor and the viscosity
+/// (off-diagonal), the diagonal for the pressure and the normal stress differences, none for
+/// the others.
+pub(super) fn virial_scope(observables: &[Observable]) -> VirialScope {
+    let needs = |o: &Observable| match o {
+        Observable::Stress
+        | Observable::Viscosity
+        | Observable::GreenKuboViscosity
+        | Observable::ShearStressProfile => VirialScope::Full,
+        Observable::Pressure
+        | Observable::FirstNormalStressDifference
+        | Observable::SecondNormalStressDifference => VirialScope::Diagonal,
+        Observable::Temperature
+        | Observable::Momentum
+        | Observable::VelocityProfile
+        | Observable::WallShearStress
+        | Observable::DensityProfile
+        | Observable::PolymerStressTrace
+        | Observable::ConstitutiveStress
+        | Observable::CompositeViscosity
+        | Observable::TransverseCurrentViscosity => VirialScope::Off,
+    };
+    let scopes: Vec<VirialScope> = observables.iter().map(needs).collect();
+    if scopes.contains(&VirialScope::Full) {
+        VirialScope::Full
+    } else if scopes.contains(&VirialScope::Diagonal) {
+        VirialScope::Diagonal
+    } else {
+        VirialScope::Off
+    }
+}
+
+impl<'c, const D: usize> Simulation<'c, D> {
+    /// Whether the current step is a sampling step.
+    pub fn is_sample_step(&self) -> bool {
+        let r = &self.case.run;
+        self.step > r.equilibration && self.step.is_multiple_of(r.sample_every)
+    }
+
+    /// Whether the current step feeds the Green–Kubo correlators (every step after
+    /// equilibration, when asked).
+    pub fn is_correlation_step(&self) -> bool {
+        !self.series.green_kubo.is_empty() && self.step > self.case.run.equilibration
+    }
+
+    /// Feeds the symmetric traceless part of the current pressure tensor (kinetic +
+    /// conservative + dissipative + random, the random forces the step used) to the block's
+    /// Green–Kubo correlator (collective; exact sums, so the same on every rank).
+    pub fn correlate(&mut self) {
+        let t0 = Instant::now();
+        let virial = self.current_virial();
+        let n = self.particles.n_owned;
+        let dd = D * D;
+        let mut sums = vec![FixedSum::ZERO; 4 * dd];
+        let (particles, species) = (&self.particles, &self.species);
+        for (k, v) in particles.vel[..n].iter().enumerate() {
+            if k % 2048 == 2047 {
+                sums.iter_mut().for_each(FixedSum::normalize);
+            }
+            let s = &species[particles.species_of(k) as usize];
+            if !s.is_fluid() {
+                continue;
+            }
+            for a in 0..D {
+                for b in 0..D {
+                    sums[a * D + b].add(s.mass * v[a] * v[b]);
+                }
+            }
+        }
+        for (k, w) in virial.iter().enumerate() {
+            sums[(k + 1) * dd..(k + 2) * dd].copy_from_slice(w);
+        }
+        FixedSum::allreduce(self.comm, &mut sums);
+        let volume = self.sim_box.volume();
+        let tensor: Vec<f64> = (0..dd)
+            .map(|i| (0..4).map(|k| sums[k * dd + i].value()).sum::<f64>() / volume)
+            .collect();
+        let channels = crate::green_kubo::traceless_symmetric(&tensor, D);
+        let r = &self.case.run;
+        let blocks = self.series.green_kubo.len();
+        let b = crate::green_kubo::block_of(self.step, r.equilibration, r.steps, blocks);
+        self.series.green_kubo[b].add(&channels);
+        self.times.diagnostics += t0.elapsed().as_secs_f64();
+    }
+
+    /// Whether the current step feeds the transverse-current correlators (every
+    /// `diagnostics.transverse_current_every` steps after equilibration, when asked).
+    pub fn is_current_step(&self) -> bool {
+        !self.series.transverse_current.is_empty()
+            && self.step > self.case.run.equilibration
+            && (self.step).is_multiple_of(self.case.diagnostics.transverse_current_every)
+    }
+
+    /// Feeds the transverse currents J⊥(k_j) of the fluid particles, j = 1 … modes, to the
+    /// block's correlators ([`crate::transverse_current`]; collective, exact sums).
+    pub fn sample_currents(&mut self) {
+        let t0 = Instant::now();
+        let modes = self.case.diagnostics.transverse_current_modes;
+        let channels = crate::transverse_current::channels(D);
+        let mut sums = vec![FixedSum::ZERO; modes * channels];
+        let (particles, species) = (&self.particles, &self.species);
+        let length = self.sim_box.lengths[0];
+        let n = particles.n_owned;
+        for (k, (x, v)) in particles.pos[..n]
+            .iter()
+            .zip(&particles.vel[..n])
+            .enumerate()
+        {
+            if k % 2048 == 2047 {
+                sums.iter_mut().for_each(FixedSum::normalize);
+            }
+            if species[particles.species_of(k) as usize].is_fluid() {
+                crate::transverse_current::add_particle(&mut sums, x, v, length, modes);
+            }
+        }
+        FixedSum::allreduce(self.comm, &mut sums);
+        let r = &self.case.run;
+        let blocks = self.series.transverse_current.len() / modes;
+        let b = crate::green_kubo::block_of(self.step, r.equilibration, r.steps, blocks);
+        for mode in 0..modes {
+            let x: Vec<f64> = sums[mode * channels..(mode + 1) * channels]
+                .iter()
+                .map(FixedSum::value)
+                .collect();
+            self.series.transverse_current[b * modes + mode].add(&x);
+        }
+        self.times.diagnostics += t0.elapsed().as_secs_f64();
+    }
+
+    /// η_k and η₀ from the transverse-current correlators so far; `None` when the case does
+    /// not ask for them.
+    pub fn transverse_current(
+        &self,
+    ) -> Option<crate::transverse_current::TransverseCurrentEstimate> {
+        let kt = self.case.fluid.model().thermal_energy()?;
+        if self.series.transverse_current.is_empty() {
+            return None;
+        }
+        let (count, mass, inverse_mass) = self.fluid_mass_moments();
+        let fluid = crate::transverse_current::FluidState {
+            particles: count,
+            mass_density: mass / self.sim_box.volume(),
+            kt_over_mass: kt * inverse_mass / count,
+            length: self.sim_box.lengths[0],
+        };
+        let d = &self.case.diagnostics;
+        Some(crate::transverse_current::estimate(
+            &self.series.transverse_current,
+            d.transverse_current_modes,
+            d.transverse_current_every as f64 * self.dt,
+            &fluid,
+            D,
+        ))
+    }
+
+    /// (N, Σ m, Σ 1/m) over the fluid particles of every rank (collective, exact).
+    pub(super) fn fluid_mass_moments(&self) -> (f64, f64, f64) {
+        let p = &self.particles;
+        let mut sums = [FixedSum::ZERO; 3];
+        for k in 0..p.n_owned {
+            let s = &self.species[p.species_of(k) as usize];
+            if s.is_fluid() {
+                sums[0].add(1.0);
+                sums[1].add(s.mass);
+                sums[2].add(1.0 / s.mass);
+            }
+            if k % 2048 == 2047 {
+                sums.iter_mut().for_each(FixedSum::normalize);
+            }
+        }
+        FixedSum::allreduce(self.comm, &mut sums);
+        (sums[0].value(), sums[1].value(), sums[2].value())
+    }
+
+    /// The Green–Kubo viscosity of the correlators so far ([`crate::green_kubo::estimate`]);
+    /// `None` when the case does not ask for it.
+    pub fn green_kubo(&self) -> Option<crate::green_kubo::GreenKuboEstimate> {
+        let kt = self.case.fluid.model().thermal_energy()?;
+        if self.series.green_kubo.is_empty() {
+            return None;
+        }
+        Some(crate::green_kubo::estimate(
+            &self.series.green_kubo,
+            self.dt,
+            self.sim_box.volume(),
+            kt,
+            self.case.diagnostics.green_kubo_time,
+            D,
+        ))
+    }
+
+    /// The mean SPH density of the fluid particles in each of `diagnostics.profile_bins` bins
+    /// across the box along y (NaN for an empty bin), summed exactly over the ranks
+    /// (collective).
+    pub(super) fn density_profile(&self) -> Vec<f64> {
+        let bins = self.case.diagnostics.profile_bins;
+        let ly = self.sim_box.lengths[GRADIENT];
+        let p = &self.particles;
+        let mut sums = vec![FixedSum::ZERO; 2 * bins];
+        if let Some(rho) = p.extra_index(crate::models::sph::DENSITY) {
+            let density = &p.extra[rho].data;
+            for k in 0..p.n_owned {
+                if !self.species[p.species_of(k) as usize].is_fluid() {
+                    continue;
+                }
+                let y = p.pos[k][GRADIENT];
+                let b = profile_bin(y, ly, bins);
+                sums[2 * b].add(1.0);
+                sums[2 * b + 1].add(density[k]);
+                if k % 2048 == 2047 {
+                    sums.iter_mut().for_each(FixedSum::normalize);
+                }
+            }
+        }
+        sums.iter_mut().for_each(FixedSum::normalize);
+        FixedSum::allreduce(self.comm, &mut sums);
+        (0..bins)
+            .map(|b| sums[2 * b + 1].value() / sums[2 * b].value())
+            .collect()
+    }
+
+    /// The mean deviatoric stress of the SPH fluid particles, σ̄ = viscous stress (nested
+    /// summation) + polymer stress τ, D×D row-major (the thesis's unweighted particle mean,
+    /// Eq. 3.18), and the mean |tr τ|; summed exactly over the ranks (collective).
+    pub(super) fn sph_mean_stress(&self) -> (Vec<f64>, f64) {
+        use crate::models::sph::POLYMER_STRESS;
+        use crate::models::sph::polymer::{packed_index, packed_width};
+        let p = &self.particles;
+        let dd = D * D;
+        let stress = ParticleStress::of(p);
+        let polymer = p.extra_index(POLYMER_STRESS);
+        let w = packed_width(D);
+        // Count, D² stress components, |tr τ|.
+        let mut sums = vec![FixedSum::ZERO; dd + 2];
+        for k in 0..p.n_owned {
+            if !self.species[p.species_of(k) as usize].is_fluid() {
+                continue;
+            }
+            sums[0].add(1.0);
+            for a in 0..D {
+                for b in 0..D {
+                    sums[1 + a * D + b].add(stress.component(p, k, a, b));
+                }
+            }
+            if let Some(t) = polymer {
+                let trace: f64 = (0..D)
+                    .map(|a| p.extra[t].data[k * w + packed_index::<D>(a, a)])
+                    .sum();
+                sums[dd + 1].add(trace.abs());
+            }
+            if k % 2048 == 2047 {
+                sums.iter_mut().for_each(FixedSum::normalize);
+            }
+        }
+        sums.iter_mut().for_each(FixedSum::normalize);
+        FixedSum::allreduce(self.comm, &mut sums);
+        let n = sums[0].value();
+        let mean = (0..dd).map(|c| sums[1 + c].value() / n).collect();
+        (mean, sums[dd + 1].value() / n)
+    }
+
+    /// The composite shear stress of an SPH suspension, [Σ_fluid (m/ρ_i) σ_i,xy + Σ_inclusion
+    /// particles M_j^{xy}] / V with M the traction moments F ⊗ (x − c) (Batchelor 1970: the
+    /// cell average of the stress, the inclusions' share from their surface tractions), and
+    /// the mean torque per inclusion about z, Σ_j (M_j^{yx} − M_j^{xy}) / N_inclusions
+    /// (collective).
+    pub(super) fn composite_stress(&self) -> (f64, f64) {
+        use crate::models::sph::{DENSITY, INCLUSION, INCLUSION_TRACTION_MOMENT};
+        let p = &self.particles;
+        let (Some(density), Some(moment)) = (
+            p.extra_index(DENSITY),
+            p.extra_index(INCLUSION_TRACTION_MOMENT),
+        ) else {
+            return (f64::NAN, f64::NAN);
+        };
+        let dd = D * D;
+        let stress = ParticleStress::of(p);
+        // Fluid Σ V_i σ_i,xy; inclusions Σ M^{xy}; Σ (M^{yx} − M^{xy}).
+        let mut sums = [FixedSum::ZERO; 3];
+        for k in 0..p.n_owned {
+            let species = p.species_of(k);
+            if self.species[species as usize].is_fluid() {
+                let s = stress.component(p, k, 0, 1);
+                sums[0].add(self.species[species as usize].mass / p.extra[density].data[k] * s);
+            } else if species == INCLUSION {
+                let m = &p.extra[moment].data[k * dd..(k + 1) * dd];
+                sums[1].add(m[1]);
+                sums[2].add(m[D] - m[1]);
+            }
+            if k % 2048 == 2047 {
+                sums.iter_mut().for_each(FixedSum::normalize);
+            }
+        }
+        sums.iter_mut().for_each(FixedSum::normalize);
+        FixedSum::allreduce(self.comm, &mut sums);
+        let inclusions = self.case.inclusions.as_ref().map_or(1, |i| i.centres.len()) as f64;
+        (
+            (sums[0].value() + sums[1].value()) / self.sim_box.volume(),
+            sums[2].value() / inclusions,
+        )
+    }
+
+    /// Samples every observable the case asked for (collective). A thermostatted (DPD) fluid
+    /// whose kinetic temperature has passed [`crate::models::FluidModel::heating`] stops the run (the
+    /// decision is on an exactly reduced sum, so every rank count stops alike).
+    pub fn sample(&mut self) -> Result<(), String> {
+        let t0 = Instant::now();
+        let values = self.measure();
+        self.times.diagnostics += t0.elapsed().as_secs_f64();
+        let density = self.total_particles as f64 / self.sim_box.volume();
+        if let Some(heating) = self.case.fluid.model().heating(
+            values.kinetic_temperature,
+            D,
+            density,
+            self.case.particles.mass,
+            self.time(),
+        ) {
+            return Err(format!(
+                "{heating}, at step {}: {UNSTABLE}; reduce the time step",
+                self.step
+            ));
+        }
+        for (name, v) in values.scalars {
+            self.series.push(&name, v);
+        }
+        if let Some(profile) = values.profile {
+            self.series.profile.push(profile);
+        }
+        self.series.steps.push(self.step);
+        Ok(())
+    }
+
+    /// Instantaneous observables (collective).
+    pub fn measure(&mut self) -> Measurement {
+        let virial = self.current_virial();
+        let case = &self.case;
+        let sheared = self.sim_box.sheared();
+        // Binned along y under shear, and in a walled channel whose profile is asked for (the
+        // temperature is then profile-unbiased too).
+        let walled_profile = (self
+            .sim_box
+            .boundaries
+            .contains(&crate::geometry::Boundary::Wall)
+            || case.body_forced())
+            && case.wants(Observable::VelocityProfile);
+        let bins = if sheared || walled_profile {
+            case.diagnostics.profile_bins
+        } else {
+            1
+        };
+        let ly = self.sim_box.lengths[GRADIENT];
+        let bin_of = |y: f64| profile_bin(y, ly, bins);
+        let n = self.particles.n_owned;
+        let (pos, vel) = (&self.particles.pos[..n], &self.particles.vel[..n]);
+        // Boundary particles (walls, inclusions) are not fluid: left out of every average.
+        let (particles, species) = (&self.particles, &self.species);
+        let fluid = |k: usize| species[particles.species_of(k) as usize].is_fluid();
+        // Every sum below is accumulated exactly ([`FixedSum`]) and reduced exactly over the
+        // ranks, so the observables are bitwise the same for any decomposition, like the state.
+        // Pass 1: bin counts and momenta → mean velocity per bin; Σ 1/m per bin (for the
+        // degrees of freedom the subtraction removes).
+        let mut first = vec![FixedSum::ZERO; bins * (2 + D)];
+        for (k, (x, v)) in pos.iter().zip(vel).enumerate() {
+            if k % 2048 == 2047 {
+                first.iter_mut().for_each(FixedSum::normalize);
+            }
+            if !fluid(k) {
+                continue;
+            }
+            let b = bin_of(x[GRADIENT]);
+            first[b].add(1.0);
+            for d in 0..D {
+                first[bins + b * D + d].add(v[d]);
+            }
+            first[bins * (1 + D) + b].add(1.0 / species[particles.species_of(k) as usize].mass);
+        }
+        FixedSum::allreduce(self.comm, &mut first);
+        let first: Vec<f64> = first.iter().map(FixedSum::value).collect();
+        let mean: Vec<[f64; D]> = (0..bins)
+            .map(|b| {
+                let c = first[b].max(1.0);
+                let mut u = [0.0; D];
+                for d in 0..D {
+                    u[d] = first[bins + b * D + d] / c;
+                }
+                u
+            })
+            .collect();
+        // The local streaming velocity: the bin means interpolated linearly between bin centres
+        // (periodically, with the Lees–Edwards jump ±γ̇L_y across the plane), so the profile
+        // inside a bin is not counted as thermal motion (a constant bin mean would add
+        // ρ m γ̇²Δ²/12 to P_xx and to k_BT).
+        let jump = self.sim_box.le_velocity_jump();
+        let width = ly / bins as f64;
+        // The interpolation weights of the local mean at y: (bin, weight) twice.
+        let weights = |y: f64| -> [(usize, f64); 2] {
+            if bins == 1 {
+                return [(0, 1.0), (0, 0.0)];
+            }
+            let s = y / width - 0.5;
+            let k = s.floor();
+            let t = s - k;
+            let nb = bins as i64;
+            [
+                ((k as i64).rem_euclid(nb) as usize, 1.0 - t),
+                ((k as i64 + 1).rem_euclid(nb) as usize, t),
+            ]
+        };
+        let local_mean = |y: f64| -> [f64; D] {
+            if bins == 1 {
+                return mean[0];
+            }
+            let s = y / width - 0.5; // position in units of bin centres
+            let k = s.floor();
+            let t = s - k;
+            let at = |b: i64| -> [f64; D] {
+                let nb = bins as i64;
+                let wrapped = b.rem_euclid(nb);
+                let mut u = mean[wrapped as usize];
+                u[0] += jump * ((b - wrapped) / nb) as f64;
+                u
+            };
+            let (u0, u1) = (at(k as i64), at(k as i64 + 1));
+            let mut u = [0.0; D];
+            for d in 0..D {
+                u[d] = (1.0 - t) * u0[d] + t * u1[d];
+            }
+            u
+        };
+        // Pass 2: kinetic tensor, peculiar momentum, virial.
+        let dd = D * D;
+        // The last slot: the degrees of freedom per dimension the local mean leaves (below).
+        let mut second = vec![FixedSum::ZERO; dd + D + 3 * dd + 1];
+        let dof_slot = dd + D + 3 * dd;
+        for (k, (x, v)) in pos.iter().zip(vel).enumerate() {
+            if k % 2048 == 2047 {
+                second.iter_mut().for_each(FixedSum::normalize);
+            }
+            if !fluid(k) {
+                continue;
+            }
+            let m = species[particles.species_of(k) as usize].mass;
+            // With V = (I − P)v, P_ij = φ_b(j)(y_i)/n_b(j) (the interpolated bin means), and
+            // independent thermal velocities ⟨v_j²⟩ = k_BT/m_j per component:
+            // ⟨Σ_i m_i V_i²⟩ = k_BT Σ_i [1 − 2P_ii + m_i Σ_b φ_b(y_i)² Σ_{j∈b} (1/m_j)/n_b²]
+            // per dimension — N − B for piecewise-constant means of equal masses, more with
+            // the interpolation.
+            let own = bin_of(x[GRADIENT]);
+            let mut kept = 1.0;
+            for (b, phi) in weights(x[GRADIENT]) {
+                let count = first[b];
+                if count > 0.0 && phi != 0.0 {
+                    if b == own {
+                        kept -= 2.0 * phi / count;
+                    }
+                    kept += m * phi * phi * first[bins * (1 + D) + b] / (count * count);
+                }
+            }
+            second[dof_slot].add(kept);
+            let u = &local_mean(x[GRADIENT]);
+            for a in 0..D {
+                let va = v[a] - u[a];
+                for b in 0..D {
+                    second[a * D + b].add(m * va * (v[b] - u[b]));
+                }
+            }
+            let mut p = *v;
+            p[0] -= self.sim_box.streaming_velocity(x[GRADIENT]);
+            for d in 0..D {
+                second[dd + d].add(m * p[d]);
+            }
+        }
+        for (k, w) in virial.iter().enumerate() {
+            second[dd + D + k * dd..dd + D + (k + 1) * dd].copy_from_slice(w);
+        }
+        FixedSum::allreduce(self.comm, &mut second);
+        let second: Vec<f64> = second.iter().map(FixedSum::value).collect();
+        let volume = self.sim_box.volume();
+        let kinetic = &second[..dd];
+        let mut parts: Vec<Vec<f64>> = vec![kinetic.iter().map(|k| k / volume).collect()];
+        for k in 0..3 {
+            let w = &second[dd + D + k * dd..dd + D + (k + 1) * dd];
+            parts.push(w.iter().map(|x| x / volume).collect());
+        }
+        // The momentum flux: kinetic part plus every model's pair virial (for SPH, the pair
+        // forces of the momentum equation: `crate::models::sph::momentum_flux`).
+        let total: Vec<f64> = (0..dd).map(|i| parts.iter().map(|p| p[i]).sum()).collect();
+        // SPH: the particles' own constitutive stress σ̄ (viscous + polymer), when asked.
+        let constitutive = case
+            .diagnostics
+            .observables
+            .iter()
+            .any(|o| {
+                matches!(
+                    o,
+                    Observable::ConstitutiveStress | Observable::PolymerStressTrace
+                )
+            })
+            .then(|| self.sph_mean_stress());
+        let trace_k: f64 = (0..D).map(|a| kinetic[a * D + a]).sum();
+        // k_BT = Σ m V²/(degrees of freedom the local-mean subtraction leaves): unbiased for
+        // any bin occupancy (N·D − B·D would overstate k_BT by the interpolation's share,
+        // ≈ 10 % at 10 particles per bin).
+        let dof = (D as f64) * second[dof_slot];
+        let mut out = Measurement {
+            kinetic_temperature: trace_k / dof,
+            ..Measurement::default()
+        };
+        let pt = |a: usize, b: usize| total[a * D + b];
+        for o in &case.diagnostics.observables {
+            match o {
+                Observable::Temperature => out.scalars.push(("temperature".into(), trace_k / dof)),
+                Observable::Pressure => out.scalars.push((
+                    "pressure".into(),
+                    (0..D).map(|a| pt(a, a)).sum::<f64>() / D as f64,
+                )),
+                Observable::Stress => {
+                    let all: Vec<&Vec<f64>> = std::iter::once(&total).chain(parts.iter()).collect();
+                    let names = crate::config::observables::stress_parts(case);
+                    for (part, tensor) in names.iter().zip(all) {
+                        for (a, b, c) in crate::config::observables::stress_components(case) {
+                            out.scalars
+                                .push((format!("stress_{part}_{c}"), tensor[a * D + b]));
+                        }
+                    }
+                }
+                Observable::Viscosity => out
+                    .scalars
+                    .push(("viscosity".into(), -pt(0, 1) / self.sim_box.shear_rate)),
+                // Not a sampled series: the correlators are fed every step ([`Self::correlate`]).
+                Observable::GreenKuboViscosity | Observable::TransverseCurrentViscosity => {}
+                Observable::FirstNormalStressDifference => out
+                    .scalars
+                    .push(("first_normal_stress_difference".into(), pt(1, 1) - pt(0, 0))),
+                Observable::SecondNormalStressDifference => out.scalars.push((
+                    "second_normal_stress_difference".into(),
+                    pt(2, 2) - pt(1, 1),
+                )),
+                Observable::Momentum => {
+                    for d in 0..D {
+                        out.scalars
+                            .push((format!("momentum_{}", ["x", "y", "z"][d]), second[dd + d]));
+                    }
+                }
+                Observable::VelocityProfile => {
+                    out.profile = Some(mean.iter().map(|u| u[0]).collect());
+                }
+                Observable::WallShearStress => {
+                    let [lower, upper] = self.wall_forces();
+                    out.scalars.push(("wall_shear_stress_lower".into(), lower));
+                    out.scalars.push(("wall_shear_stress_upper".into(), upper));
+                }
+                Observable::PolymerStressTrace => {
+                    let trace = constitutive.as_ref().map_or(f64::NAN, |c| c.1);
+                    out.scalars.push(("polymer_stress_trace".into(), trace));
+                }
+                Observable::ConstitutiveStress => {
+                    // σ̄ = −P: η = σ̄_xy/γ̇, N₁ = σ̄_xx − σ̄_yy, N₂ = σ̄_yy − σ̄_zz.
+                    let s = constitutive.as_ref().map_or(&[][..], |c| &c.0[..]);
+                    let c = |a: usize, b: usize| s.get(a * D + b).copied().unwrap_or(f64::NAN);
+                    let values = [
+                        c(0, 1) / self.sim_box.shear_rate,
+                        c(0, 0) - c(1, 1),
+                        c(1, 1) - c(2, 2),
+                    ];
+                    let names = crate::config::observables::constitutive_names(D);
+                    for (name, v) in names.iter().zip(values) {
+                        out.scalars.push(((*name).into(), v));
+                    }
+                }
+                Observable::CompositeViscosity => {
+                    let (stress, torque) = self.composite_stress();
+                    out.scalars.push((
+                        "composite_viscosity".into(),
+                        stress / self.sim_box.shear_rate,
+                    ));
+                    out.scalars.push(("inclusion_torque".into(), torque));
+                }
+                Observable::ShearStressProfile => {
+                    // τ_xy(b) = −[Σ_{i∈b} m V_x V_y + W_xy(b)]/V_b ([`crate::models::stress_profile`]),
+                    // V about the local mean velocity of the temperature.
+                    let nb = case.diagnostics.profile_bins;
+                    let mut sums = match &self.shear_virial_profile {
+                        Some((step, w)) if *step == self.step => w.clone(),
+                        _ => vec![FixedSum::ZERO; nb],
+                    };
+                    for (k, (x, v)) in pos.iter().zip(vel).enumerate() {
+                        if k % 2048 == 2047 {
+                            sums.iter_mut().for_each(FixedSum::normalize);
+                        }
+                        if !fluid(k) {
+                            continue;
+                        }
+                        let m = species[particles.species_of(k) as usize].mass;
+                        let u = local_mean(x[GRADIENT]);
+                        sums[profile_bin(x[GRADIENT], ly, nb)]
+                            .add(m * (v[0] - u[0]) * (v[1] - u[1]));
+                    }
+                    sums.iter_mut().for_each(FixedSum::normalize);
+                    FixedSum::allreduce(self.comm, &mut sums);
+                    let bin_volume = self.sim_box.volume() / nb as f64;
+                    for (b, w) in sums.iter().enumerate() {
+                        out.scalars.push((
+                            format!("{SHEAR_STRESS_PROFILE_PREFIX}{b:04}"),
+                            -w.value() / bin_volume,
+                        ));
+                    }
+                }
+                Observable::DensityProfile => {
+                    for (b, rho) in self.density_profile().into_iter().enumerate() {
+                        out.scalars
+                            .push((format!("{DENSITY_PROFILE_PREFIX}{b:04}"), rho));
+                    }
+                }
+            }
+        }
+        out
+    }
+
+    /// The force along x per unit area on the lower and the upper wall (the sums of the
+    /// forces on their boundary particles, which the SPH momentum pass fills with the
+    /// reactions of their fluid neighbours), exact and reduced over the ranks (collective).
+    pub(super) fn wall_forces(&self) -> [f64; 2] {
+        use crate::models::sph::{LOWER_WALL, UPPER_WALL};
+        let Some(w) = &self.case.walls else {
+            return [f64::NAN; 2];
+        };
+        let p = &self.particles;
+        let mut sums = [FixedSum::ZERO; 2];
+        for i in 0..p.n_owned {
+            match p.species_of(i) {
+                LOWER_WALL => sums[0].add(p.force[i][0]),
+                UPPER_WALL => sums[1].add(p.force[i][0]),
+                _ => {}
+            }
+            if i % 2048 == 2047 {
+                sums.iter_mut().for_each(FixedSum::normalize);
+            }
+        }
+        FixedSum::allreduce(self.comm, &mut sums);
+        let axis = w.axis.index();
+        let area: f64 = (0..D)
+            .filter(|&d| d != axis)
+            .map(|d| self.sim_box.lengths[d])
+            .product();
+        [sums[0].value() / area, sums[1].value() / area]
+    }
+}
