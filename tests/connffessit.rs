@@ -11,6 +11,7 @@
 mod common;
 use common::{
     assert_all_equal, assert_references_pass, case_from_str, digests_on_1_to_4_ranks, stock_text,
+    stock_text_with, with_overrides,
 };
 use mesorheo::comm::SerialComm;
 use mesorheo::models::dumbbell_ensemble::CONNECTORS;
@@ -32,15 +33,19 @@ fn default_scene_meets_the_oldroyd_b_references() {
 
 #[test]
 fn coupled_run_is_bitwise_on_1_to_4_ranks_and_1_2_threads() {
-    let text = stock_text("connffessit_shear_2d.toml")
-        .replace("steps = 12000", "steps = 80")
-        .replace("equilibration = 6000", "equilibration = 0")
-        .replace("per_particle = 100", "per_particle = 8")
-        // Every part of the momentum flux too (the SPH pair virial, summed exactly).
-        .replace(
-            "\"constitutive_stress\",",
-            "\"constitutive_stress\", \"stress\",",
-        );
+    let text = stock_text_with(
+        "connffessit_shear_2d.toml",
+        &[
+            "run.steps=80",
+            "run.equilibration=0",
+            "fluid.polymer.per_particle=8",
+        ],
+    )
+    // Every part of the momentum flux too (the SPH pair virial, summed exactly).
+    .replace(
+        "\"constitutive_stress\",",
+        "\"constitutive_stress\", \"stress\",",
+    );
     assert!(text.contains("\"stress\""), "the observables line changed");
     let d = digests_on_1_to_4_ranks(&text, "connffessit shear", |s| {
         assert_eq!(s.steps, 80);
@@ -57,13 +62,16 @@ fn coupled_run_is_bitwise_on_1_to_4_ranks_and_1_2_threads() {
 /// test above has no migration).
 #[test]
 fn coupled_run_is_bitwise_on_1_and_2_ranks_across_migrations() {
-    let text = stock_text("connffessit_shear_2d.toml")
-        .replace("steps = 12000", "steps = 1000")
-        .replace("equilibration = 6000", "equilibration = 0")
-        .replace("per_particle = 100", "per_particle = 8");
-    assert!(text.contains("steps = 1000\n") && text.contains("per_particle = 8\n"));
-    let text = &text[..text.find("[[reference]]").expect("references")];
-    let loaded = case_from_str(text, "connffessit migrations");
+    let text = stock_text_with(
+        "connffessit_shear_2d.toml",
+        &[
+            "run.steps=1000",
+            "run.equilibration=0",
+            "fluid.polymer.per_particle=8",
+            "reference=[]",
+        ],
+    );
+    let loaded = case_from_str(&text, "connffessit migrations");
     let digest = |ranks: usize| {
         mesorheo::driver::run_in_process(&loaded, ranks, 1, None)
             .unwrap_or_else(|e| panic!("{ranks} ranks: {e}"))
@@ -130,14 +138,18 @@ fn an_sph_case_without_observables_gets_the_viscometric_ones() {
 /// (400 particles × 22 evaluations: the initial ones and one per step).
 #[test]
 fn uncorrected_gradient_estimates_are_counted_in_the_summary() {
-    let text = stock_text("connffessit_shear_2d.toml");
-    let text = text[..text.find("[[reference]]").expect("references")]
-        .replace("smoothing_length = 0.15", "smoothing_length = 0.0505")
-        .replace("steps = 12000", "steps = 20")
-        .replace("equilibration = 6000", "equilibration = 0")
-        .replace("sample_every = 10", "sample_every = 2")
-        .replace("per_particle = 100", "per_particle = 4")
-        .replace("[run]", "[run]\nbeyond_stability_limits = true");
+    let text = stock_text_with(
+        "connffessit_shear_2d.toml",
+        &[
+            "reference=[]",
+            "fluid.smoothing_length=0.0505",
+            "run.steps=20",
+            "run.equilibration=0",
+            "run.sample_every=2",
+            "fluid.polymer.per_particle=4",
+            "run.beyond_stability_limits=true",
+        ],
+    );
     let loaded = case_from_str(&text, "sparse");
     for ranks in [1, 2] {
         let s = mesorheo::driver::run_in_process(&loaded, ranks, 1, None).expect("run");
@@ -160,18 +172,16 @@ fn uncorrected_gradient_estimates_are_counted_in_the_summary() {
 /// if the reduction drops the report.
 #[test]
 fn a_connector_outside_its_domain_stops_a_particle_scene() {
-    let base = stock_text("connffessit_shear_2d.toml");
-    let base = base[..base.find("[[reference]]").expect("references")]
-        .replace("per_particle = 100", "per_particle = 8");
+    let base = stock_text_with(
+        "connffessit_shear_2d.toml",
+        &["reference=[]", "fluid.polymer.per_particle=8"],
+    );
+    let fene: &[&str] = &["fluid.polymer.spring=\"fene\"", "fluid.polymer.b=10.0"];
     for (spring, poison, expect) in [
-        ("", f64::NAN, "(not finite)"),
-        (
-            "spring = \"fene\"\nb = 10.0\n",
-            f64::INFINITY,
-            "(not finite)",
-        ),
+        (&[][..], f64::NAN, "(not finite)"),
+        (fene, f64::INFINITY, "(not finite)"),
     ] {
-        let text = base.replace("per_particle = 8\n", &format!("per_particle = 8\n{spring}"));
+        let text = with_overrides(&base, spring);
         let loaded = case_from_str(&text, "connffessit blow-up");
         let comm = SerialComm::new();
         let mut sim = Simulation::<2>::new(&loaded.case, &comm, 1).expect("set up");

@@ -7,7 +7,7 @@
 #![cfg(feature = "hdf5")]
 
 mod common;
-use common::{case_from_str, small_dpd};
+use common::{case_from_str, small_dpd, stock_text_with};
 use mesorheo::comm::Comm;
 use mesorheo::driver::{CHECKPOINT_REFUSED, RunOptions, in_process, restart_case, run_case};
 use mesorheo::models::{FieldKind, FieldSpec, ParticleModel};
@@ -464,16 +464,17 @@ fn until_step_and_sigterm_stop_cleanly_and_the_restart_matches_one_run() {
 /// --until-step, continued, stopped by SIGTERM, continued to the end ≡ one run, bitwise.
 #[test]
 fn connffessit_stopped_by_sigterm_continues_bitwise() {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("cases/connffessit_shear_2d.toml");
-    let text = std::fs::read_to_string(path)
-        .expect("stock case")
-        .replace("steps = 12000", "steps = 3000")
-        .replace("equilibration = 6000", "equilibration = 0")
-        .replace("per_particle = 100", "per_particle = 8");
-    assert!(text.contains("steps = 3000\n") && text.contains("per_particle = 8\n"));
     // Without the references (a short run meets none; a failed check is a non-zero exit).
-    let text = &text[..text.find("[[reference]]").expect("references")];
-    until_step_and_sigterm_then_restart(text, 3000);
+    let text = stock_text_with(
+        "connffessit_shear_2d.toml",
+        &[
+            "run.steps=3000",
+            "run.equilibration=0",
+            "fluid.polymer.per_particle=8",
+            "reference=[]",
+        ],
+    );
+    until_step_and_sigterm_then_restart(&text, 3000);
 }
 
 /// `text` (of `total` steps) run with --until-step 300, restarted and stopped by SIGTERM,
@@ -696,11 +697,10 @@ fn assert_restart_at_60_is_bitwise(text: &str, name: &str) {
 /// bitwise.
 #[test]
 fn sph_inclusion_restart_is_bitwise() {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("cases/inclusion_maxwell_2d.toml");
-    let text = std::fs::read_to_string(path)
-        .expect("stock case")
-        .replace("steps = 7500", "steps = 120")
-        .replace("equilibration = 2500", "equilibration = 0");
+    let text = stock_text_with(
+        "inclusion_maxwell_2d.toml",
+        &["run.steps=120", "run.equilibration=0"],
+    );
     assert_restart_at_60_is_bitwise(&text, "inclusion cell");
 }
 
@@ -709,13 +709,14 @@ fn sph_inclusion_restart_is_bitwise() {
 /// another rank count + N/2, bitwise.
 #[test]
 fn connffessit_restart_is_bitwise() {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("cases/connffessit_shear_2d.toml");
-    let text = std::fs::read_to_string(path)
-        .expect("stock case")
-        .replace("steps = 12000", "steps = 120")
-        .replace("equilibration = 6000", "equilibration = 0")
-        .replace("per_particle = 100", "per_particle = 8");
-    assert!(text.contains("steps = 120\n") && text.contains("per_particle = 8\n"));
+    let text = stock_text_with(
+        "connffessit_shear_2d.toml",
+        &[
+            "run.steps=120",
+            "run.equilibration=0",
+            "fluid.polymer.per_particle=8",
+        ],
+    );
     assert_restart_at_60_is_bitwise(&text, "CONNFFESSIT shear");
 }
 
@@ -725,16 +726,15 @@ fn connffessit_restart_is_bitwise() {
 /// count + N/2, bitwise.
 #[test]
 fn msph_connffessit_channel_restart_is_bitwise() {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("cases/connffessit_channel_2d.toml");
-    let text = std::fs::read_to_string(path).expect("stock case");
-    let text = text
-        .split("[[reference]]")
-        .next()
-        .expect("case")
-        .replace("steps = 15000", "steps = 120")
-        .replace("sample_every = 500", "sample_every = 10")
-        .replace("per_particle = 1000", "per_particle = 8");
-    assert!(text.contains("steps = 120\n") && text.contains("per_particle = 8\n"));
+    let text = stock_text_with(
+        "connffessit_channel_2d.toml",
+        &[
+            "reference=[]",
+            "run.steps=120",
+            "run.sample_every=10",
+            "fluid.polymer.per_particle=8",
+        ],
+    );
     assert_restart_at_60_is_bitwise(&text, "CONNFFESSIT channel (MSPH)");
 }
 

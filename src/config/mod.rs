@@ -578,16 +578,23 @@ fn read_with_overrides(path: &Path, overrides: &[String]) -> Result<(String, Pat
         .map_err(|e| bad(format!("cannot read the case file: {e}")))?;
     let mut shown = path.to_path_buf();
     if !overrides.is_empty() {
-        let mut doc: toml_edit::DocumentMut = source
-            .parse()
-            .map_err(|e: toml_edit::TomlError| bad(format!("invalid TOML: {}", e.message())))?;
-        for o in overrides {
-            apply_override(&mut doc, o).map_err(|m| bad(format!("--set {o}: {m}")))?;
-        }
-        source = doc.to_string();
+        source = apply_overrides(&source, overrides).map_err(bad)?;
         shown = PathBuf::from(format!("{} (with --set overrides)", path.display()));
     }
     Ok((source, shown))
+}
+
+/// Case text with `key.path=value` overrides applied (what `--set` does; values are TOML
+/// literals, bare words strings). A key the case schema does not know is then refused by the
+/// parser like any other, so an edit never silently misses.
+pub fn apply_overrides(source: &str, overrides: &[String]) -> Result<String, String> {
+    let mut doc: toml_edit::DocumentMut = source
+        .parse()
+        .map_err(|e: toml_edit::TomlError| format!("invalid TOML: {}", e.message()))?;
+    for o in overrides {
+        apply_override(&mut doc, o).map_err(|m| format!("--set {o}: {m}"))?;
+    }
+    Ok(doc.to_string())
 }
 
 fn apply_override(doc: &mut toml_edit::DocumentMut, o: &str) -> Result<(), String> {

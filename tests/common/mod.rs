@@ -23,6 +23,20 @@ pub fn stock_case(name: &str) -> LoadedCase {
     config::load(&path).unwrap_or_else(|e| panic!("{e}"))
 }
 
+/// `text` with `key.path=value` overrides applied by the parser's own `--set` mechanism
+/// ([`config::apply_overrides`]): a key that does not exist is refused when the text is
+/// parsed, where a string replacement that misses would silently test another case.
+/// `reference=[]` drops the references.
+pub fn with_overrides(text: &str, overrides: &[&str]) -> String {
+    let overrides: Vec<String> = overrides.iter().map(|o| o.to_string()).collect();
+    config::apply_overrides(text, &overrides).unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// A stock case from `cases/` with overrides ([`with_overrides`]), as text.
+pub fn stock_text_with(name: &str, overrides: &[&str]) -> String {
+    with_overrides(&stock_text(name), overrides)
+}
+
 /// The text of a stock case from `cases/`.
 pub fn stock_text(name: &str) -> String {
     std::fs::read_to_string(
