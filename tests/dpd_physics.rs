@@ -3,7 +3,7 @@
 //! Each stock scene carries its `[[reference]]` checks; here they must all pass.
 
 mod common;
-use common::{case_from_str, small_dpd, stock_case};
+use common::{case_from_str, small_dpd, stock_case, stock_text_with, with_overrides};
 use mesorheo::comm::SerialComm;
 use mesorheo::driver::run_in_process;
 use mesorheo::sim::Simulation;
@@ -253,15 +253,16 @@ fn a_fluid_heating_past_its_bound_is_stopped() {
 /// 0.042 here).
 #[test]
 fn a_pure_shear_flow_has_zero_temperature_and_no_kinetic_normal_stress() {
-    let text = small_dpd(
-        2,
-        8.0,
-        0.5,
-        10,
-        "[diagnostics]\nobservables = [\"temperature\", \"stress\"]\nprofile_bins = 4\n",
-    )
-    .replace("lattice = \"random\"", "lattice = \"cubic\"")
-    .replace("temperature = 1.0", "temperature = 0.0");
+    let text = with_overrides(
+        &small_dpd(
+            2,
+            8.0,
+            0.5,
+            10,
+            "[diagnostics]\nobservables = [\"temperature\", \"stress\"]\nprofile_bins = 4\n",
+        ),
+        &["particles.lattice=\"cubic\"", "particles.temperature=0.0"],
+    );
     let loaded = case_from_str(&text, "pure_shear");
     let comm = SerialComm::new();
     let mut sim = Simulation::<2>::new(&loaded.case, &comm, 1).expect("setup");
@@ -357,17 +358,19 @@ fn transverse_currents_obey_equipartition_and_are_rank_invariant() {
 #[test]
 fn sheared_temperature_does_not_depend_on_the_bin_count() {
     let text = |bins: usize| {
-        small_dpd(
-            2,
-            10.0,
-            0.05,
-            5000,
-            &format!(
-                "equilibration = 200\n[diagnostics]\nobservables = [\"temperature\"]\n\
-                 profile_bins = {bins}\n"
+        with_overrides(
+            &small_dpd(
+                2,
+                10.0,
+                0.05,
+                5000,
+                &format!(
+                    "equilibration = 200\n[diagnostics]\nobservables = [\"temperature\"]\n\
+                     profile_bins = {bins}\n"
+                ),
             ),
+            &["integrator.dt=0.02"],
         )
-        .replace("dt = 0.04", "dt = 0.02")
     };
     let kt = |bins: usize| {
         let s = run_in_process(&case_from_str(&text(bins), "kt.toml"), 1, 2, None)
@@ -429,16 +432,14 @@ fn exponential_thermostat_keeps_k_bt_where_the_explicit_step_diverges() {
 /// first bin (this fluid's stress is almost all dissipative) and fail.
 #[test]
 fn double_poiseuille_shear_stress_follows_the_momentum_balance() {
-    let text = std::fs::read_to_string(
-        std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("cases/dpd_double_poiseuille_2d_n4.toml"),
-    )
-    .expect("stock case")
-    .replace("steps = 150000", "steps = 19000")
-    .replace("equilibration = 25000", "equilibration = 4000")
-    .replace(
-        "observables = [\"temperature\", \"velocity_profile\", \"shear_stress_profile\"]",
-        "observables = [\"temperature\", \"velocity_profile\", \"shear_stress_profile\", \"stress\"]\nblocks = 20",
+    let text = stock_text_with(
+        "dpd_double_poiseuille_2d_n4.toml",
+        &[
+            "run.steps=19000",
+            "run.equilibration=4000",
+            "diagnostics.observables=[\"temperature\", \"velocity_profile\", \"shear_stress_profile\", \"stress\"]",
+            "diagnostics.blocks=20",
+        ],
     );
     let s = run_in_process(&case_from_str(&text, "dp_stress.toml"), 1, 2, None)
         .unwrap_or_else(|e| panic!("{e}"));

@@ -11,7 +11,7 @@
 //! - a 10⁶-particle scene on one rank against the memory check.
 
 mod common;
-use common::{case_from_str, small_dpd, stock_case};
+use common::{case_from_str, small_dpd, stock_case, with_overrides};
 use mesorheo::driver::run_in_process;
 
 fn run(text: &str, ranks: usize) -> mesorheo::summary::Summary {
@@ -33,9 +33,10 @@ fn dpd_without_repulsion_and_with_a_huge_one() {
     // the stock 0.04 its k_BT reads 1.016 ± 0.003 over these 2000 steps, a Δt bias; at 0.01 it
     // is within the error bars.
     let ideal = run(
-        &small_dpd(3, 6.0, 0.0, 2000, extra)
-            .replace("a = 25.0", "a = 0.0")
-            .replace("dt = 0.04", "dt = 0.01"),
+        &with_overrides(
+            &small_dpd(3, 6.0, 0.0, 2000, extra),
+            &["fluid.a=0.0", "integrator.dt=0.01"],
+        ),
         1,
     );
     let (kt, p) = (
@@ -47,20 +48,20 @@ fn dpd_without_repulsion_and_with_a_huge_one() {
         (p.mean - 3.0 * kt.mean).abs() < 4.5 * p.stderr,
         "{p:?} vs n k_BT"
     );
-    let stiff = small_dpd(3, 6.0, 0.0, 300, extra).replace("a = 25.0", "a = 1000000.0");
+    let stiff = with_overrides(&small_dpd(3, 6.0, 0.0, 300, extra), &["fluid.a=1000000.0"]);
     let Err(err) = mesorheo::config::parse_scene(&stiff, std::path::Path::new("stiff.toml")) else {
         panic!("a = 10⁶ at Δt = 0.04 should be refused");
     };
     let err = err.to_string();
     assert!(err.contains("conservative force"), "{err}");
-    let loaded = case_from_str(&stiff.replace("a = 1000000.0", "a = 25.0"), "soft.toml");
+    let loaded = case_from_str(&with_overrides(&stiff, &["fluid.a=25.0"]), "soft.toml");
     let mut case = loaded.case.clone();
     if let mesorheo::config::FluidCfg::Dpd(d) = &mut case.fluid {
         d.a = 1e6;
     }
     let limits = dpd_limits_of_case(&case).expect("a DPD case");
     let dt = 0.1 * limits.combined;
-    let text = stiff.replace("dt = 0.04", &format!("dt = {dt:e}"));
+    let text = with_overrides(&stiff, &[&format!("integrator.dt={dt:e}")]);
     let s = run(&text, 1);
     let kt = s.observables["temperature"];
     assert!(
@@ -121,9 +122,9 @@ fn time_steps_at_and_around_each_limit() {
         ("a = 20000.0\ngamma = 4.5", "conservative force"),
     ] {
         let base = small_dpd(3, 6.0, 0.0, 10, "").replace("a = 25.0\ngamma = 4.5", fluid);
-        let case = case_from_str(&base.replace("dt = 0.04", "dt = 1e-6"), "probe").case;
+        let case = case_from_str(&with_overrides(&base, &["integrator.dt=1e-6"]), "probe").case;
         let limit = dpd_limits_of_case(&case).expect("a DPD case").combined;
-        let at = |dt: f64| parse(&base.replace("dt = 0.04", &format!("dt = {dt:e}")));
+        let at = |dt: f64| parse(&with_overrides(&base, &[&format!("integrator.dt={dt:e}")]));
         if let Err(e) = at(limit * (1.0 - 1e-9)) {
             panic!("{what}: just below: {e}");
         }
