@@ -17,7 +17,7 @@
 mod common;
 use common::{
     assert_all_equal, assert_references_pass, case_from_str, digests_on_1_to_4_ranks,
-    sph_periodic_box as periodic_box, stock_case,
+    sph_periodic_box as periodic_box, stock_case, with_overrides,
 };
 use mesorheo::comm::SerialComm;
 use mesorheo::driver::run_in_process;
@@ -26,15 +26,16 @@ use mesorheo::sim::Simulation;
 /// A channel between walls at y = 0 and y = 1 (Δ = 0.02, Lucy support 2.5Δ), the upper wall
 /// at `upper` along x.
 fn channel(viscous_term: &str, treatment: &str, upper: f64) -> String {
-    periodic_box(viscous_term, 0.05, "")
-        .replace(
-            "lengths = [1.0, 1.0]",
-            "lengths = [1.0, 1.0]\nboundaries = [\"periodic\", \"wall\"]",
-        )
-        .replace("[\"momentum\"]", "[\"momentum\", \"wall_shear_stress\"]")
-        + &format!(
-            "[walls]\nupper_velocity = [{upper}, 0.0]\ntreatment = \"{treatment}\"\nmorris_cap = 2.0\n"
-        )
+    with_overrides(
+        &periodic_box(viscous_term, 0.05, ""),
+        &[
+            "box.boundaries=[\"periodic\", \"wall\"]",
+            "diagnostics.observables=[\"momentum\", \"wall_shear_stress\"]",
+            &format!("walls.upper_velocity=[{upper}, 0.0]"),
+            &format!("walls.treatment=\"{treatment}\""),
+            "walls.morris_cap=2.0",
+        ],
+    )
 }
 
 /// Sets every fluid particle's velocity to `u(y)` along x, then rebuilds the ghosts (they
@@ -110,8 +111,10 @@ fn shear_wave_decays_at_the_viscous_rate() {
 #[test]
 fn morris_images_keep_steady_couette_flow_linear() {
     for (treatment, lo, hi) in [("morris", 0.0, 1e-4), ("layers", 0.005, 0.02)] {
-        let text =
-            channel("morris", treatment, 1.0).replace("morris_cap = 2.0", "morris_cap = 6.0");
+        let text = with_overrides(
+            &channel("morris", treatment, 1.0),
+            &["walls.morris_cap=6.0"],
+        );
         let loaded = case_from_str(&text, "couette.toml");
         let comm = SerialComm::new();
         let mut sim = Simulation::<2>::new(&loaded.case, &comm, 1).expect("set up");
@@ -207,15 +210,14 @@ fn momentum_is_conserved_to_round_off() {
 fn walled_channel_is_bitwise_identical_on_1_to_4_ranks() {
     for (term, axis, extra) in [
         ("nested_summation", "x", ""),
-        ("morris", "y", "density = \"continuity\"\n"),
+        ("morris", "y", "fluid.density=\"continuity\""),
     ] {
-        let mut text = channel(term, "morris", 1.0).replace(
-            "[fluid]",
-            &format!("[decomposition]\naxis = \"{axis}\"\n[fluid]\n{extra}"),
-        );
+        let mut overrides = vec![format!("decomposition.axis=\"{axis}\"")];
         if !extra.is_empty() {
-            text = text.replace("kick_drift_kick", "heun");
+            overrides.extend([extra.to_string(), "integrator.kind=\"heun\"".to_string()]);
         }
+        let overrides: Vec<&str> = overrides.iter().map(String::as_str).collect();
+        let text = with_overrides(&channel(term, "morris", 1.0), &overrides);
         let d = digests_on_1_to_4_ranks(&text, "channel.toml", |_| {});
         assert_all_equal(&format!("{term} along {axis}"), &d);
     }
@@ -228,12 +230,10 @@ fn walled_channel_is_bitwise_identical_on_1_to_4_ranks() {
 /// is another particle), or if the lanes' terms round differently from the scatter's.
 #[test]
 fn fluid_only_scheme_is_bitwise_identical_on_1_to_4_ranks() {
-    let text = periodic_box("morris", 0.05, "density = \"continuity\"")
-        .replace(
-            "lengths = [1.0, 1.0]",
-            "lengths = [1.0, 1.0]\nshear_rate = 1.0",
-        )
-        .replace("steps = 100", "steps = 60\nsample_every = 5");
+    let text = with_overrides(
+        &periodic_box("morris", 0.05, "density = \"continuity\""),
+        &["box.shear_rate=1.0", "run.steps=60", "run.sample_every=5"],
+    );
     let d = digests_on_1_to_4_ranks(&text, "le.toml", |_| {});
     assert_all_equal("fluid-only Lees–Edwards box", &d);
 }
@@ -243,15 +243,21 @@ fn fluid_only_scheme_is_bitwise_identical_on_1_to_4_ranks() {
 /// with `integrator` at Δt = `dt`.
 fn startup_velocities_at(poiseuille: bool, integrator: &str, dt: f64) -> Vec<[f64; 2]> {
     let t_end = 0.02;
-    let mut text = channel("morris", "morris", if poiseuille { 0.0 } else { 1.0 })
-        .replace("kick_drift_kick", integrator)
-        .replace("dt = 1e-4", &format!("dt = {dt:e}"));
+    let mut overrides = vec![
+        format!("integrator.kind=\"{integrator}\""),
+        format!("integrator.dt={dt:e}"),
+    ];
     if poiseuille {
-        text = text.replace(
-            "viscosity = 1.0",
-            "viscosity = 0.125\nbody_force = [1.0, 0.0]",
-        );
+        overrides.extend([
+            "fluid.viscosity=0.125".into(),
+            "fluid.body_force=[1.0, 0.0]".into(),
+        ]);
     }
+    let overrides: Vec<&str> = overrides.iter().map(String::as_str).collect();
+    let text = with_overrides(
+        &channel("morris", "morris", if poiseuille { 0.0 } else { 1.0 }),
+        &overrides,
+    );
     let loaded = case_from_str(&text, "startup.toml");
     let comm = SerialComm::new();
     let mut sim = Simulation::<2>::new(&loaded.case, &comm, 1).expect("set up");
@@ -335,41 +341,26 @@ fn poiseuille_in_3d_agrees_with_2d() {
     let mut profiles = Vec::new();
     for dimension in [2i32, 3] {
         let per_side = (1.0 / delta).round();
-        let mut text = base
-            .source
-            .replace(
-                "density = 2500.0",
-                &format!("density = {:.1}", per_side.powi(dimension)),
-            )
-            .replace(
-                "mass = 0.0004",
-                &format!("mass = {:e}", delta.powi(dimension)),
-            )
-            .replace(
-                "smoothing_length = 0.06",
-                &format!("smoothing_length = {}", 3.0 * delta),
-            )
-            .replace("dt = 1e-4", &format!("dt = {dt:e}"))
-            .replace("steps = 40000", &format!("steps = {}", (t / dt).round()))
-            .replace("skin = 0.01", &format!("skin = {}", delta / 2.0));
-        // No references (the test compares itself): the text ends before them.
-        text.truncate(
-            text.find("[[reference]]")
-                .expect("the stock case has references"),
-        );
+        let mut overrides = vec![
+            format!("particles.density={:.1}", per_side.powi(dimension)),
+            format!("particles.mass={:e}", delta.powi(dimension)),
+            format!("fluid.smoothing_length={}", 3.0 * delta),
+            format!("integrator.dt={dt:e}"),
+            format!("run.steps={}", (t / dt).round()),
+            format!("neighbour.skin={}", delta / 2.0),
+            // No references (the test compares itself).
+            "reference=[]".to_string(),
+        ];
         if dimension == 3 {
-            text = text
-                .replace("dimension = 2", "dimension = 3")
-                .replace(
-                    "lengths = [1.0, 1.0]",
-                    &format!("lengths = [1.0, 1.0, {}]", 8.0 * delta),
-                )
-                .replace(
-                    "boundaries = [\"periodic\", \"wall\"]",
-                    "boundaries = [\"periodic\", \"wall\", \"periodic\"]",
-                )
-                .replace("body_force = [1.0, 0.0]", "body_force = [1.0, 0.0, 0.0]");
+            overrides.extend([
+                "dimension=3".to_string(),
+                format!("box.lengths=[1.0, 1.0, {}]", 8.0 * delta),
+                "box.boundaries=[\"periodic\", \"wall\", \"periodic\"]".to_string(),
+                "fluid.body_force=[1.0, 0.0, 0.0]".to_string(),
+            ]);
         }
+        let overrides: Vec<&str> = overrides.iter().map(String::as_str).collect();
+        let text = with_overrides(&base.source, &overrides);
         let loaded = case_from_str(&text, "poiseuille.toml");
         let comm = SerialComm::new();
         let series: Vec<f64> = (0..(1.0 / delta).round() as usize)
@@ -516,22 +507,18 @@ fn xsph_correction_is_the_smoothed_velocity_difference() {
 #[test]
 fn density_profile_is_hydrostatic_under_gravity() {
     let (g, c0) = (1.0, 10.0);
-    let text = channel("morris", "morris", 0.0)
-        .replace(
-            "viscosity = 1.0",
-            &format!(
-                "viscosity = 1.0\nbody_force = [0.0, {}]\ndensity = \"continuity\"",
-                -g
-            ),
-        )
-        .replace(
-            "steps = 100",
-            "steps = 10000\nequilibration = 5000\nsample_every = 50",
-        )
-        .replace(
-            "observables = [\"momentum\", \"wall_shear_stress\"]",
-            "observables = [\"density_profile\"]\nprofile_bins = 50",
-        );
+    let text = with_overrides(
+        &channel("morris", "morris", 0.0),
+        &[
+            &format!("fluid.body_force=[0.0, {}]", -g),
+            "fluid.density=\"continuity\"",
+            "run.steps=10000",
+            "run.equilibration=5000",
+            "run.sample_every=50",
+            "diagnostics.observables=[\"density_profile\"]",
+            "diagnostics.profile_bins=50",
+        ],
+    );
     let loaded = case_from_str(&text, "hydrostatic.toml");
     let s = run_in_process(&loaded, 1, 2, None).expect("run");
     let profile = &s.density_profile;
@@ -626,13 +613,14 @@ fn wall_shear_stress_follows_the_startup_series() {
 /// speed `speed`, with pressure and viscosity negligible (c₀ = 10⁻³, η = 0), so that only the
 /// wall's repulsion (strength `strength`, range Δ) can stop it.
 fn closest_approach(speed: f64, strength: f64) -> f64 {
-    let text = channel("morris", "morris", 0.0)
-        .replace("sound_speed = 10.0", "sound_speed = 0.001")
-        .replace("viscosity = 1.0", "viscosity = 0.0")
-        .replace(
-            "morris_cap = 2.0\n",
-            &format!("morris_cap = 2.0\nrepulsion_strength = {strength:e}\n"),
-        );
+    let text = with_overrides(
+        &channel("morris", "morris", 0.0),
+        &[
+            "fluid.sound_speed=0.001",
+            "fluid.viscosity=0.0",
+            &format!("walls.repulsion_strength={strength:e}"),
+        ],
+    );
     let loaded = case_from_str(&text, "thrown.toml");
     let comm = SerialComm::new();
     let mut sim = Simulation::<2>::new(&loaded.case, &comm, 1).expect("set up");
