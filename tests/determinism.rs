@@ -56,7 +56,7 @@ fn slabs_along_z_under_shear_give_the_same_bits_as_slabs_along_y() {
 #[test]
 fn a_different_seed_gives_a_different_trajectory() {
     let a = case_from_str(&small_dpd(3, 6.0, 0.0, 20, ""), "a");
-    let text = small_dpd(3, 6.0, 0.0, 20, "").replace("seed = 11", "seed = 12");
+    let text = common::with_overrides(&small_dpd(3, 6.0, 0.0, 20, ""), &["seed=12"]);
     let b = case_from_str(&text, "b");
     let da = run_in_process(&a, 1, 1, None).expect("a").state_digest;
     let db = run_in_process(&b, 1, 1, None).expect("b").state_digest;

@@ -123,8 +123,10 @@ fn probe<const D: usize>(
 /// the pairs that cross a slab or periodic boundary, and with it this conservation.
 #[test]
 fn the_two_pass_model_conserves_momentum_under_lees_edwards_along_x_and_y() {
-    let text = gas_case(2, 8.0, 0.5, "random", 200)
-        .replace("sample_every = 5", "sample_every = 1\nequilibration = 0");
+    let text = common::with_overrides(
+        &gas_case(2, 8.0, 0.5, "random", 200),
+        &["run.sample_every=1", "run.equilibration=0"],
+    );
     let loaded = case_from_str(&text, "momentum");
     let s = run_in_process(&loaded, 2, 1, None).expect("run");
     // Peculiar momentum per sample: its spread over the samples must vanish (it is the same
@@ -260,9 +262,9 @@ fn ghost_fields_are_refreshed_with_the_lees_edwards_shift_on_velocity_like_field
 #[test]
 fn the_two_pass_model_restarts_bitwise_on_another_rank_count() {
     use mesorheo::driver::{RunOptions, restart_case, run_case};
-    let text = gas_case(2, 8.0, 0.5, "random", 120).replace(
-        "[diagnostics]",
-        "[output]\ncheckpoint_every = 50\n[diagnostics]",
+    let text = common::with_overrides(
+        &gas_case(2, 8.0, 0.5, "random", 120),
+        &["output.checkpoint_every=50"],
     );
     let loaded = case_from_str(&text, "gas_restart");
     let whole = run_in_process(&loaded, 1, 1, None).expect("uninterrupted");

@@ -158,14 +158,14 @@ fn lists_match_brute_force_in_2d_and_3d_with_lees_edwards_offsets() {
     for (seed, step3, step2) in [(1u64, 0u64, 0u64), (2, 37, 13), (3, 35, 27), (4, 517, 111)] {
         for ranks in 1..=3 {
             let text3 =
-                small_dpd(3, 4.0, 0.7, 10, "").replace("seed = 11", &format!("seed = {seed}"));
+                common::with_overrides(&small_dpd(3, 4.0, 0.7, 10, ""), &[&format!("seed={seed}")]);
             check::<3>(
-                &text3.replace("density = 3.0", "density = 1.5"),
+                &common::with_overrides(&text3, &["particles.density=1.5"]),
                 ranks,
                 step3,
             );
             let text2 =
-                small_dpd(2, 7.0, 0.9, 10, "").replace("seed = 11", &format!("seed = {seed}"));
+                common::with_overrides(&small_dpd(2, 7.0, 0.9, 10, ""), &[&format!("seed={seed}")]);
             check::<2>(&text2, ranks, step2);
             configs += 2;
         }
@@ -173,7 +173,11 @@ fn lists_match_brute_force_in_2d_and_3d_with_lees_edwards_offsets() {
     // A periodic box without shear, decomposed along z.
     let text = small_dpd(3, 4.5, 0.0, 10, "[decomposition]\naxis = \"z\"\n");
     for ranks in 1..=3 {
-        check::<3>(&text.replace("density = 3.0", "density = 1.5"), ranks, 0);
+        check::<3>(
+            &common::with_overrides(&text, &["particles.density=1.5"]),
+            ranks,
+            0,
+        );
         configs += 1;
     }
     assert!(configs >= 20);

@@ -111,8 +111,7 @@ fn restart_between_neighbour_list_builds_is_bitwise() {
     // Checkpoints at every step from 41 to 50: most fall between list builds, where positions
     // are not wrapped and the lists must be rebuilt as of the last build. (A wide skin and a
     // slow shear, so lists live for several steps.)
-    let text = small_dpd(3, 6.0, 0.1, 80, "").replace("skin = 0.3", "skin = 0.8");
-    assert!(text.contains("skin = 0.8"));
+    let text = common::with_overrides(&small_dpd(3, 6.0, 0.1, 80, ""), &["neighbour.skin=0.8"]);
     let whole = uninterrupted(&text);
     let mut between = 0;
     for stop in 41..=50u64 {
@@ -547,7 +546,7 @@ fn until_step_and_sigterm_then_restart(text: &str, total: u64) {
 #[test]
 fn restart_with_more_steps_extends_the_run_and_remembers_it() {
     let text = le_case(2, 100, "");
-    let longer = uninterrupted(&text.replace("steps = 100", "steps = 150"));
+    let longer = uninterrupted(&common::with_overrides(&text, &["run.steps=150"]));
     let dir = tempfile::tempdir().expect("tempdir");
     let out = dir.path().to_path_buf();
     let loaded = case_from_str(&text, "short");

@@ -117,7 +117,7 @@ fn walls_of_boundary_particles_are_bitwise_identical_on_1_to_3_ranks_and_1_to_2_
         }
     }
     // A channel may also be cut across its length: slabs along x (no shear), walls and all.
-    let along_x = text.replace("[run]", "[decomposition]\naxis = \"x\"\n[run]");
+    let along_x = common::with_overrides(&text, &["decomposition.axis=\"x\""]);
     for ranks in [2, 3] {
         let t = along_x.clone();
         let (digest, temperature) = in_process(ranks, move |c| run(c, &t, 1, None))
@@ -217,7 +217,7 @@ fn a_scene_with_walls_restarts_bitwise_with_its_species() {
     let (whole, _) = in_process(1, move |c| run(c, &t, 1, None)).expect("uninterrupted");
     let dir = tempfile::tempdir().expect("tempdir");
     let out = dir.path().to_path_buf();
-    let short = text.replace("steps = 120", "steps = 60");
+    let short = common::with_overrides(&text, &["run.steps=60"]);
     let o = out.clone();
     in_process(2, move |c| run(c, &short, 1, Some(&o))).expect("first part");
     let ck = out.join("checkpoints").join("checkpoint_000000000060.h5");

@@ -91,31 +91,10 @@ fn shear_rate_near_the_inclusion_follows_stokes() {
 /// Maxwell (the mirrored polymer stress), gives the same bits on 1–4 ranks × 1–2 threads.
 #[test]
 fn inclusion_cell_is_bitwise_rank_invariant() {
-    for (name, steps, equilibration, sample) in [
-        (
-            "inclusion_newtonian_2d.toml",
-            "steps = 11112",
-            "equilibration = 2222",
-            "sample_every = 10",
-        ),
-        (
-            "inclusion_maxwell_2d.toml",
-            "steps = 7500",
-            "equilibration = 2500",
-            "sample_every = 5",
-        ),
-    ] {
-        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("cases")
-            .join(name);
-        let text = std::fs::read_to_string(path)
-            .expect("stock case")
-            .replace(steps, "steps = 60")
-            .replace(equilibration, "equilibration = 0")
-            .replace(sample, "sample_every = 5");
-        assert!(
-            text.contains("steps = 60\n"),
-            "{name}: the run length was not replaced"
+    for name in ["inclusion_newtonian_2d.toml", "inclusion_maxwell_2d.toml"] {
+        let text = common::stock_text_with(
+            name,
+            &["run.steps=60", "run.equilibration=0", "run.sample_every=5"],
         );
         let d = digests_on_1_to_4_ranks(&text, name, |_| {});
         assert_all_equal(name, &d);
@@ -135,7 +114,7 @@ fn time_step_limit_can_be_lifted_for_stability_studies() {
         refused.to_string().contains("viscous (inclusions)"),
         "{refused}"
     );
-    let lifted = text.replace("[run]", "[run]\nbeyond_stability_limits = true");
+    let lifted = common::with_overrides(&text, &["run.beyond_stability_limits=true"]);
     common::case_from_str(&lifted, "dt_lifted.toml");
 }
 

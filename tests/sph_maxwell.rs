@@ -14,7 +14,7 @@
 mod common;
 use common::{
     assert_all_equal, assert_references_pass, case_from_str, digests_on_1_to_4_ranks,
-    sph_periodic_box, stock_case, stock_text,
+    sph_periodic_box, stock_case, stock_text, with_overrides,
 };
 use mesorheo::analytic::relaxation;
 use mesorheo::comm::SerialComm;
@@ -96,22 +96,27 @@ fn stock_maxwell_cases_pass_their_references() {
 /// own polymer stress; Morris images mirror it) give the same bits on 1–4 ranks × 1–2 threads.
 #[test]
 fn maxwell_fluid_is_bitwise_rank_invariant() {
-    let sheared = maxwell_box(0.5, true, "shear_rate = 1.0")
-        .replace(
-            "[\"momentum\"]",
-            "[\"momentum\", \"viscosity\", \"polymer_stress_trace\"]",
-        )
-        .replace("steps = 100", "steps = 60\nsample_every = 5");
+    let sheared = with_overrides(
+        &maxwell_box(0.5, true, "shear_rate = 1.0"),
+        &[
+            "diagnostics.observables=[\"momentum\", \"viscosity\", \"polymer_stress_trace\"]",
+            "run.steps=60",
+            "run.sample_every=5",
+        ],
+    );
     let d = digests_on_1_to_4_ranks(&sheared, "le.toml", |_| {});
     assert_all_equal("Lees–Edwards Maxwell", &d);
     for treatment in ["layers", "morris"] {
-        let channel = maxwell_box(0.1, false, "boundaries = [\"periodic\", \"wall\"]")
-            .replace(
-                "temperature = 0.0",
-                "temperature = 0.0\nvelocity_profile = \"half_sine\"",
-            )
-            .replace("steps = 100", "steps = 60\nsample_every = 5")
-            + &format!("[walls]\ntreatment = \"{treatment}\"\n[decomposition]\naxis = \"y\"\n");
+        let channel = with_overrides(
+            &maxwell_box(0.1, false, "boundaries = [\"periodic\", \"wall\"]"),
+            &[
+                "particles.velocity_profile=\"half_sine\"",
+                "run.steps=60",
+                "run.sample_every=5",
+                &format!("walls.treatment=\"{treatment}\""),
+                "decomposition.axis=\"y\"",
+            ],
+        );
         let d = digests_on_1_to_4_ranks(&channel, "channel.toml", |_| {});
         assert_all_equal(&format!("channel, {treatment}"), &d);
     }
@@ -131,14 +136,15 @@ fn maxwell_fluid_is_bitwise_rank_invariant() {
 #[test]
 fn maxwell_fluid_tends_to_the_newtonian_one_as_lambda_vanishes() {
     let newtonian = stock_text("sph_couette_2d.toml");
-    let maxwell = newtonian
-        .replacen("viscosity = 1.0\n", "viscosity = 0.01\n", 1)
-        .replacen(
-            "[walls]",
-            "[fluid.polymer]\nmodel = \"corotational_maxwell\"\nviscosity = 0.99\n\
-             relaxation_time = 0.001\n\n[walls]",
-            1,
-        );
+    let maxwell = with_overrides(
+        &newtonian,
+        &[
+            "fluid.viscosity=0.01",
+            "fluid.polymer.model=\"corotational_maxwell\"",
+            "fluid.polymer.viscosity=0.99",
+            "fluid.polymer.relaxation_time=0.001",
+        ],
+    );
     assert_ne!(
         maxwell, newtonian,
         "the stock Couette case changed its layout"
