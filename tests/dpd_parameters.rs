@@ -216,9 +216,15 @@ fn the_reverse_body_force_flow_is_bitwise_on_any_rank_count() {
         1.0,
         "body_force = [1.0, 0.0]\nbody_force_profile = \"reverse\"",
         "viscosity = 30.0\ntime_scale_ratio = 1.0",
-    )
-    .replace("steps = 100\nsample_every = 10", "steps = 2000\nsample_every = 10")
-    .replace("[run]", "[diagnostics]\nobservables = [\"temperature\", \"velocity_profile\"]\nprofile_bins = 4\n[run]");
+    );
+    let text = common::with_overrides(
+        &text,
+        &[
+            "run.steps=2000",
+            "diagnostics.observables=[\"temperature\", \"velocity_profile\"]",
+            "diagnostics.profile_bins=4",
+        ],
+    );
     let d = common::digests_on_1_to_4_ranks(&text, "reverse body force", |s| {
         let p = &s.velocity_profile;
         assert_eq!(p.len(), 4);

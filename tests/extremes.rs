@@ -75,14 +75,16 @@ fn dpd_without_repulsion_and_with_a_huge_one() {
 /// averages and conserves momentum.
 #[test]
 fn two_particles() {
-    let text = small_dpd(
-        3,
-        3.0,
-        0.0,
-        400,
-        "equilibration = 100\n[diagnostics]\nobservables = [\"temperature\", \"momentum\"]\n",
-    )
-    .replace("density = 3.0", "density = 0.08");
+    let text = with_overrides(
+        &small_dpd(
+            3,
+            3.0,
+            0.0,
+            400,
+            "equilibration = 100\n[diagnostics]\nobservables = [\"temperature\", \"momentum\"]\n",
+        ),
+        &["particles.density=0.08"],
+    );
     let s = run(&text, 1);
     assert_eq!(s.particles, 2);
     assert!(s.completed && s.observables["temperature"].mean.is_finite());

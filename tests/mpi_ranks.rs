@@ -188,8 +188,10 @@ fn too_many_ranks_are_refused_with_the_usable_maximum() {
     let dir = tempfile::tempdir().expect("tempdir");
     let case = dir.path().join("thin.toml");
     // L_y = 2.9 holds two slabs of cutoff + skin = 1.3, not three.
-    let text = common::small_dpd(3, 6.0, 0.0, 20, "").replace("[6, 6, 6]", "[6, 2.9, 6]");
-    assert!(text.contains("2.9"), "{text}");
+    let text = common::with_overrides(
+        &common::small_dpd(3, 6.0, 0.0, 20, ""),
+        &["box.lengths=[6, 2.9, 6]"],
+    );
     std::fs::write(&case, text).expect("write");
     let o = mpirun(3, 1, &case, &dir.path().join("o"));
     assert!(!o.status.success());
@@ -265,17 +267,16 @@ fn mpirun_flow_scene_same_state_and_restart_across_rank_counts() {
 /// hangs or aborts), or if the ensembles are not checkpointed with their particles.
 #[test]
 fn mpirun_connffessit_sigterm_on_two_ranks_then_one_rank_restart_equals_one_run() {
-    let text = std::fs::read_to_string(
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("cases/connffessit_shear_2d.toml"),
-    )
-    .expect("stock case");
-    let text = text
-        .replace("steps = 12000", "steps = 3000")
-        .replace("equilibration = 6000", "equilibration = 0")
-        .replace("per_particle = 100", "per_particle = 8");
-    assert!(text.contains("steps = 3000\n") && text.contains("per_particle = 8\n"));
     // Without the references (a short run meets none; a failed check is a non-zero exit).
-    let text = &text[..text.find("[[reference]]").expect("references")];
+    let text = common::stock_text_with(
+        "connffessit_shear_2d.toml",
+        &[
+            "run.steps=3000",
+            "run.equilibration=0",
+            "fluid.polymer.per_particle=8",
+            "reference=[]",
+        ],
+    );
     let dir = tempfile::tempdir().expect("tempdir");
     let case = dir.path().join("cf.toml");
     std::fs::write(&case, text).expect("write case");
