@@ -51,14 +51,3 @@ fluid_registry! {
     /// dumbbells; walls and inclusions; MSPH derivatives.
     Sph(crate::models::sph::SphCfg) = "sph",
 }
-
-/// The registered kinds whose model satisfies `wanted`, as `kind = "a"` or `kind = "a" | "b"`
-/// (for errors that say which fluids provide something).
-pub fn kinds_where(wanted: impl Fn(&'static str) -> bool) -> String {
-    let kinds: Vec<String> = FLUIDS
-        .iter()
-        .filter(|(k, _)| wanted(k))
-        .map(|(k, _)| format!("\"{k}\""))
-        .collect();
-    format!("kind = {}", kinds.join(" | "))
-}

@@ -113,7 +113,8 @@ pub fn steady_shear_spring_factor(b: f64, dimension: f64, wi: f64) -> f64 {
 
 #[cfg(test)]
 mod tests {
-    use super::super::{ConstitutiveLaw, PolymerModel, packed_width};
+    use super::super::tests::start_up_in as shear;
+    use super::super::{ConstitutiveLaw, PolymerModel};
     use super::*;
 
     fn law(viscosity: f64, relaxation_time: f64, b: f64) -> ConstitutiveLaw {
@@ -126,33 +127,6 @@ mod tests {
                 b,
             },
         }
-    }
-
-    /// τ(t) in the homogeneous simple shear G_xy = γ̇ from τ = 0, classical RK4.
-    fn shear<const D: usize>(m: &ConstitutiveLaw, gamma: f64, t_end: f64, steps: usize) -> Vec<f64> {
-        let mut g = [[0.0; D]; D];
-        g[0][1] = gamma;
-        let w = packed_width(D);
-        let f = |tau: &[f64]| {
-            let mut r = vec![0.0; w];
-            m.rate::<D>(tau, &g, &mut r);
-            r
-        };
-        let dt = t_end / steps as f64;
-        let mut tau = vec![0.0; w];
-        let axpy = |x: &[f64], a: f64, y: &[f64]| -> Vec<f64> {
-            x.iter().zip(y).map(|(x, y)| x + a * y).collect()
-        };
-        for _ in 0..steps {
-            let k1 = f(&tau);
-            let k2 = f(&axpy(&tau, 0.5 * dt, &k1));
-            let k3 = f(&axpy(&tau, 0.5 * dt, &k2));
-            let k4 = f(&axpy(&tau, dt, &k3));
-            for c in 0..w {
-                tau[c] += dt / 6.0 * (k1[c] + 2.0 * k2[c] + 2.0 * k3[c] + k4[c]);
-            }
-        }
-        tau
     }
 
     /// The real root of b Z³ − (b + D) Z² − 2Wi² = 0 by Cardano's formula (the reference

@@ -333,8 +333,18 @@ mod tests {
     }
 
     /// Integrates dτ/dt = rate(τ, G) for a particle in the prescribed simple shear
-    /// v = γ̇ y x̂ (G_xy = γ̇) with classical RK4, from τ = 0 to `t_end`.
+    /// v = γ̇ y x̂ (G_xy = γ̇) with classical RK4, from τ = 0 to `t_end`, in 20 000 steps.
     fn start_up<const D: usize>(m: &ConstitutiveLaw, rate_of_shear: f64, t_end: f64) -> Vec<f64> {
+        start_up_in::<D>(m, rate_of_shear, t_end, 20_000)
+    }
+
+    /// [`start_up`] in `steps` steps (the laws' own tests use it too).
+    pub(super) fn start_up_in<const D: usize>(
+        m: &ConstitutiveLaw,
+        rate_of_shear: f64,
+        t_end: f64,
+        steps: usize,
+    ) -> Vec<f64> {
         let mut g = [[0.0; D]; D];
         g[0][1] = rate_of_shear;
         let w = packed_width(D);
@@ -343,7 +353,6 @@ mod tests {
             m.rate::<D>(tau, &g, &mut r);
             r
         };
-        let steps = 20_000;
         let dt = t_end / steps as f64;
         let mut tau = vec![0.0; w];
         let axpy = |x: &[f64], a: f64, y: &[f64]| -> Vec<f64> {
