@@ -26,7 +26,11 @@ impl<const D: usize> ParticleModel<D> for Ensembles {
             flags: FieldFlags::STATE,
         }]
     }
-    fn attach(&mut self, p: &mut Particles<D>, _restarted: bool) -> Result<(), String> {
+    fn attach(
+        &mut self,
+        p: &mut Particles<D>,
+        _restarted: bool,
+    ) -> Result<(), mesorheo::error::Error> {
         let k = p.var.len() - 1;
         for i in 0..p.n_owned {
             let g = p.gid[i] as f64;

@@ -4,6 +4,7 @@
 
 use crate::comm::Comm;
 use crate::config::{FlowCase, LoadedCase};
+use crate::error::Error;
 use crate::flow_scene::FlowScene;
 use crate::scene::{ParticleScene, drive};
 use crate::sim::Simulation;
@@ -22,7 +23,7 @@ pub fn run_case(
     loaded: &LoadedCase,
     comm: &dyn Comm,
     options: &RunOptions,
-) -> Result<Summary, String> {
+) -> Result<Summary, Error> {
     let threads = threads_of(options);
     let path = &loaded.path;
     if loaded.case.run.beyond_stability_limits && comm.rank() == 0 {
@@ -40,7 +41,7 @@ pub fn run_case(
             let sim = Simulation::<3>::new(&loaded.case, comm, threads)?;
             drive(ParticleScene::new(sim), path, None, comm, options, threads)
         }
-        d => Err(format!("dimension {d} is not supported")),
+        d => Err(format!("dimension {d} is not supported").into()),
     }
 }
 
@@ -51,7 +52,7 @@ pub fn run_flow_case(
     case_file: &Path,
     comm: &dyn Comm,
     options: &RunOptions,
-) -> Result<Summary, String> {
+) -> Result<Summary, Error> {
     let threads = threads_of(options);
     if comm.rank() == 0 {
         for w in crate::config::flow::accuracy_warnings(case) {
@@ -67,7 +68,7 @@ pub fn run_flow_case(
             let scene = FlowScene::<3>::fresh(case, comm, threads)?;
             drive(scene, case_file, None, comm, options, threads)
         }
-        d => Err(format!("dimension {d} is not supported")),
+        d => Err(format!("dimension {d} is not supported").into()),
     }
 }
 
@@ -145,7 +146,7 @@ pub fn restart_case(
     checkpoint: &Path,
     comm: &dyn Comm,
     options: &RunOptions,
-) -> Result<Summary, String> {
+) -> Result<Summary, Error> {
     #[cfg(feature = "hdf5")]
     {
         use crate::output::checkpoint::{self as ck, SceneKind};
@@ -155,11 +156,12 @@ pub fn restart_case(
                 "{}: no such checkpoint file or directory (checkpoints are written to \
                  OUT/checkpoints/checkpoint_<step>.h5)",
                 checkpoint.display()
-            ));
+            )
+            .into());
         }
         let candidates = restart_candidates(checkpoint);
         if candidates.is_empty() {
-            return Err(format!("no checkpoint found in {}", checkpoint.display()));
+            return Err(format!("no checkpoint found in {}", checkpoint.display()).into());
         }
         let mut refused = Vec::new();
         for path in candidates {
@@ -188,15 +190,15 @@ pub fn restart_case(
                 }
             }
         }
-        Err(format!("no usable checkpoint:\n  {}", refused.join("\n  ")))
+        Err(format!("no usable checkpoint:\n  {}", refused.join("\n  ")).into())
     }
     #[cfg(not(feature = "hdf5"))]
     {
         let _ = (comm, options);
-        Err(format!(
+        Err(Error::InvalidCase(format!(
             "cannot restart from {}: this mesorheo was built without HDF5 (feature `hdf5`)",
             checkpoint.display()
-        ))
+        )))
     }
 }
 
@@ -288,7 +290,7 @@ pub fn run_in_process(
     ranks: usize,
     threads: usize,
     steps: Option<u64>,
-) -> Result<Summary, String> {
+) -> Result<Summary, Error> {
     let loaded = loaded.clone();
     in_process(ranks, move |comm| {
         run_case(

@@ -414,7 +414,7 @@ mod tests {
                     s[0].add(*x);
                 }
                 FixedSum::allreduce(c, &mut s);
-                Ok(s[0].value())
+                Ok::<_, String>(s[0].value())
             })
             .expect("ranks");
             assert_eq!(got.to_bits(), want.to_bits(), "{ranks} ranks");

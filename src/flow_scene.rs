@@ -25,6 +25,7 @@ use crate::config::flow::{FlowKind, Precision};
 use crate::config::{FlowCase, OutputCfg, RunCfg};
 use crate::diagnostics::{Series, tensor_components};
 use crate::domain::id_block;
+use crate::error::{Error, Unstable};
 use crate::models::homogeneous_flow::{HomogeneousEnsembles, ParticleAverages, particle_moments};
 use crate::particles::tensor_rows;
 use crate::scene::{Scene, SceneReport};
@@ -71,7 +72,7 @@ pub fn rank_memory(case: &FlowCase, ranks: usize, rank: usize) -> f64 {
 }
 
 /// Refuses (on every rank) a scene whose ensembles do not fit the memory this node has free.
-fn check_memory(case: &FlowCase, comm: &dyn Comm) -> Result<(), String> {
+fn check_memory(case: &FlowCase, comm: &dyn Comm) -> Result<(), Error> {
     let need = rank_memory(case, comm.size(), comm.rank());
     let verdict = match crate::capacity::available_memory() {
         Some(free) if need > 0.9 * free => Err(format!(
@@ -87,10 +88,10 @@ fn check_memory(case: &FlowCase, comm: &dyn Comm) -> Result<(), String> {
     let mut failed = [if verdict.is_err() { 1.0 } else { 0.0 }];
     comm.allreduce_max(&mut failed);
     match verdict {
-        Err(e) => Err(e),
-        Ok(()) if failed[0] > 0.0 => {
-            Err("the dumbbell ensembles do not fit the memory of another rank's node".into())
-        }
+        Err(e) => Err(Error::DoesNotFit(e)),
+        Ok(()) if failed[0] > 0.0 => Err(Error::DoesNotFit(
+            "the dumbbell ensembles do not fit the memory of another rank's node".into(),
+        )),
         Ok(()) => Ok(()),
     }
 }
@@ -286,7 +287,7 @@ pub struct FlowScene<'c, const D: usize> {
 impl<'c, const D: usize> FlowScene<'c, D> {
     /// The scene at equilibrium, after checking that its ensembles fit the node's memory
     /// (collective).
-    pub fn fresh(case: &FlowCase, comm: &'c dyn Comm, threads: usize) -> Result<Self, String> {
+    pub fn fresh(case: &FlowCase, comm: &'c dyn Comm, threads: usize) -> Result<Self, Error> {
         check_memory(case, comm)?;
         let e = fresh::<D>(case, comm, threads)?;
         let averages = ParticleAverages::new(e.gids.len(), quantities(case).len());
@@ -323,7 +324,7 @@ impl<'c, const D: usize> FlowScene<'c, D> {
             r.connectors,
             r.control,
         )
-        .map_err(Restart::Failed)?;
+        .map_err(|e| Restart::Failed(e.into()))?;
         // The averaged observables of another version of mesorheo (collective: a rank without
         // particles has no row to look at). Checkpoints written before ⟨|Q|²⟩ was averaged
         // continue with that one average unknown (NaN): the others are unchanged.
@@ -346,7 +347,7 @@ impl<'c, const D: usize> FlowScene<'c, D> {
                 path.display(),
                 held[0],
                 names.len()
-            )));
+            ).into()));
         }
         // Its series, likewise, is unknown before the restart.
         let mut series = r.series;
@@ -420,7 +421,7 @@ impl<const D: usize> Scene for FlowScene<'_, D> {
         )
     }
 
-    fn advance(&mut self) -> Result<(), String> {
+    fn advance(&mut self) -> Result<(), Error> {
         let t = Instant::now();
         let outside = self.e.advance();
         self.times.integrate += t.elapsed().as_secs_f64();
@@ -439,12 +440,18 @@ impl<const D: usize> Scene for FlowScene<'_, D> {
         self.comm.allreduce_max(&mut stop);
         outside?;
         if stop[1] > 0.0 {
-            return Err(format!(
-                "a dumbbell on another rank left the spring's domain at step {}: {} (see that \
-                 rank's log)",
+            return Err(Unstable::new(
+                crate::error::Quantity::Connector,
+                None,
                 self.e.step,
-                crate::error::UNSTABLE
-            ));
+                format!(
+                    "a dumbbell on another rank left the spring's domain at step {}: {} (see \
+                     that rank's log)",
+                    self.e.step,
+                    crate::error::UNSTABLE
+                ),
+            )
+            .into());
         }
         self.stop_agreed = stop[0] > 0.0;
         Ok(())
@@ -468,13 +475,14 @@ impl<const D: usize> Scene for FlowScene<'_, D> {
         )
     }
 
-    fn write_checkpoint(&mut self, dir: &Path, keep: usize) -> Result<PathBuf, String> {
+    fn write_checkpoint(&mut self, dir: &Path, keep: usize) -> Result<PathBuf, Error> {
         #[cfg(feature = "hdf5")]
         {
             let (e, case, series, averages) = (&self.e, &self.case, &self.series, &self.averages);
             crate::output::checkpoint::ensembles::write(
                 e, case, series, averages, dir, keep, self.comm,
             )
+            .map_err(Error::from)
         }
         #[cfg(not(feature = "hdf5"))]
         {
@@ -483,15 +491,15 @@ impl<const D: usize> Scene for FlowScene<'_, D> {
         }
     }
 
-    fn open_outputs(&mut self, _out: &Path, _restarted: bool) -> Result<(), String> {
+    fn open_outputs(&mut self, _out: &Path, _restarted: bool) -> Result<(), Error> {
         Ok(())
     }
 
-    fn write_outputs(&mut self) -> Result<(), String> {
+    fn write_outputs(&mut self) -> Result<(), Error> {
         Ok(())
     }
 
-    fn close_outputs(&mut self, out: Option<&Path>) -> Result<(), String> {
+    fn close_outputs(&mut self, out: Option<&Path>) -> Result<(), Error> {
         if self.comm.rank() == 0
             && let Some(out) = out
         {
@@ -502,7 +510,7 @@ impl<const D: usize> Scene for FlowScene<'_, D> {
         Ok(())
     }
 
-    fn report(&mut self, completed: bool) -> Result<SceneReport, String> {
+    fn report(&mut self, completed: bool) -> Result<SceneReport, Error> {
         let (e, case, series, averages) = (&self.e, &self.case, &self.series, &self.averages);
         // Time averages after equilibration: the mean over particles of each particle's time
         // average, with the standard error from their spread.

@@ -517,7 +517,7 @@ fn session(
     out: &std::path::Path,
     quiet: bool,
     verbose: bool,
-    job: impl FnOnce(&dyn Comm) -> Result<mesorheo::summary::Summary, String>,
+    job: impl FnOnce(&dyn Comm) -> Result<mesorheo::summary::Summary, mesorheo::error::Error>,
 ) -> ExitCode {
     let root = comm.rank() == 0;
     let _guard = match init_logging(comm.rank(), out, quiet, verbose) {
@@ -554,13 +554,10 @@ fn session(
                 eprintln!("error: {e}");
             }
             tracing::error!("{e}");
-            // A blow-up has its own code, so a script (or a stability bisection) can tell
-            // it from a failure of the machine or the files.
-            if e.contains(mesorheo::sim::UNSTABLE) {
-                ExitCode::from(4)
-            } else {
-                ExitCode::FAILURE
-            }
+            // The code follows the variant: a blow-up (4) is told from an invalid case (2) and
+            // from a failure of the machine or the files (1), by a script or a stability
+            // bisection.
+            ExitCode::from(e.exit_code())
         }
     }
 }

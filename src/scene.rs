@@ -10,6 +10,7 @@
 use crate::comm::Comm;
 use crate::config::{OutputCfg, RunCfg};
 use crate::diagnostics::{DENSITY_PROFILE_PREFIX, Estimate};
+use crate::error::Error;
 use crate::sim::{PhaseTimes, Simulation};
 use crate::summary::{DensityPoint, ProfilePoint, Summary, Validation, validate};
 use std::collections::BTreeMap;
@@ -74,7 +75,7 @@ pub trait Scene {
     fn describe(&self) -> String;
     /// Advances one step and samples on the scene's schedule; any rank's stop request is
     /// agreed within the step (collective).
-    fn advance(&mut self) -> Result<(), String>;
+    fn advance(&mut self) -> Result<(), Error>;
     /// Marks that this rank was asked to stop.
     fn request_stop(&mut self);
     /// Whether any rank asked to stop before the last step (the same on every rank).
@@ -83,15 +84,15 @@ pub trait Scene {
     fn progress(&self, steps_per_second: f64) -> String;
     /// Writes the checkpoint of the current step into `dir`, keeping the newest `keep`
     /// (collective).
-    fn write_checkpoint(&mut self, dir: &Path, keep: usize) -> Result<PathBuf, String>;
+    fn write_checkpoint(&mut self, dir: &Path, keep: usize) -> Result<PathBuf, Error>;
     /// Opens the scene's output series in `out` (continued after a restart).
-    fn open_outputs(&mut self, out: &Path, restarted: bool) -> Result<(), String>;
+    fn open_outputs(&mut self, out: &Path, restarted: bool) -> Result<(), Error>;
     /// Writes what the series take at this step.
-    fn write_outputs(&mut self) -> Result<(), String>;
+    fn write_outputs(&mut self) -> Result<(), Error>;
     /// Closes the series and writes the scene's end-of-run files into `out`, if any.
-    fn close_outputs(&mut self, out: Option<&Path>) -> Result<(), String>;
+    fn close_outputs(&mut self, out: Option<&Path>) -> Result<(), Error>;
     /// The scene's part of the summary.
-    fn report(&mut self, completed: bool) -> Result<SceneReport, String>;
+    fn report(&mut self, completed: bool) -> Result<SceneReport, Error>;
     /// Phase timers.
     fn times(&mut self) -> &mut PhaseTimes;
 }
@@ -169,7 +170,7 @@ impl<const D: usize> Scene for ParticleScene<'_, D> {
         )
     }
 
-    fn advance(&mut self) -> Result<(), String> {
+    fn advance(&mut self) -> Result<(), Error> {
         self.sim.advance()?;
         if self.sim.is_sample_step() {
             self.sim.sample()?;
@@ -195,10 +196,10 @@ impl<const D: usize> Scene for ParticleScene<'_, D> {
         format!("{steps_per_second:.1} steps/s")
     }
 
-    fn write_checkpoint(&mut self, dir: &Path, keep: usize) -> Result<PathBuf, String> {
+    fn write_checkpoint(&mut self, dir: &Path, keep: usize) -> Result<PathBuf, Error> {
         #[cfg(feature = "hdf5")]
         {
-            crate::output::checkpoint::write(&mut self.sim, dir, keep)
+            crate::output::checkpoint::write(&mut self.sim, dir, keep).map_err(Error::from)
         }
         #[cfg(not(feature = "hdf5"))]
         {
@@ -207,7 +208,7 @@ impl<const D: usize> Scene for ParticleScene<'_, D> {
         }
     }
 
-    fn open_outputs(&mut self, out: &Path, restarted: bool) -> Result<(), String> {
+    fn open_outputs(&mut self, out: &Path, restarted: bool) -> Result<(), Error> {
         if self.sim.case.output.snapshot_every == 0 {
             return Ok(());
         }
@@ -224,7 +225,7 @@ impl<const D: usize> Scene for ParticleScene<'_, D> {
         }
     }
 
-    fn write_outputs(&mut self) -> Result<(), String> {
+    fn write_outputs(&mut self) -> Result<(), Error> {
         #[cfg(feature = "hdf5")]
         if let Some(w) = &mut self.snapshots
             && self
@@ -239,7 +240,7 @@ impl<const D: usize> Scene for ParticleScene<'_, D> {
         Ok(())
     }
 
-    fn close_outputs(&mut self, out: Option<&Path>) -> Result<(), String> {
+    fn close_outputs(&mut self, out: Option<&Path>) -> Result<(), Error> {
         #[cfg(feature = "hdf5")]
         if let Some(w) = &mut self.snapshots {
             w.finish(&self.sim)?;
@@ -260,7 +261,7 @@ impl<const D: usize> Scene for ParticleScene<'_, D> {
         Ok(())
     }
 
-    fn report(&mut self, completed: bool) -> Result<SceneReport, String> {
+    fn report(&mut self, completed: bool) -> Result<SceneReport, Error> {
         let sim = &self.sim;
         let case = &sim.case;
         let blocks = case.diagnostics.blocks;
@@ -432,13 +433,13 @@ pub enum Restart {
     /// The checkpoint is unusable: try an older one.
     Refused(crate::output::checkpoint::CheckpointError),
     /// The run itself failed after a good start.
-    Failed(String),
+    Failed(Error),
 }
 
 /// A fresh run into an output directory that holds checkpoints of an earlier run moves them to
 /// `checkpoints.previous/` (replacing an older one), so a later `restart OUT/checkpoints` can
 /// never continue the wrong run and nothing is deleted unasked (collective).
-pub(crate) fn set_aside_old_checkpoints(dir: &Path, comm: &dyn Comm) -> Result<(), String> {
+pub(crate) fn set_aside_old_checkpoints(dir: &Path, comm: &dyn Comm) -> Result<(), Error> {
     let mut result = Ok(());
     if comm.rank() == 0
         && dir.is_dir()
@@ -463,7 +464,7 @@ pub(crate) fn set_aside_old_checkpoints(dir: &Path, comm: &dyn Comm) -> Result<(
     let mut failed = [if result.is_err() { 1.0 } else { 0.0 }];
     comm.allreduce_max(&mut failed);
     match result {
-        Err(e) => Err(e),
+        Err(e) => Err(e.into()),
         Ok(()) if failed[0] > 0.0 => Err("cannot move old checkpoints aside (rank 0)".into()),
         Ok(()) => Ok(()),
     }
@@ -474,7 +475,7 @@ fn checkpoint(
     scene: &mut impl Scene,
     options: &RunOptions,
     comm: &dyn Comm,
-) -> Result<Option<PathBuf>, String> {
+) -> Result<Option<PathBuf>, Error> {
     let Some(out) = &options.out else {
         return Ok(None);
     };
@@ -501,14 +502,15 @@ pub fn drive(
     comm: &dyn Comm,
     options: &RunOptions,
     threads: usize,
-) -> Result<Summary, String> {
+) -> Result<Summary, Error> {
     let wall = Instant::now();
     let first_step = scene.step();
     if let Some(n) = options.steps {
         if n < first_step {
             return Err(format!(
                 "--steps {n} is below the step {first_step} the run has already reached"
-            ));
+            )
+            .into());
         }
         // Stored in the case, so later checkpoints (and restarts from them) keep it.
         scene.set_steps(n);
@@ -516,9 +518,9 @@ pub fn drive(
     let last_step = scene.run().steps;
     let stop_at = options.until_step.map_or(last_step, |k| k.min(last_step));
     if stop_at <= first_step && first_step < last_step {
-        return Err(format!(
-            "--until-step {stop_at} is not after the current step {first_step}"
-        ));
+        return Err(
+            format!("--until-step {stop_at} is not after the current step {first_step}").into(),
+        );
     }
     let is_root = comm.rank() == 0;
     if is_root {
@@ -631,7 +633,8 @@ pub fn drive(
                 .map_or("(no checkpoint: no output directory)".into(), |p| p
                     .display()
                     .to_string())
-        ));
+        )
+        .into());
     }
     scene.close_outputs(options.out.as_deref())?;
     let report = scene.report(completed)?;
@@ -675,12 +678,11 @@ pub fn drive(
 /// as the detector found it to `OUT/blowup/` for inspection (`mesorheo info`, h5py): the
 /// offending particle with its position, velocity or ensemble is in it. The last good state is
 /// the newest checkpoint in `OUT/checkpoints/`. Other errors pass through unchanged.
-fn keep_blown_up_state(scene: &mut impl Scene, options: &RunOptions, error: String) -> String {
-    let Some(out) = options
-        .out
-        .as_ref()
-        .filter(|_| error.contains(crate::error::UNSTABLE))
-    else {
+fn keep_blown_up_state(scene: &mut impl Scene, options: &RunOptions, error: Error) -> Error {
+    let Some(out) = options.out.as_ref() else {
+        return error;
+    };
+    let Error::Unstable(mut blow_up) = error else {
         return error;
     };
     let checkpoints = out.join("checkpoints");
@@ -688,9 +690,9 @@ fn keep_blown_up_state(scene: &mut impl Scene, options: &RunOptions, error: Stri
         d.flatten()
             .any(|e| e.file_name().to_string_lossy().starts_with("checkpoint_"))
     });
-    match scene.write_checkpoint(&out.join("blowup"), 1) {
+    let kept = match scene.write_checkpoint(&out.join("blowup"), 1) {
         Ok(path) => format!(
-            "{error}. The state at the blow-up is in {} (inspect it with `mesorheo info` or \
+            ". The state at the blow-up is in {} (inspect it with `mesorheo info` or \
              h5py); {}",
             path.display(),
             if earlier {
@@ -702,8 +704,10 @@ fn keep_blown_up_state(scene: &mut impl Scene, options: &RunOptions, error: Stri
                 "no earlier checkpoint was written (output.checkpoint_every)".to_string()
             }
         ),
-        Err(e) => format!("{error} (the state at the blow-up could not be written: {e})"),
-    }
+        Err(e) => format!(" (the state at the blow-up could not be written: {e})"),
+    };
+    blow_up.message.push_str(&kept);
+    Error::Unstable(blow_up)
 }
 
 /// Rank 0's log line after a restart has read its checkpoint.

@@ -29,7 +29,7 @@ fn place(name: &str, out: &Path) -> PathBuf {
     to
 }
 
-fn restart(path: &Path, out: &Path, ranks: usize) -> Result<String, String> {
+fn restart(path: &Path, out: &Path, ranks: usize) -> Result<String, mesorheo::error::Error> {
     let (path, out) = (path.to_path_buf(), out.to_path_buf());
     in_process(ranks, move |comm| {
         let options = RunOptions {
@@ -108,7 +108,7 @@ fn a_checkpoint_of_an_unknown_version_is_refused_by_name_and_kept() {
         "{text}"
     );
     let err = restart(&ck, dir.path(), 1).expect_err("nothing to restart from");
-    assert!(err.contains("format version 7"), "{err}");
+    assert!(err.to_string().contains("format version 7"), "{err}");
     assert!(
         ck.exists(),
         "a good file of another version is not set aside"

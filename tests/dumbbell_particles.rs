@@ -91,14 +91,15 @@ fn mismatches(
 ) -> (u64, u64) {
     let loaded = case_from_str(&small_dpd(3, 6.0, 0.3, STEPS, ""), "carriers");
     in_process(ranks, move |comm: &dyn Comm| {
-        let mut sim = Simulation::<3>::new(&loaded.case, comm, 2)?;
+        let mut sim = Simulation::<3>::new(&loaded.case, comm, 2).map_err(|e| e.to_string())?;
         if matches!(source, VelocityGradient::Field(_)) {
-            sim.attach(Box::new(ConstantGradient))?;
+            sim.attach(Box::new(ConstantGradient))
+                .map_err(|e| e.to_string())?;
         }
         let model =
             DumbbellEnsemble::<3>::new(params(scheme), N_D, 1.0, SEED, precision, source.clone())?;
-        sim.attach(Box::new(model))?;
-        sim.run_steps(STEPS, |_| {})?;
+        sim.attach(Box::new(model)).map_err(|e| e.to_string())?;
+        sim.run_steps(STEPS, |_| {}).map_err(|e| e.to_string())?;
         let p = &sim.particles;
         let k = (p.var.iter().position(|f| f.name == CONNECTORS)).ok_or("no connectors")?;
         let mut counts = [0u64, p.n_owned as u64];
@@ -114,7 +115,7 @@ fn mismatches(
             counts[0] += u64::from(!same);
         }
         comm.allreduce_u64(&mut counts, U64Op::Sum);
-        Ok((counts[0], counts[1]))
+        Ok::<_, String>((counts[0], counts[1]))
     })
     .expect("run")
 }

@@ -388,7 +388,7 @@ fn ensembles_are_bitwise_identical_on_1_to_3_ranks_and_1_to_2_threads() {
                     e.advance().expect("a stable step");
                 }
                 let s = e.stress();
-                Ok((e.digest(), s.mean[0][1].to_bits(), s.stderr[0][1].to_bits()))
+                Ok::<_, String>((e.digest(), s.mean[0][1].to_bits(), s.stderr[0][1].to_bits()))
             })
             .expect("run");
             seen.push(d);

@@ -105,7 +105,7 @@ fn slabs_one_interaction_range_thick() {
     let Err(err) = run_in_process(&loaded, 6, 1, None) else {
         panic!("6 ranks should be refused");
     };
-    assert!(err.contains("at most 5"), "{err}");
+    assert!(err.to_string().contains("at most 5"), "{err}");
 }
 
 /// Validation refuses Δt strictly beyond each enforced limit and accepts it at and just below:

@@ -101,7 +101,7 @@ fn probe<const D: usize>(
     case: &mesorheo::config::Case,
     comm: &dyn Comm,
     want: f64,
-) -> Result<[f64; 3], String> {
+) -> Result<[f64; 3], mesorheo::error::Error> {
     let sim = Simulation::<D>::new(case, comm, 1)?;
     let p = &sim.particles;
     let k = p.extra_index(DENSITY).ok_or("no density field")?;
@@ -189,13 +189,17 @@ impl<const D: usize> ParticleModel<D> for GhostFieldProbe {
         ]
     }
 
-    fn attach(&mut self, p: &mut Particles<D>, _: bool) -> Result<(), String> {
+    fn attach(&mut self, p: &mut Particles<D>, _: bool) -> Result<(), mesorheo::error::Error> {
         let index = |name| p.extra_index(name).ok_or(format!("no {name}"));
         self.fields = (index("velocity_copy")?, index("id_copy")?);
         Ok(())
     }
 
-    fn pass(&mut self, pass: usize, ctx: PassContext<'_, D>) -> Result<PassOutput, String> {
+    fn pass(
+        &mut self,
+        pass: usize,
+        ctx: PassContext<'_, D>,
+    ) -> Result<PassOutput, mesorheo::error::Error> {
         let p = ctx.particles;
         let (v, id) = self.fields;
         if pass == 0 {
@@ -217,14 +221,15 @@ impl<const D: usize> ParticleModel<D> for GhostFieldProbe {
                 return Err(format!(
                     "ghost {g} (id {}): velocity {:?}, refreshed copy {copy:?}, id copy {}",
                     p.gid[g], p.vel[g], p.extra[id].data[g]
-                ));
+                )
+                .into());
             }
             if let Some(&i) = owned.get(&p.gid[g]) {
                 // The shift is 0 or ±γ̇L_y = ±4 (up to the rounding of the addition).
                 let jump = copy[0] - p.vel[i][0];
                 let k = (jump / 4.0).round();
                 if (jump - 4.0 * k).abs() > 1e-12 || k.abs() > 1.0 {
-                    return Err(format!("ghost {g}: velocity shift {jump}, not 0 or ±4"));
+                    return Err(format!("ghost {g}: velocity shift {jump}, not 0 or ±4").into());
                 }
                 shifted += usize::from(k != 0.0);
             }
@@ -250,7 +255,7 @@ fn ghost_fields_are_refreshed_with_the_lees_edwards_shift_on_velocity_like_field
                 one_rank: comm.size() == 1,
             }))?;
             sim.run_steps(30, |_| {})?;
-            Ok(())
+            Ok::<_, mesorheo::error::Error>(())
         })
         .unwrap_or_else(|e| panic!("{ranks} ranks: {e}"));
     }

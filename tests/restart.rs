@@ -61,7 +61,11 @@ fn run_until(text: &str, ranks: usize, out: &Path, until: u64) -> Summary {
 
 /// Restarts from `checkpoint` (a file or a directory) on `ranks` in-process ranks with output
 /// into `out`, to the end of the run.
-fn restart_into(checkpoint: &Path, ranks: usize, out: &Path) -> Result<Summary, String> {
+fn restart_into(
+    checkpoint: &Path,
+    ranks: usize,
+    out: &Path,
+) -> Result<Summary, mesorheo::error::Error> {
     let (ck, o) = (checkpoint.to_path_buf(), out.to_path_buf());
     in_process(ranks, move |c| {
         restart_case(&ck, c, &options(Some(&o), None))
@@ -157,14 +161,18 @@ impl<const D: usize> ParticleModel<D> for TensorAndArray {
         ]
     }
 
-    fn attach(&mut self, p: &mut Particles<D>, restarted: bool) -> Result<(), String> {
+    fn attach(
+        &mut self,
+        p: &mut Particles<D>,
+        restarted: bool,
+    ) -> Result<(), mesorheo::error::Error> {
         if restarted {
             let names: Vec<&str> = p.extra.iter().map(|f| f.name.as_str()).collect();
             let vars: Vec<&str> = p.var.iter().map(|f| f.name.as_str()).collect();
             return if names.starts_with(&["tensor", "a_scalar"]) && vars == ["history", "aa_log"] {
                 Ok(())
             } else {
-                Err(format!("checkpoint fields {names:?} {vars:?}"))
+                Err(format!("checkpoint fields {names:?} {vars:?}").into())
             };
         }
         let index = |name: &str| p.extra_index(name).expect("registered");
@@ -237,7 +245,7 @@ fn model_run(
     from: Option<&Path>,
     to_step: u64,
     save_to: Option<&Path>,
-) -> Result<String, String> {
+) -> Result<String, mesorheo::error::Error> {
     let case = case_from_str(text, "model").case;
     let mut sim = match from {
         None => Simulation::<3>::new(&case, comm, 1)?,
@@ -576,7 +584,7 @@ fn restart_with_more_steps_extends_the_run_and_remembers_it() {
         restart_case(&o.join("checkpoints"), c, &opts)
     })
     .expect_err("steps below the checkpoint accepted");
-    assert!(err.contains("--steps 50"), "{err}");
+    assert!(err.to_string().contains("--steps 50"), "{err}");
 }
 
 #[test]
@@ -612,7 +620,7 @@ fn an_unwritable_checkpoint_directory_stops_every_rank_with_an_error_not_a_hang(
     let loaded = case_from_str(&text, "unwritable");
     let err = in_process(3, move |c| run_case(&loaded, c, &options(Some(&out), None)))
         .expect_err("a checkpoint was written into a file");
-    assert!(err.contains("checkpoints"), "{err}");
+    assert!(err.to_string().contains("checkpoints"), "{err}");
 }
 
 /// A walled SPH channel (boundary species, a moving wall, XSPH's drift correction, integrated
@@ -809,7 +817,7 @@ fn a_run_beyond_its_time_budget_stops_after_the_probe_with_a_checkpoint() {
     })
     .expect_err("over budget");
     assert!(
-        err.contains("--max-hours") && err.contains("stopped at step 20"),
+        err.to_string().contains("--max-hours") && err.to_string().contains("stopped at step 20"),
         "{err}"
     );
     let ck = out.join("checkpoints").join(checkpoint::file_name(20));

@@ -84,7 +84,7 @@ fn run(
     text: &str,
     threads: usize,
     out: Option<&Path>,
-) -> Result<(String, f64), String> {
+) -> Result<(String, f64), mesorheo::error::Error> {
     let loaded = case_from_str(text, "walls");
     let mut sim = Simulation::<2>::new(&loaded.case, comm, threads)?;
     sim.set_species(table(), assign)?;
@@ -137,12 +137,13 @@ fn frozen_particles_stay_and_prescribed_ones_move_at_their_velocity() {
     let text = case_text(100);
     in_process(2, move |comm| {
         let loaded = case_from_str(&text, "walls");
-        let mut sim = Simulation::<2>::new(&loaded.case, comm, 1)?;
-        sim.set_species(table(), assign)?;
+        let mut sim = Simulation::<2>::new(&loaded.case, comm, 1).map_err(|e| e.to_string())?;
+        sim.set_species(table(), assign)
+            .map_err(|e| e.to_string())?;
         let start: std::collections::HashMap<u64, [f64; 2]> = (0..sim.particles.n_owned)
             .map(|i| (sim.particles.gid[i], sim.particles.pos[i]))
             .collect();
-        sim.run_steps(100, |_| {})?;
+        sim.run_steps(100, |_| {}).map_err(|e| e.to_string())?;
         let p = &sim.particles;
         let (mut frozen, mut moving, mut fluid_moved) = (0.0, 0.0, 0.0);
         // k_BT of the fluid alone, computed here: Σ m |v − ū|² / (D (N_f − 1)), ū the fluid's

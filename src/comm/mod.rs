@@ -129,10 +129,10 @@ pub(crate) fn reduce_u64(acc: &mut [u64], other: &[u64], op: U64Op) {
 /// Runs `job` on `ranks` in-process ranks (threads connected by channels) and returns rank 0's
 /// result — what the tests use to check that results do not depend on the decomposition
 /// without launching `mpirun`.
-pub fn in_process<T: Send + 'static>(
+pub fn in_process<T: Send + 'static, E: From<&'static str> + Send + 'static>(
     ranks: usize,
-    job: impl Fn(&dyn Comm) -> Result<T, String> + Send + Sync + 'static,
-) -> Result<T, String> {
+    job: impl Fn(&dyn Comm) -> Result<T, E> + Send + Sync + 'static,
+) -> Result<T, E> {
     let job = std::sync::Arc::new(job);
     let comms = local_universe(ranks);
     let handles: Vec<_> = comms
@@ -142,11 +142,11 @@ pub fn in_process<T: Send + 'static>(
             std::thread::spawn(move || job(&comm))
         })
         .collect();
-    let mut results: Vec<Result<T, String>> = handles
+    let mut results: Vec<Result<T, E>> = handles
         .into_iter()
         .map(|h| {
             h.join()
-                .unwrap_or_else(|_| Err("a rank thread panicked".into()))
+                .unwrap_or_else(|_| Err(E::from("a rank thread panicked")))
         })
         .collect();
     results.swap_remove(0)

@@ -30,6 +30,7 @@ use super::dumbbells::{
 use super::homogeneous_flow::Flow;
 use super::interface::{FieldKind, FieldSpec, ParticleModel, StateBlowUp};
 use super::sph::polymer::{PolymerCfg, packed_index, packed_width};
+use crate::error::Error;
 use crate::particles::{FieldFlags, Particles, Precision, VarData, tensor_rows};
 use rayon::prelude::*;
 
@@ -179,7 +180,7 @@ impl<const D: usize> ParticleModel<D> for DumbbellEnsemble<D> {
         ]
     }
 
-    fn attach(&mut self, p: &mut Particles<D>, restarted: bool) -> Result<(), String> {
+    fn attach(&mut self, p: &mut Particles<D>, restarted: bool) -> Result<(), Error> {
         self.connectors = (p.var.iter().position(|f| f.name == CONNECTORS))
             .ok_or("the connector field is not registered")?;
         self.stress = p.extra_index(POLYMER_STRESS).ok_or("no stress field")?;
@@ -190,7 +191,7 @@ impl<const D: usize> ParticleModel<D> for DumbbellEnsemble<D> {
                     format!("the velocity-gradient field `{name}` is not registered")
                 })?;
                 if p.extra[k].width != D * D {
-                    return Err(format!("the velocity-gradient field `{name}` is not D × D"));
+                    return Err(format!("the velocity-gradient field `{name}` is not D × D").into());
                 }
                 Some(k)
             }
@@ -302,6 +303,10 @@ impl<const D: usize> ParticleModel<D> for DumbbellEnsemble<D> {
             item: k as u64,
             value: if q2.is_finite() { q2 } else { f64::INFINITY },
         })
+    }
+
+    fn state_quantity(&self) -> crate::error::Quantity {
+        crate::error::Quantity::Connector
     }
 
     fn describe_state_blow_up(&self, b: &StateBlowUp) -> String {

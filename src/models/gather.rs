@@ -197,9 +197,31 @@ impl std::fmt::Display for PairError {
         write!(
             f,
             "the term {:e} of quantity {} for the pair of particles {} and {} is not finite or \
-             exceeds the range ±{:e} of its exact sum: the run is unstable (time step too \
-             large, particles overlapping) or the model's scale is too small",
-            self.value, self.quantity, self.gid_i, self.gid_j, self.max_term
+             exceeds the range ±{:e} of its exact sum: {} (time step too large, particles \
+             overlapping) or the model's scale is too small",
+            self.value,
+            self.quantity,
+            self.gid_i,
+            self.gid_j,
+            self.max_term,
+            crate::error::UNSTABLE
+        )
+    }
+}
+
+impl PairError {
+    /// The blow-up this is, found at `step` by `context` (a model's pass).
+    pub fn at_step(
+        &self,
+        quantity: crate::error::Quantity,
+        step: u64,
+        context: &str,
+    ) -> crate::error::Unstable {
+        crate::error::Unstable::new(
+            quantity,
+            Some(self.gid_i),
+            step,
+            format!("{self} ({context} at step {step})"),
         )
     }
 }

@@ -23,6 +23,7 @@ use super::dumbbells::{
 };
 use crate::comm::Comm;
 use crate::domain::id_block;
+use crate::error::{Error, Quantity, Unstable};
 use crate::fixed_sum::FixedSum;
 use crate::particles::{Tensor, tensor_rows};
 use rayon::prelude::*;
@@ -381,7 +382,7 @@ impl<'c, const D: usize> HomogeneousEnsembles<'c, D> {
     /// Advances every ensemble by one step (κ frozen at the start of the step). A dumbbell left
     /// outside the spring's domain (not finite, or |Q|² ≥ b) stops the run, named by its
     /// particle and index (the lowest particle id, so the message does not depend on threads).
-    pub fn advance(&mut self) -> Result<(), String> {
+    pub fn advance(&mut self) -> Result<(), Error> {
         // As rows for the per-dumbbell kernel (one conversion per step).
         let kappa = tensor_rows(&self.flow.kappa::<D>(self.time()));
         let (p, seed, step) = (self.params, self.seed, self.step);
@@ -431,25 +432,31 @@ impl<'c, const D: usize> HomogeneousEnsembles<'c, D> {
         self.step += 1;
         match outside {
             None => Ok(()),
-            Some((g, k, q2)) => Err(format!(
-                "dumbbell {k} of particle {g} has |Q|² = {q2:.6e}{} at step {}: {} (the \
-                 connector left the spring's domain; reduce the time step{})",
-                match p.spring {
-                    Spring::Fene { b } => format!(" ≥ b = {b}"),
-                    Spring::Hookean if q2.is_finite() => format!(
-                        " (a runaway Hookean connector: beyond {limit:.3e}, 10⁴ × its steady \
-                         shear size)"
-                    ),
-                    Spring::Hookean => " (not finite)".into(),
-                },
+            Some((g, k, q2)) => Err(Unstable::new(
+                Quantity::Connector,
+                Some(g),
                 self.step,
-                crate::error::UNSTABLE,
-                if self.q_single.is_some() {
-                    ", or store the connectors in double precision"
-                } else {
-                    ""
-                }
-            )),
+                format!(
+                    "dumbbell {k} of particle {g} has |Q|² = {q2:.6e}{} at step {}: {} (the \
+                 connector left the spring's domain; reduce the time step{})",
+                    match p.spring {
+                        Spring::Fene { b } => format!(" ≥ b = {b}"),
+                        Spring::Hookean if q2.is_finite() => format!(
+                            " (a runaway Hookean connector: beyond {limit:.3e}, 10⁴ × its steady \
+                         shear size)"
+                        ),
+                        Spring::Hookean => " (not finite)".into(),
+                    },
+                    self.step,
+                    crate::error::UNSTABLE,
+                    if self.q_single.is_some() {
+                        ", or store the connectors in double precision"
+                    } else {
+                        ""
+                    }
+                ),
+            )
+            .into()),
         }
     }
 

@@ -38,6 +38,7 @@
 //! [`Scale`]: crate::fixed_sum::Scale
 
 use super::pair_loop::{Virial, VirialScope};
+use crate::error::Error;
 use crate::neighbour::NeighbourList;
 use crate::particles::{FieldFlags, Particles, Precision};
 use crate::simd::Isa;
@@ -166,16 +167,16 @@ pub trait ParticleModel<const D: usize>: Send + Sync {
     /// Called once the fields are registered: on a fresh run (`restarted` false) it sets the
     /// initial values of its state fields (they start at zero); after a restart they hold the
     /// checkpoint's values. Also where it looks up and keeps the indices of its fields.
-    fn attach(&mut self, particles: &mut Particles<D>, restarted: bool) -> Result<(), String> {
+    fn attach(&mut self, particles: &mut Particles<D>, restarted: bool) -> Result<(), Error> {
         let _ = (particles, restarted);
         Ok(())
     }
 
     /// Runs pass `pass` (an index into [`Self::passes`]); the ghost fields it named are up to
     /// date. Runs on the rank's worker pool.
-    fn pass(&mut self, pass: usize, ctx: PassContext<'_, D>) -> Result<PassOutput, String> {
+    fn pass(&mut self, pass: usize, ctx: PassContext<'_, D>) -> Result<PassOutput, Error> {
         let _ = ctx;
-        Err(format!("{} declares no pass {pass}", self.name()))
+        Err(format!("{} declares no pass {pass}", self.name()).into())
     }
 
     /// The fields the integrator advances with the particles ([`Integrated`]: state and rate,
@@ -200,6 +201,11 @@ pub trait ParticleModel<const D: usize>: Send + Sync {
     fn update_state(&self, particles: &mut Particles<D>, step: u64) -> Option<StateBlowUp> {
         let _ = (particles, step);
         None
+    }
+
+    /// What a [`StateBlowUp`] of this model is (its typed error's quantity).
+    fn state_quantity(&self) -> crate::error::Quantity {
+        crate::error::Quantity::ModelState
     }
 
     /// The diagnosis of a [`StateBlowUp`] (the same on every rank: built from the reduced

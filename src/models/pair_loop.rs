@@ -11,7 +11,8 @@
 //! An owned–ghost pair adds to the owned end only (the other end's rank adds its own half) and
 //! contributes ½ of its virial here.
 
-use crate::error::UNSTABLE;
+use crate::error::Error;
+use crate::error::{Quantity, UNSTABLE, Unstable};
 use crate::fixed_sum::{FixedSum, Split};
 use crate::neighbour::{NEAR_AT_BUILD, NeighbourList};
 use crate::particles::Particles;
@@ -405,7 +406,7 @@ pub fn compute_forces<const D: usize, K: PairKernel<D>>(
     workspace: &mut PairWorkspace<D>,
     force: &mut [[f64; D]],
     virial: VirialScope,
-) -> Result<Option<Virial>, String> {
+) -> Result<Option<Virial>, Error> {
     let n_owned = particles.n_owned;
     let chunks = rayon::current_num_threads().max(1);
     let at_build_positions = list.at_build_positions;
@@ -435,11 +436,17 @@ pub fn compute_forces<const D: usize, K: PairKernel<D>>(
         })
         .collect();
     if let Some(&(a, b, f)) = results.iter().find_map(|(_, bad)| bad.as_ref()) {
-        return Err(format!(
-            "pair force {f:e} between particles {a} and {b} at step {step} is not finite or \
-             exceeds {:e}: {UNSTABLE} (time step too large, or particles overlapping)",
-            FixedSum::MAX_TERM
-        ));
+        return Err(Unstable::new(
+            Quantity::PairForce,
+            Some(a),
+            step,
+            format!(
+                "pair force {f:e} between particles {a} and {b} at step {step} is not finite \
+                 or exceeds {:e}: {UNSTABLE} (time step too large, or particles overlapping)",
+                FixedSum::MAX_TERM
+            ),
+        )
+        .into());
     }
     let virials: Vec<&ChunkVirial> = results.iter().map(|(v, _)| v).collect();
     let buffers = &workspace.buffers;

@@ -18,6 +18,7 @@
 //! max|W'| = 16 α_D/(9h) (at q = 1/3), a force term is at most 32 m c²/(9h) — a bound, so only
 //! a non-finite term can fall outside it.
 
+use crate::error::Error;
 use crate::fixed_sum::Scale;
 use crate::models::gather::{FullList, GatherKernel, gather};
 use crate::models::interface::{
@@ -171,14 +172,14 @@ impl<const D: usize> ParticleModel<D> for SummationGas<D> {
         true
     }
 
-    fn attach(&mut self, particles: &mut Particles<D>, _restarted: bool) -> Result<(), String> {
+    fn attach(&mut self, particles: &mut Particles<D>, _restarted: bool) -> Result<(), Error> {
         self.density = particles
             .extra_index(DENSITY)
             .ok_or("the density field is not registered")?;
         Ok(())
     }
 
-    fn pass(&mut self, pass: usize, ctx: PassContext<'_, D>) -> Result<PassOutput, String> {
+    fn pass(&mut self, pass: usize, ctx: PassContext<'_, D>) -> Result<PassOutput, Error> {
         let p = ctx.particles;
         let full: &FullList = ctx.full;
         let mut sums = std::mem::take(&mut self.sums);
@@ -197,7 +198,13 @@ impl<const D: usize> ParticleModel<D> for SummationGas<D> {
             })
         };
         self.sums = sums;
-        result.map_err(|e| format!("{} at step {}", e, ctx.step))?;
+        result.map_err(|e| {
+            e.at_step(
+                crate::error::Quantity::PairForce,
+                ctx.step,
+                "summation gas pass",
+            )
+        })?;
         Ok(PassOutput::default())
     }
 }

@@ -1,8 +1,9 @@
 //! What a rank measures: the observables of a sample (the momentum flux, profiles, the
 //! constitutive stress, the correlators of the fluctuation methods) and their exact global sums.
 
-#[allow(unused_imports)]
 use super::*;
+#[allow(unused_imports)]
+use crate::error::Error;
 
 /// Where an SPH particle's deviatoric stress lives: the Newtonian (viscous) stress, D×D, and
 /// the polymer stress, packed symmetric; either may be absent.
@@ -355,7 +356,7 @@ impl<'c, const D: usize> Simulation<'c, D> {
     /// Samples every observable the case asked for (collective). A thermostatted (DPD) fluid
     /// whose kinetic temperature has passed [`crate::models::FluidModel::heating`] stops the run (the
     /// decision is on an exactly reduced sum, so every rank count stops alike).
-    pub fn sample(&mut self) -> Result<(), String> {
+    pub fn sample(&mut self) -> Result<(), Error> {
         let t0 = Instant::now();
         let values = self.measure();
         self.times.diagnostics += t0.elapsed().as_secs_f64();
@@ -367,10 +368,16 @@ impl<'c, const D: usize> Simulation<'c, D> {
             self.case.particles.mass,
             self.time(),
         ) {
-            return Err(format!(
-                "{heating}, at step {}: {UNSTABLE}; reduce the time step",
-                self.step
-            ));
+            return Err(Unstable::new(
+                Quantity::Temperature,
+                None,
+                self.step,
+                format!(
+                    "{heating}, at step {}: {UNSTABLE}; reduce the time step",
+                    self.step
+                ),
+            )
+            .into());
         }
         for (name, v) in values.scalars {
             self.series.push(&name, v);

@@ -19,6 +19,7 @@ use crate::comm::{Comm, U64Op};
 use crate::config::{Case, IntegratorCfg, Lattice, Observable, VelocityProfile};
 use crate::diagnostics::{DENSITY_PROFILE_PREFIX, SHEAR_STRESS_PROFILE_PREFIX, Series};
 use crate::domain::{HaloPlan, Slab, send_leavers, wrap_owned};
+use crate::error::{Error, Quantity, Unstable};
 use crate::fixed_sum::FixedSum;
 use crate::geometry::{GRADIENT, SimBox};
 use crate::integrators::{
@@ -153,7 +154,7 @@ pub const LIST_REFERENCE_FIELD: &str = "list_reference_position";
 impl<'c, const D: usize> Simulation<'c, D> {
     /// Sets up the initial state on this rank and computes the initial forces.
     /// `threads` rayon workers serve this rank (0: all available cores).
-    pub fn new(case: &Case, comm: &'c dyn Comm, threads: usize) -> Result<Self, String> {
+    pub fn new(case: &Case, comm: &'c dyn Comm, threads: usize) -> Result<Self, Error> {
         let (sim_box, slab) = Self::geometry(case, comm)?;
         let (particles, total) = initial_particles(case, &sim_box, &slab);
         let mut sim = Self::assemble(case, comm, threads, sim_box, slab, particles, total, false)?;
@@ -213,15 +214,15 @@ impl<'c, const D: usize> Simulation<'c, D> {
         rebuild_step: u64,
         series: Series,
         species: Option<Vec<Species>>,
-    ) -> Result<Self, String> {
+    ) -> Result<Self, Error> {
         let (sim_box, slab) = Self::geometry(case, comm)?;
         let field = particles
             .extra_index(LIST_REFERENCE_FIELD)
             .ok_or_else(|| format!("the checkpoint lacks the field {LIST_REFERENCE_FIELD}"))?;
         if particles.extra[field].width != D {
-            return Err(format!(
-                "the checkpoint's {LIST_REFERENCE_FIELD} field is malformed"
-            ));
+            return Err(
+                format!("the checkpoint's {LIST_REFERENCE_FIELD} field is malformed").into(),
+            );
         }
         // Positions ↔ build positions: the rebuild below sees the build-time configuration.
         let n = particles.n_owned;
@@ -281,12 +282,12 @@ impl<'c, const D: usize> Simulation<'c, D> {
         Ok(sim)
     }
 
-    fn geometry(case: &Case, comm: &dyn Comm) -> Result<(SimBox<D>, Slab), String> {
+    fn geometry(case: &Case, comm: &dyn Comm) -> Result<(SimBox<D>, Slab), Error> {
         if case.dimension != D {
-            return Err(format!(
+            return Err(Error::InvalidCase(format!(
                 "the case is {}-dimensional, this run is {D}-dimensional",
                 case.dimension
-            ));
+            )));
         }
         let mut lengths = [0.0; D];
         lengths.copy_from_slice(&case.domain.lengths);
@@ -308,16 +309,17 @@ impl<'c, const D: usize> Simulation<'c, D> {
         let range = case.cutoff() + case.neighbour.skin;
         if comm.size() > 1 && slab.width() < range {
             let max_ranks = (lengths[axis] / range).floor().max(1.0) as usize;
-            return Err(format!(
+            return Err(Error::DoesNotFit(format!(
                 "{} ranks give slabs {:.4} wide along {}, thinner than cutoff + skin = {range}; \
                  use at most {max_ranks} ranks for this case (or decompose along another axis)",
                 comm.size(),
                 slab.width(),
                 ["x", "y", "z"][axis]
-            ));
+            )));
         }
-        crate::capacity::check_particles_per_rank(case, comm.size())?;
-        crate::capacity::check_rank_memory(case, comm.size(), crate::capacity::available_memory())?;
+        crate::capacity::check_particles_per_rank(case, comm.size()).map_err(Error::DoesNotFit)?;
+        crate::capacity::check_rank_memory(case, comm.size(), crate::capacity::available_memory())
+            .map_err(Error::DoesNotFit)?;
         Ok((sim_box, slab))
     }
 
@@ -331,7 +333,7 @@ impl<'c, const D: usize> Simulation<'c, D> {
         particles: Particles<D>,
         total: u64,
         restarted: bool,
-    ) -> Result<Self, String> {
+    ) -> Result<Self, Error> {
         let integrator = build_integrator::<D>(case, &[]);
         let pool = worker_pool(comm, threads)?;
         let mut sim = Simulation {
@@ -379,7 +381,7 @@ impl<'c, const D: usize> Simulation<'c, D> {
     /// Attaches a model: registers its fields (on a restart, checks that the checkpoint brought
     /// the checkpointed ones), lets it initialise them, and resolves the ghost fields of its
     /// passes. A model attached after the set-up computed the forces joins from the next step.
-    pub fn attach(&mut self, mut model: Box<dyn ParticleModel<D>>) -> Result<(), String> {
+    pub fn attach(&mut self, mut model: Box<dyn ParticleModel<D>>) -> Result<(), Error> {
         let p = &mut self.particles;
         for spec in model.fields() {
             let name = spec.name;
@@ -392,7 +394,8 @@ impl<'c, const D: usize> Simulation<'c, D> {
                     return Err(format!(
                         "the checkpoint lacks the field `{name}` of the model {}",
                         model.name()
-                    ));
+                    )
+                    .into());
                 }
             }
             match spec.kind {
@@ -406,7 +409,8 @@ impl<'c, const D: usize> Simulation<'c, D> {
                              {precision:?} declared",
                             model.name(),
                             f.data.precision()
-                        ));
+                        )
+                        .into());
                     }
                     Some(_) => {}
                 },
@@ -416,7 +420,8 @@ impl<'c, const D: usize> Simulation<'c, D> {
                         return Err(format!(
                             "the velocity-like field `{name}` of the model {} must be a vector",
                             model.name()
-                        ));
+                        )
+                        .into());
                     }
                     p.register_field(name, width, spec.flags)?;
                 }
@@ -457,7 +462,8 @@ impl<'c, const D: usize> Simulation<'c, D> {
                 return Err(format!(
                     "the model {} integrates fields of unequal widths",
                     model.name()
-                ));
+                )
+                .into());
             }
             self.integrated.push(IntegratedField {
                 state,
@@ -495,7 +501,7 @@ impl<'c, const D: usize> Simulation<'c, D> {
         &mut self,
         table: Vec<Species>,
         assign: impl Fn(u64, &[f64; D]) -> u8,
-    ) -> Result<(), String> {
+    ) -> Result<(), Error> {
         let bad_table = if table.is_empty() || table.len() > 256 {
             Some(format!("{} species; 1 to 256 are supported", table.len()))
         } else {
@@ -505,7 +511,7 @@ impl<'c, const D: usize> Simulation<'c, D> {
                 .map(|s| format!("species {}: mass {} must be > 0", s.name, s.mass))
         };
         if let Some(e) = bad_table {
-            return Err(e);
+            return Err(Error::InvalidCase(e));
         }
         let p = &mut self.particles;
         p.clear_ghosts();
@@ -521,7 +527,8 @@ impl<'c, const D: usize> Simulation<'c, D> {
                 p.gid[i],
                 given[i],
                 table.len()
-            ));
+            )
+            .into());
         }
         if failed[0] > 0.0 {
             return Err("another rank gave a particle a species beyond the table".into());
@@ -609,7 +616,7 @@ impl<'c, const D: usize> Simulation<'c, D> {
 
     /// Jumps to `step` (as a restart would) and rebuilds halo and lists there; used by tests
     /// that need a non-zero Lees–Edwards offset.
-    pub fn jump_to_step(&mut self, step: u64) -> Result<(), String> {
+    pub fn jump_to_step(&mut self, step: u64) -> Result<(), Error> {
         self.step = step;
         self.rebuild()?;
         self.compute_forces(VirialScope::Off)?;
@@ -617,7 +624,7 @@ impl<'c, const D: usize> Simulation<'c, D> {
     }
 
     /// Migrates, rebuilds the halo and the neighbour lists.
-    fn rebuild(&mut self) -> Result<(), String> {
+    fn rebuild(&mut self) -> Result<(), Error> {
         let t0 = Instant::now();
         let offset = self.sim_box.le_offset(self.step, self.dt);
         let range = self.range();
@@ -667,7 +674,7 @@ impl<'c, const D: usize> Simulation<'c, D> {
 
     /// Evaluates the forces (and the virial when asked) again at the current step, leaving the
     /// state as it was: what the pair-force benchmark times.
-    pub fn recompute_forces(&mut self, want_virial: bool) -> Result<(), String> {
+    pub fn recompute_forces(&mut self, want_virial: bool) -> Result<(), Error> {
         let scope = if want_virial {
             VirialScope::Full
         } else {
@@ -679,7 +686,7 @@ impl<'c, const D: usize> Simulation<'c, D> {
     /// Forces (and the virial when asked) at the current step: every model's passes in order,
     /// each after the ghost fields it names are refreshed. Collective: a pass that fails on
     /// any rank (a blown-up pair) stops every rank after that pass, with the same error there.
-    fn compute_forces(&mut self, virial_scope: VirialScope) -> Result<(), String> {
+    fn compute_forces(&mut self, virial_scope: VirialScope) -> Result<(), Error> {
         let t0 = Instant::now();
         let mut halo_seconds = 0.0;
         self.particles.force.fill([0.0; D]);
@@ -727,14 +734,20 @@ impl<'c, const D: usize> Simulation<'c, D> {
                     Err(e) => return Err(e),
                 }
                 if failed[0] > 0.0 {
-                    return Err(format!(
-                        "the pass `{}` of the model {} failed on another rank at step {} (a \
-                         pair term not finite or out of range): {UNSTABLE} (time step \
-                         too large?)",
-                        self.pass_names[m][k],
-                        model.name(),
-                        self.step
-                    ));
+                    return Err(Unstable::new(
+                        Quantity::PairForce,
+                        None,
+                        self.step,
+                        format!(
+                            "the pass `{}` of the model {} failed on another rank at step {} \
+                             (a pair term not finite or out of range): {UNSTABLE} (time step \
+                             too large?)",
+                            self.pass_names[m][k],
+                            model.name(),
+                            self.step
+                        ),
+                    )
+                    .into());
                 }
             }
         }
@@ -773,7 +786,7 @@ impl<'c, const D: usize> Simulation<'c, D> {
     /// Advances one time step: each of the integrator's stages moves the particles, brings
     /// lists and ghosts up to date and evaluates the forces (the first stage also advances the
     /// step counter and the models' per-particle state).
-    pub fn advance(&mut self) -> Result<(), String> {
+    pub fn advance(&mut self) -> Result<(), Error> {
         let stages = self.integrator.stages();
         for stage in 0..stages {
             self.advance_stage(stage, stage + 1 == stages)?;
@@ -781,7 +794,7 @@ impl<'c, const D: usize> Simulation<'c, D> {
         Ok(())
     }
 
-    fn advance_stage(&mut self, stage: usize, last: bool) -> Result<(), String> {
+    fn advance_stage(&mut self, stage: usize, last: bool) -> Result<(), Error> {
         let t0 = Instant::now();
         let dt = self.dt;
         // The positions move: the list's marks of the pairs within the cutoff no longer hold.
@@ -842,11 +855,18 @@ impl<'c, const D: usize> Simulation<'c, D> {
                 item: detail[1] as u64,
                 value: detail[2],
             };
-            return Err(format!(
-                "{}, at step {}: {UNSTABLE}; reduce the time step",
-                self.models[detail[0] as usize].describe_state_blow_up(&blow_up),
-                self.step
-            ));
+            let model = &self.models[detail[0] as usize];
+            return Err(Unstable::new(
+                model.state_quantity(),
+                Some(blow_up.gid),
+                self.step,
+                format!(
+                    "{}, at step {}: {UNSTABLE}; reduce the time step",
+                    model.describe_state_blow_up(&blow_up),
+                    self.step
+                ),
+            )
+            .into());
         }
         if moved[0] > self.range() {
             // Decided on the globally reduced value, so every rank count stops alike; the rank
@@ -868,10 +888,16 @@ impl<'c, const D: usize> Simulation<'c, D> {
             } else {
                 "has a position that is not finite (NaN or infinite)".to_string()
             };
-            return Err(format!(
-                "particle {} {what}, at step {}: {UNSTABLE}; reduce the time step",
-                id[0] as u64, self.step
-            ));
+            return Err(Unstable::new(
+                Quantity::Displacement,
+                Some(id[0] as u64),
+                self.step,
+                format!(
+                    "particle {} {what}, at step {}: {UNSTABLE}; reduce the time step",
+                    id[0] as u64, self.step
+                ),
+            )
+            .into());
         }
         // After the displacement check, which names a particle thrown out of the lists
         // more specifically.
@@ -889,13 +915,19 @@ impl<'c, const D: usize> Simulation<'c, D> {
                 },
             ];
             self.comm.allreduce_max(&mut id);
-            return Err(format!(
-                "particle {} has a peculiar kinetic energy ½m|v − u|² = {:.3e} k_BT (a \
-                 runaway: beyond {bound:.4} k_BT, which a thermalised particle never reaches), \
-                 at step {}: {UNSTABLE}; reduce the time step (or start the particles nearer \
-                 k_BT)",
-                id[0] as u64, moved[2], self.step
-            ));
+            return Err(Unstable::new(
+                Quantity::KineticEnergy,
+                Some(id[0] as u64),
+                self.step,
+                format!(
+                    "particle {} has a peculiar kinetic energy ½m|v − u|² = {:.3e} k_BT (a \
+                     runaway: beyond {bound:.4} k_BT, which a thermalised particle never \
+                     reaches), at step {}: {UNSTABLE}; reduce the time step (or start the \
+                     particles nearer k_BT)",
+                    id[0] as u64, moved[2], self.step
+                ),
+            )
+            .into());
         }
         let drift = if self.sim_box.sheared() {
             self.sim_box.le_velocity_jump() * dt * (self.step - self.halo.step_at_build()) as f64
@@ -1037,7 +1069,7 @@ impl<'c, const D: usize> Simulation<'c, D> {
         &mut self,
         steps: u64,
         mut progress: impl FnMut(&Self),
-    ) -> Result<Duration, String> {
+    ) -> Result<Duration, Error> {
         let start = Instant::now();
         for _ in 0..steps {
             self.advance()?;

@@ -20,6 +20,7 @@ pub mod physical;
 pub mod spec;
 pub mod time_step;
 
+use crate::error::Error;
 use crate::models::interface::{ParticleModel, PassContext, PassOutput, PassSpec};
 use crate::models::pair_loop::{
     BATCH, BlockTerms, PairBlock, PairKernel, PairTerms, PairWorkspace, VirialScope, compute_forces,
@@ -341,7 +342,7 @@ impl<const D: usize> ParticleModel<D> for DpdModel<D> {
         }]
     }
 
-    fn pass(&mut self, _pass: usize, ctx: PassContext<'_, D>) -> Result<PassOutput, String> {
+    fn pass(&mut self, _pass: usize, ctx: PassContext<'_, D>) -> Result<PassOutput, Error> {
         let p = ctx.particles;
         let mut force = std::mem::take(&mut p.force);
         let (isa, list, step, scope) = (ctx.isa, ctx.list, ctx.step, ctx.virial);

@@ -1,7 +1,8 @@
 //! The SPH fluid as a particle model: its fields, passes, finishes and state update.
 
-#[allow(unused_imports)]
 use super::*;
+#[allow(unused_imports)]
+use crate::error::{Error, Quantity, UNSTABLE, Unstable};
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(super) enum Pass {
@@ -62,7 +63,8 @@ pub struct SphModel<const D: usize> {
     /// ([`momentum_flux`]; the diagnostics asked for the virial).
     pub(super) flux_wanted: bool,
     /// The momentum flux of the last momentum pass that formed it, for the engine.
-    pub(super) flux: Option<Result<crate::models::pair_loop::Virial, String>>,
+    pub(super) flux:
+        Option<Result<crate::models::pair_loop::Virial, crate::models::gather::PairError>>,
 }
 
 impl<const D: usize> SphModel<D> {
@@ -973,7 +975,7 @@ impl<const D: usize> ParticleModel<D> for SphModel<D> {
         out
     }
 
-    fn attach(&mut self, p: &mut Particles<D>, restarted: bool) -> Result<(), String> {
+    fn attach(&mut self, p: &mut Particles<D>, restarted: bool) -> Result<(), Error> {
         self.density = p
             .extra_index(DENSITY)
             .ok_or("the density field is not registered")?;
@@ -1055,27 +1057,35 @@ impl<const D: usize> ParticleModel<D> for SphModel<D> {
         ]
     }
 
-    fn pass(&mut self, pass: usize, ctx: PassContext<'_, D>) -> Result<PassOutput, String> {
+    fn pass(&mut self, pass: usize, ctx: PassContext<'_, D>) -> Result<PassOutput, Error> {
         let kind = self.passes[pass];
         let (kernel, h) = (self.cfg.kernel, self.cfg.smoothing_length);
         let (p, list, full) = (ctx.particles, ctx.list, ctx.full);
+        let step = ctx.step;
         if matches!(kind, Pass::Momentum | Pass::MsphDivergence) {
-            check_density(p, self.density, ctx.step)?;
+            check_density(p, self.density, step)?;
         }
         self.flux_wanted = ctx.virial != crate::models::pair_loop::VirialScope::Off;
+        let context = format!("SPH pass {kind:?}");
         match kind {
             Pass::WallMirror | Pass::MsphGradient | Pass::WallStress | Pass::MsphDivergence => {
-                self.run_msph(kind, p, full).map_err(|e| e.to_string())
+                self.run_msph(kind, p, full).map_err(|e| {
+                    Unstable::new(
+                        Quantity::MomentSums,
+                        Some(e.gid),
+                        step,
+                        format!("{e} ({context} at step {step})"),
+                    )
+                })
             }
             _ => with_kernel!(kernel, h, D, |k| self.run(k, kind, p, list, full))
-                .map_err(|e| e.to_string()),
-        }
-        .map_err(|e| format!("{e} (SPH pass {kind:?} at step {})", ctx.step))?;
+                .map_err(|e| e.at_step(Quantity::PairForce, step, &context)),
+        }?;
         let virial = self
             .flux
             .take()
             .transpose()
-            .map_err(|e| format!("{e} (SPH momentum flux at step {})", ctx.step))?;
+            .map_err(|e| e.at_step(Quantity::MomentumFlux, step, "SPH momentum flux"))?;
         Ok(PassOutput {
             virial,
             ..PassOutput::default()
@@ -1090,19 +1100,23 @@ pub(super) fn check_density<const D: usize>(
     p: &Particles<D>,
     density: usize,
     step: u64,
-) -> Result<(), String> {
+) -> Result<(), Unstable> {
     let rho = &p.extra[density].data;
     let bad = (0..p.n_owned)
         .filter(|&i| p.species_of(i) == FLUID && !(rho[i] > 0.0 && rho[i].is_finite()))
         .min_by_key(|&i| p.gid[i]);
     match bad {
         None => Ok(()),
-        Some(i) => Err(format!(
-            "particle {} has density ρ = {:e} (it must be positive and finite) at step {step}: \
-             {} (reduce the time step, or use summation density, which cannot go negative)",
-            p.gid[i],
-            rho[i],
-            crate::error::UNSTABLE
+        Some(i) => Err(Unstable::new(
+            Quantity::Density,
+            Some(p.gid[i]),
+            step,
+            format!(
+                "particle {} has density ρ = {:e} (it must be positive and finite) at step \
+                 {step}: {UNSTABLE} (reduce the time step, or use summation density, which \
+                 cannot go negative)",
+                p.gid[i], rho[i]
+            ),
         )),
     }
 }

@@ -39,6 +39,7 @@
 use super::{FLUID, INCLUSION, MomentumKernel};
 use crate::fixed_sum::FixedSum;
 use crate::models::gather::GatherKernel;
+use crate::models::gather::PairError;
 use crate::models::pair_loop::Virial;
 use crate::neighbour::{NEAR_AT_BUILD, NeighbourList};
 use crate::particles::Particles;
@@ -129,11 +130,11 @@ pub(super) fn momentum_virial<K: Kernel, const D: usize>(
     kernel: &MomentumKernel<'_, K, D>,
     p: &Particles<D>,
     list: &NeighbourList<D>,
-) -> Result<Virial, String> {
+) -> Result<Virial, PairError> {
     let n_owned = p.n_owned;
     let rc2 = kernel.cutoff() * kernel.cutoff();
     let chunks = rayon::current_num_threads().max(1);
-    let results: Vec<Result<Vec<FixedSum>, String>> = list
+    let results: Vec<Result<Vec<FixedSum>, PairError>> = list
         .pair_chunks(chunks)
         .map(|pairs| {
             let mut sums = vec![FixedSum::ZERO; 3 * D * D];
@@ -157,14 +158,13 @@ pub(super) fn momentum_virial<K: Kernel, const D: usize>(
                         for b in 0..D {
                             let term = 0.5 * part[a] * lever[b];
                             if !FixedSum::representable(term) {
-                                return Err(format!(
-                                    "the momentum flux of the pair ({}, {}) is {term:e}, not \
-                                     finite or beyond {:e}: {}",
-                                    p.gid[i],
-                                    p.gid[j],
-                                    FixedSum::MAX_TERM,
-                                    crate::error::UNSTABLE
-                                ));
+                                return Err(PairError {
+                                    gid_i: p.gid[i],
+                                    gid_j: p.gid[j],
+                                    quantity: k * D * D + a * D + b,
+                                    value: term,
+                                    max_term: FixedSum::MAX_TERM,
+                                });
                             }
                             for _ in 0..copies {
                                 sums[k * D * D + a * D + b].add(term);
