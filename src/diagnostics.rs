@@ -154,9 +154,7 @@ pub fn block_warnings(scalars: &BTreeMap<String, Vec<f64>>, blocks: usize) -> Ve
     out
 }
 
-/// The scalar series of the density profile are named this and the bin number (four digits);
-/// the summary gathers them into `density_profile`.
-pub const DENSITY_PROFILE_PREFIX: &str = "density_profile_";
+pub use crate::observable::DENSITY_PROFILE_PREFIX;
 /// Prefix of the per-bin scalar series of the `shear_stress_profile` observable (bin index,
 /// 4 digits); the summary gathers them into `shear_stress_profile`.
 pub const SHEAR_STRESS_PROFILE_PREFIX: &str = "shear_stress_profile_";

@@ -106,3 +106,18 @@ impl Observable {
         }
     }
 }
+
+/// The scalar series of the density profile are named this and the bin number (four digits);
+/// the summary gathers them into `density_profile`.
+pub const DENSITY_PROFILE_PREFIX: &str = "density_profile_";
+
+/// The scalars of the `constitutive_stress` observable in `dimension` dimensions: η, N₁ (and
+/// N₂ in 3D) of the particles' own mean stress.
+pub fn constitutive_names(dimension: usize) -> &'static [&'static str] {
+    const NAMES: [&str; 3] = [
+        "viscosity_constitutive",
+        "first_normal_stress_difference_constitutive",
+        "second_normal_stress_difference_constitutive",
+    ];
+    if dimension == 3 { &NAMES } else { &NAMES[..2] }
+}

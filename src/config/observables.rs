@@ -39,14 +39,7 @@ pub fn stress_parts(case: &Case) -> [&'static str; 5] {
 
 /// The names of the constitutive viscometric functions ([`Observable::ConstitutiveStress`]) in
 /// `dimension` dimensions.
-pub fn constitutive_names(dimension: usize) -> &'static [&'static str] {
-    const NAMES: [&str; 3] = [
-        "viscosity_constitutive",
-        "first_normal_stress_difference_constitutive",
-        "second_normal_stress_difference_constitutive",
-    ];
-    if dimension == 3 { &NAMES } else { &NAMES[..2] }
-}
+pub use crate::observable::constitutive_names;
 
 /// Every scalar observable name the case produces (for references and the summary).
 pub fn scalar_names(case: &Case) -> Vec<String> {

@@ -7,7 +7,7 @@
 //! ([`FluidCfg::model`], [`FluidCfg::builder`]) and the list of kinds the case parser accepts;
 //! nothing else in the generic layers names a model.
 
-use crate::models::fluid_model::{BuildModels, FluidModel};
+use crate::models::fluid_model::{BuildModels, FluidModel, KindTraits};
 use serde::{Deserialize, Serialize};
 
 macro_rules! fluid_registry {
@@ -27,12 +27,30 @@ macro_rules! fluid_registry {
                 }
             }
 
+            /// Whether its kind carries boundary particles (`[walls]`, `[inclusions]`).
+            pub fn carries_boundary_particles(&self) -> bool {
+                match self {
+                    $( FluidCfg::$variant(_) => <$cfg as KindTraits>::CARRIES_BOUNDARY_PARTICLES, )*
+                }
+            }
+
             /// What the model runs in D dimensions.
             pub fn builder<const D: usize>(&self) -> &dyn BuildModels<D> {
                 match self {
                     $( FluidCfg::$variant(m) => m, )*
                 }
             }
+        }
+
+        /// The registered kinds that carry boundary particles, as `kind = "a" | "b"` (for the
+        /// errors about walls and inclusions).
+        pub fn kinds_carrying_boundary_particles() -> String {
+            let kinds: Vec<String> = [$( ($kind, <$cfg as KindTraits>::CARRIES_BOUNDARY_PARTICLES), )*]
+                .iter()
+                .filter(|(_, carries)| *carries)
+                .map(|(kind, _)| format!("\"{kind}\""))
+                .collect();
+            format!("kind = {}", kinds.join(" | "))
         }
 
         /// Every registered `kind` with the check of its table (for the case parser).

@@ -169,14 +169,15 @@ pub fn validate(case: &Case, ix: &SpanIndex) -> Result<(), CaseError> {
     // [fluid]
     let fl = |key: &str| vec![k("fluid"), k(key)];
     case.fluid.model().validate(case, ix)?;
-    if !case.fluid.model().carries_boundary_particles() {
+    if !case.fluid.carries_boundary_particles() {
         let kind = case.fluid.model().kind();
         if case.inclusions.is_some() {
             return err(
                 &["inclusions"],
                 format!(
                     "inclusions of boundary particles need a fluid model that carries boundary \
-                     particles, which kind = \"{kind}\" does not (SPH does)"
+                     particles, which kind = \"{kind}\" does not ({} does)",
+                    super::registry::kinds_carrying_boundary_particles()
                 ),
             );
         }
@@ -185,8 +186,9 @@ pub fn validate(case: &Case, ix: &SpanIndex) -> Result<(), CaseError> {
                 &["walls"],
                 format!(
                     "boundary-particle walls need a fluid model that carries boundary \
-                     particles, which kind = \"{kind}\" does not (SPH does); for reflecting \
-                     walls set box.boundaries"
+                     particles, which kind = \"{kind}\" does not ({} does); for reflecting \
+                     walls set box.boundaries",
+                    super::registry::kinds_carrying_boundary_particles()
                 ),
             );
         }
@@ -614,7 +616,7 @@ fn validate_startup_reference(
         return fail(
             "kind",
             "a startup_profile reference needs [walls] and a fluid with a continuum \
-             constitutive law (SPH)"
+             constitutive law"
                 .into(),
         );
     };

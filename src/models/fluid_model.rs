@@ -162,11 +162,6 @@ pub trait FluidModel: Send + Sync {
     /// against the case; the error names the file, line and column through `ix`.
     fn validate(&self, case: &dyn CaseView, ix: &SpanIndex) -> Result<(), CaseError>;
 
-    /// Whether it carries boundary particles (`[walls]`, `[inclusions]`).
-    fn carries_boundary_particles(&self) -> bool {
-        false
-    }
-
     /// Whether `integrator` can integrate it; `Err(message)` (about `integrator.kind`)
     /// otherwise.
     fn accepts_integrator(&self, integrator: &IntegratorCfg) -> Result<(), String>;
@@ -275,6 +270,13 @@ pub trait BuildModels<const D: usize> {
     /// The fluid's particle model.
     fn build_fluid(&self, case: &dyn CaseView) -> Box<dyn ParticleModel<D>>;
 
+    /// The species of a scene with boundary particles (an SPH fluid's walls and inclusions):
+    /// the table and the species of the particle at each initial position; `None` when every
+    /// particle is fluid.
+    fn species_layout(&self, _case: &dyn CaseView) -> Option<SpeciesLayout<D>> {
+        None
+    }
+
     /// The models it needs beside the fluid (attached after the species are known).
     fn build_companions(
         &self,
@@ -282,6 +284,25 @@ pub trait BuildModels<const D: usize> {
     ) -> Result<Vec<Box<dyn ParticleModel<D>>>, String> {
         Ok(Vec::new())
     }
+}
+
+/// What a fluid kind can do, known without a case: the registry reads it to check a case and
+/// to say which kinds provide what ([`crate::config::registry`]).
+pub trait KindTraits {
+    /// Whether the kind carries boundary particles (`[walls]`, `[inclusions]`).
+    const CARRIES_BOUNDARY_PARTICLES: bool = false;
+}
+
+/// The species number of the particle whose initial position is the argument.
+pub type SpeciesAt<const D: usize> = Box<dyn Fn(&[f64; D]) -> u8 + Send + Sync>;
+
+/// The species of a scene ([`BuildModels::species_layout`]): the table, and the species of the
+/// particle starting at a position.
+pub struct SpeciesLayout<const D: usize> {
+    /// The species, indexed by their number.
+    pub table: Vec<crate::species::Species>,
+    /// The species number of the particle whose initial position is the argument.
+    pub species_at: SpeciesAt<D>,
 }
 
 /// The binding (smallest) of named limits, `None` when there are none.

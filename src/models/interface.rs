@@ -39,9 +39,12 @@
 
 use super::pair_loop::{Virial, VirialScope};
 use crate::error::Error;
+use crate::fixed_sum::FixedSum;
 use crate::neighbour::NeighbourList;
+use crate::observable::Observable;
 use crate::particles::{FieldFlags, Particles, Precision};
 use crate::simd::Isa;
+use crate::species::Species;
 
 pub use super::gather::{FullList, GatherKernel, PairError};
 
@@ -217,11 +220,66 @@ pub trait ParticleModel<const D: usize>: Send + Sync {
         )
     }
 
+    /// Whether this model measures `o` itself, from its own fields (an SPH fluid's density
+    /// profile, constitutive stress or wall forces). The engine measures what no model claims.
+    fn measures(&self, o: Observable) -> bool {
+        let _ = o;
+        false
+    }
+
+    /// This rank's share of observable `o` ([`Self::measures`]) as exact sums over its owned
+    /// particles, each normalised; the engine reduces them over the ranks (so the value is
+    /// bitwise the same on any decomposition) and hands them to [`Self::observable_values`].
+    fn observable_sums(
+        &self,
+        o: Observable,
+        particles: &Particles<D>,
+        ctx: &MeasureContext<'_, D>,
+    ) -> Vec<FixedSum> {
+        let _ = (o, particles, ctx);
+        Vec::new()
+    }
+
+    /// The named values of observable `o` from its sums reduced over the ranks.
+    fn observable_values(
+        &self,
+        o: Observable,
+        sums: &[f64],
+        ctx: &MeasureContext<'_, D>,
+    ) -> Vec<(String, f64)> {
+        let _ = (o, sums, ctx);
+        Vec::new()
+    }
+
     /// Events this rank counted since the process started (a restart counts afresh) that the
     /// summary should warn about, each with the sentence that explains it (`{n}` stands for the count summed over
     /// the ranks); the engine sums the counts and reports the non-zero ones.
     fn counted_warnings(&self) -> Vec<(u64, &'static str)> {
         Vec::new()
+    }
+}
+
+/// What a model's own observables read besides the particles.
+pub struct MeasureContext<'a, const D: usize> {
+    /// The species table (which are fluid, their masses), indexed by species.
+    pub species: &'a [Species],
+    /// The box's edge lengths.
+    pub lengths: [f64; D],
+    /// The imposed shear rate γ̇ (0 without Lees–Edwards shear).
+    pub shear_rate: f64,
+    /// `diagnostics.profile_bins`.
+    pub profile_bins: usize,
+}
+
+impl<const D: usize> MeasureContext<'_, D> {
+    /// The box volume (area in 2D).
+    pub fn volume(&self) -> f64 {
+        self.lengths.iter().product()
+    }
+
+    /// Whether owned particle `k` is fluid.
+    pub fn is_fluid(&self, p: &Particles<D>, k: usize) -> bool {
+        self.species[p.species_of(k) as usize].is_fluid()
     }
 }
 

@@ -226,6 +226,8 @@ mod spec {
         }
     }
 
+    impl crate::models::fluid_model::KindTraits for SummationGasCfg {}
+
     impl FluidModel for SummationGasCfg {
         fn kind(&self) -> &'static str {
             "summation_gas"

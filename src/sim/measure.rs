@@ -5,35 +5,6 @@ use super::*;
 #[allow(unused_imports)]
 use crate::error::Error;
 
-/// Where an SPH particle's deviatoric stress lives: the Newtonian (viscous) stress, D×D, and
-/// the polymer stress, packed symmetric; either may be absent.
-pub(super) struct ParticleStress {
-    viscous: Option<usize>,
-    polymer: Option<usize>,
-}
-
-impl ParticleStress {
-    fn of<const D: usize>(p: &Particles<D>) -> Self {
-        Self {
-            viscous: p.extra_index(crate::models::sph::VISCOUS_STRESS),
-            polymer: p.extra_index(crate::models::sph::POLYMER_STRESS),
-        }
-    }
-
-    /// σ_ab of particle k, viscous + polymer.
-    #[inline]
-    fn component<const D: usize>(&self, p: &Particles<D>, k: usize, a: usize, b: usize) -> f64 {
-        use crate::models::sph::polymer::{packed_index, packed_width};
-        let mut s = self
-            .viscous
-            .map_or(0.0, |v| p.extra[v].data[k * D * D + a * D + b]);
-        if let Some(t) = self.polymer {
-            s += p.extra[t].data[k * packed_width(D) + packed_index::<D>(a, b)];
-        }
-        s
-    }
-}
-
 /// The bin of coordinate `y` among `bins` equal bins across [0, `ly`) (clamped to the ends).
 pub(super) fn profile_bin(y: f64, ly: f64, bins: usize) -> usize {
     ((y / ly * bins as f64).floor().max(0.0) as usize).min(bins - 1)
@@ -242,117 +213,6 @@ impl<'c, const D: usize> Simulation<'c, D> {
         ))
     }
 
-    /// The mean SPH density of the fluid particles in each of `diagnostics.profile_bins` bins
-    /// across the box along y (NaN for an empty bin), summed exactly over the ranks
-    /// (collective).
-    pub(super) fn density_profile(&self) -> Vec<f64> {
-        let bins = self.case.diagnostics.profile_bins;
-        let ly = self.sim_box.lengths[GRADIENT];
-        let p = &self.particles;
-        let mut sums = vec![FixedSum::ZERO; 2 * bins];
-        if let Some(rho) = p.extra_index(crate::models::sph::DENSITY) {
-            let density = &p.extra[rho].data;
-            for k in 0..p.n_owned {
-                if !self.species[p.species_of(k) as usize].is_fluid() {
-                    continue;
-                }
-                let y = p.pos[k][GRADIENT];
-                let b = profile_bin(y, ly, bins);
-                sums[2 * b].add(1.0);
-                sums[2 * b + 1].add(density[k]);
-                if k % 2048 == 2047 {
-                    sums.iter_mut().for_each(FixedSum::normalize);
-                }
-            }
-        }
-        sums.iter_mut().for_each(FixedSum::normalize);
-        FixedSum::allreduce(self.comm, &mut sums);
-        (0..bins)
-            .map(|b| sums[2 * b + 1].value() / sums[2 * b].value())
-            .collect()
-    }
-
-    /// The mean deviatoric stress of the SPH fluid particles, σ̄ = viscous stress (nested
-    /// summation) + polymer stress τ, D×D row-major (the thesis's unweighted particle mean,
-    /// Eq. 3.18), and the mean |tr τ|; summed exactly over the ranks (collective).
-    pub(super) fn sph_mean_stress(&self) -> (Vec<f64>, f64) {
-        use crate::models::sph::POLYMER_STRESS;
-        use crate::models::sph::polymer::{packed_index, packed_width};
-        let p = &self.particles;
-        let dd = D * D;
-        let stress = ParticleStress::of(p);
-        let polymer = p.extra_index(POLYMER_STRESS);
-        let w = packed_width(D);
-        // Count, D² stress components, |tr τ|.
-        let mut sums = vec![FixedSum::ZERO; dd + 2];
-        for k in 0..p.n_owned {
-            if !self.species[p.species_of(k) as usize].is_fluid() {
-                continue;
-            }
-            sums[0].add(1.0);
-            for a in 0..D {
-                for b in 0..D {
-                    sums[1 + a * D + b].add(stress.component(p, k, a, b));
-                }
-            }
-            if let Some(t) = polymer {
-                let trace: f64 = (0..D)
-                    .map(|a| p.extra[t].data[k * w + packed_index::<D>(a, a)])
-                    .sum();
-                sums[dd + 1].add(trace.abs());
-            }
-            if k % 2048 == 2047 {
-                sums.iter_mut().for_each(FixedSum::normalize);
-            }
-        }
-        sums.iter_mut().for_each(FixedSum::normalize);
-        FixedSum::allreduce(self.comm, &mut sums);
-        let n = sums[0].value();
-        let mean = (0..dd).map(|c| sums[1 + c].value() / n).collect();
-        (mean, sums[dd + 1].value() / n)
-    }
-
-    /// The composite shear stress of an SPH suspension, [Σ_fluid (m/ρ_i) σ_i,xy + Σ_inclusion
-    /// particles M_j^{xy}] / V with M the traction moments F ⊗ (x − c) (Batchelor 1970: the
-    /// cell average of the stress, the inclusions' share from their surface tractions), and
-    /// the mean torque per inclusion about z, Σ_j (M_j^{yx} − M_j^{xy}) / N_inclusions
-    /// (collective).
-    pub(super) fn composite_stress(&self) -> (f64, f64) {
-        use crate::models::sph::{DENSITY, INCLUSION, INCLUSION_TRACTION_MOMENT};
-        let p = &self.particles;
-        let (Some(density), Some(moment)) = (
-            p.extra_index(DENSITY),
-            p.extra_index(INCLUSION_TRACTION_MOMENT),
-        ) else {
-            return (f64::NAN, f64::NAN);
-        };
-        let dd = D * D;
-        let stress = ParticleStress::of(p);
-        // Fluid Σ V_i σ_i,xy; inclusions Σ M^{xy}; Σ (M^{yx} − M^{xy}).
-        let mut sums = [FixedSum::ZERO; 3];
-        for k in 0..p.n_owned {
-            let species = p.species_of(k);
-            if self.species[species as usize].is_fluid() {
-                let s = stress.component(p, k, 0, 1);
-                sums[0].add(self.species[species as usize].mass / p.extra[density].data[k] * s);
-            } else if species == INCLUSION {
-                let m = &p.extra[moment].data[k * dd..(k + 1) * dd];
-                sums[1].add(m[1]);
-                sums[2].add(m[D] - m[1]);
-            }
-            if k % 2048 == 2047 {
-                sums.iter_mut().for_each(FixedSum::normalize);
-            }
-        }
-        sums.iter_mut().for_each(FixedSum::normalize);
-        FixedSum::allreduce(self.comm, &mut sums);
-        let inclusions = self.case.inclusions.as_ref().map_or(1, |i| i.centres.len()) as f64;
-        (
-            (sums[0].value() + sums[1].value()) / self.sim_box.volume(),
-            sums[2].value() / inclusions,
-        )
-    }
-
     /// Samples every observable the case asked for (collective). A thermostatted (DPD) fluid
     /// whose kinetic temperature has passed [`crate::models::FluidModel::heating`] stops the run (the
     /// decision is on an exactly reduced sum, so every rank count stops alike).
@@ -544,18 +404,6 @@ impl<'c, const D: usize> Simulation<'c, D> {
         // The momentum flux: kinetic part plus every model's pair virial (for SPH, the pair
         // forces of the momentum equation: `crate::models::sph::momentum_flux`).
         let total: Vec<f64> = (0..dd).map(|i| parts.iter().map(|p| p[i]).sum()).collect();
-        // SPH: the particles' own constitutive stress σ̄ (viscous + polymer), when asked.
-        let constitutive = case
-            .diagnostics
-            .observables
-            .iter()
-            .any(|o| {
-                matches!(
-                    o,
-                    Observable::ConstitutiveStress | Observable::PolymerStressTrace
-                )
-            })
-            .then(|| self.sph_mean_stress());
         let trace_k: f64 = (0..D).map(|a| kinetic[a * D + a]).sum();
         // k_BT = Σ m V²/(degrees of freedom the local-mean subtraction leaves): unbiased for
         // any bin occupancy (N·D − B·D would overstate k_BT by the interpolation's share,
@@ -566,7 +414,21 @@ impl<'c, const D: usize> Simulation<'c, D> {
             ..Measurement::default()
         };
         let pt = |a: usize, b: usize| total[a * D + b];
+        let ctx = MeasureContext {
+            species: &self.species,
+            lengths: self.sim_box.lengths,
+            shear_rate: self.sim_box.shear_rate,
+            profile_bins: case.diagnostics.profile_bins,
+        };
         for o in &case.diagnostics.observables {
+            // An observable of a model's own fields: its exact sums, reduced over the ranks.
+            if let Some(model) = self.models.iter().find(|m| m.measures(*o)) {
+                let mut sums = model.observable_sums(*o, &self.particles, &ctx);
+                FixedSum::allreduce(self.comm, &mut sums);
+                let sums: Vec<f64> = sums.iter().map(FixedSum::value).collect();
+                out.scalars.extend(model.observable_values(*o, &sums, &ctx));
+                continue;
+            }
             match o {
                 Observable::Temperature => out.scalars.push(("temperature".into(), trace_k / dof)),
                 Observable::Pressure => out.scalars.push((
@@ -604,37 +466,6 @@ impl<'c, const D: usize> Simulation<'c, D> {
                 Observable::VelocityProfile => {
                     out.profile = Some(mean.iter().map(|u| u[0]).collect());
                 }
-                Observable::WallShearStress => {
-                    let [lower, upper] = self.wall_forces();
-                    out.scalars.push(("wall_shear_stress_lower".into(), lower));
-                    out.scalars.push(("wall_shear_stress_upper".into(), upper));
-                }
-                Observable::PolymerStressTrace => {
-                    let trace = constitutive.as_ref().map_or(f64::NAN, |c| c.1);
-                    out.scalars.push(("polymer_stress_trace".into(), trace));
-                }
-                Observable::ConstitutiveStress => {
-                    // σ̄ = −P: η = σ̄_xy/γ̇, N₁ = σ̄_xx − σ̄_yy, N₂ = σ̄_yy − σ̄_zz.
-                    let s = constitutive.as_ref().map_or(&[][..], |c| &c.0[..]);
-                    let c = |a: usize, b: usize| s.get(a * D + b).copied().unwrap_or(f64::NAN);
-                    let values = [
-                        c(0, 1) / self.sim_box.shear_rate,
-                        c(0, 0) - c(1, 1),
-                        c(1, 1) - c(2, 2),
-                    ];
-                    let names = crate::config::observables::constitutive_names(D);
-                    for (name, v) in names.iter().zip(values) {
-                        out.scalars.push(((*name).into(), v));
-                    }
-                }
-                Observable::CompositeViscosity => {
-                    let (stress, torque) = self.composite_stress();
-                    out.scalars.push((
-                        "composite_viscosity".into(),
-                        stress / self.sim_box.shear_rate,
-                    ));
-                    out.scalars.push(("inclusion_torque".into(), torque));
-                }
                 Observable::ShearStressProfile => {
                     // τ_xy(b) = −[Σ_{i∈b} m V_x V_y + W_xy(b)]/V_b ([`crate::models::stress_profile`]),
                     // V about the local mean velocity of the temperature.
@@ -665,43 +496,15 @@ impl<'c, const D: usize> Simulation<'c, D> {
                         ));
                     }
                 }
-                Observable::DensityProfile => {
-                    for (b, rho) in self.density_profile().into_iter().enumerate() {
-                        out.scalars
-                            .push((format!("{DENSITY_PROFILE_PREFIX}{b:04}"), rho));
-                    }
-                }
+                // Measured by the model whose fields they are (above); `check` refuses
+                // them for a fluid without those fields.
+                Observable::ConstitutiveStress
+                | Observable::PolymerStressTrace
+                | Observable::DensityProfile
+                | Observable::WallShearStress
+                | Observable::CompositeViscosity => {}
             }
         }
         out
-    }
-
-    /// The force along x per unit area on the lower and the upper wall (the sums of the
-    /// forces on their boundary particles, which the SPH momentum pass fills with the
-    /// reactions of their fluid neighbours), exact and reduced over the ranks (collective).
-    pub(super) fn wall_forces(&self) -> [f64; 2] {
-        use crate::models::sph::{LOWER_WALL, UPPER_WALL};
-        let Some(w) = &self.case.walls else {
-            return [f64::NAN; 2];
-        };
-        let p = &self.particles;
-        let mut sums = [FixedSum::ZERO; 2];
-        for i in 0..p.n_owned {
-            match p.species_of(i) {
-                LOWER_WALL => sums[0].add(p.force[i][0]),
-                UPPER_WALL => sums[1].add(p.force[i][0]),
-                _ => {}
-            }
-            if i % 2048 == 2047 {
-                sums.iter_mut().for_each(FixedSum::normalize);
-            }
-        }
-        FixedSum::allreduce(self.comm, &mut sums);
-        let axis = w.axis.index();
-        let area: f64 = (0..D)
-            .filter(|&d| d != axis)
-            .map(|d| self.sim_box.lengths[d])
-            .product();
-        [sums[0].value() / area, sums[1].value() / area]
     }
 }

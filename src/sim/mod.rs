@@ -17,7 +17,7 @@
 
 use crate::comm::{Comm, U64Op};
 use crate::config::{Case, IntegratorCfg, Lattice, Observable, VelocityProfile};
-use crate::diagnostics::{DENSITY_PROFILE_PREFIX, SHEAR_STRESS_PROFILE_PREFIX, Series};
+use crate::diagnostics::{SHEAR_STRESS_PROFILE_PREFIX, Series};
 use crate::domain::{HaloPlan, Slab, send_leavers, wrap_owned};
 use crate::error::{Error, Quantity, Unstable};
 use crate::fixed_sum::FixedSum;
@@ -26,7 +26,9 @@ use crate::integrators::{
     GrootWarren, IntegratedField, Integrator, KickDriftKick, TwoStage, TwoStageVariant,
 };
 use crate::models::gather::FullList;
-use crate::models::interface::{FieldKind, ParticleModel, PassContext, StateBlowUp};
+use crate::models::interface::{
+    FieldKind, MeasureContext, ParticleModel, PassContext, StateBlowUp,
+};
 use crate::models::pair_loop::{Virial, VirialScope};
 use crate::neighbour::{NeighbourList, spatial_order};
 use crate::particles::Particles;
@@ -159,24 +161,8 @@ impl<'c, const D: usize> Simulation<'c, D> {
         let (particles, total) = initial_particles(case, &sim_box, &slab);
         let mut sim = Self::assemble(case, comm, threads, sim_box, slab, particles, total, false)?;
         sim.attach(build_fluid::<D>(case))?;
-        if case.walls.is_some() || case.inclusions.is_some() {
-            use crate::models::sph::{FLUID, INCLUSION, LOWER_WALL, UPPER_WALL};
-            let table = crate::models::sph::boundary_species::<D>(
-                case.walls.as_ref(),
-                case.inclusions.is_some(),
-                case.particles.mass,
-            );
-            let wall_axis = case.walls.as_ref().map(|w| {
-                let axis = w.axis.index();
-                (axis, case.domain.lengths[axis])
-            });
-            let inclusions = case.inclusions.as_ref();
-            sim.set_species(table, |_, x| match wall_axis {
-                Some((axis, _)) if x[axis] < 0.0 => LOWER_WALL,
-                Some((axis, l)) if x[axis] >= l => UPPER_WALL,
-                _ if inclusions.is_some_and(|inc| inc.offset(x).is_some()) => INCLUSION,
-                _ => FLUID,
-            })?;
+        if let Some(layout) = case.fluid.builder::<D>().species_layout(case) {
+            sim.set_species(layout.table, |_, x| (layout.species_at)(x))?;
         } else {
             sim.rebuild()?;
             sim.compute_forces(sim.virial_scope)?;

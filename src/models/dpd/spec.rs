@@ -10,6 +10,8 @@ use crate::models::interface::ParticleModel;
 use crate::observable::Observable;
 use crate::spans::{CaseError, Segment, SpanIndex};
 
+impl crate::models::fluid_model::KindTraits for DpdCfg {}
+
 impl FluidModel for DpdCfg {
     fn kind(&self) -> &'static str {
         "dpd"

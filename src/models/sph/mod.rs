@@ -99,6 +99,7 @@ mod fields;
 mod gradient;
 mod model;
 mod momentum;
+mod observables;
 
 use boundaries::*;
 pub use config::*;

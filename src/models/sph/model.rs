@@ -1025,6 +1025,28 @@ impl<const D: usize> ParticleModel<D> for SphModel<D> {
         Ok(())
     }
 
+    fn measures(&self, o: crate::observable::Observable) -> bool {
+        self.measures_observable(o)
+    }
+
+    fn observable_sums(
+        &self,
+        o: crate::observable::Observable,
+        particles: &Particles<D>,
+        ctx: &crate::models::interface::MeasureContext<'_, D>,
+    ) -> Vec<crate::fixed_sum::FixedSum> {
+        self.sums_of(o, particles, ctx)
+    }
+
+    fn observable_values(
+        &self,
+        o: crate::observable::Observable,
+        sums: &[f64],
+        ctx: &crate::models::interface::MeasureContext<'_, D>,
+    ) -> Vec<(String, f64)> {
+        self.values_of(o, sums, ctx)
+    }
+
     fn counted_warnings(&self) -> Vec<(u64, &'static str)> {
         vec![
             (

@@ -7,11 +7,16 @@ use super::{DensityMethod, Derivatives, SphCfg, SphModel, ViscousTerm};
 use crate::integrators::IntegratorCfg;
 use crate::models::fluid_model::CaseView;
 use crate::models::fluid_model::{
-    BodyForce, BuildModels, Continuum, ContinuumPolymer, FluidModel, ModelMemory, generic_support,
+    BodyForce, BuildModels, Continuum, ContinuumPolymer, FluidModel, KindTraits, ModelMemory,
+    SpeciesLayout, generic_support,
 };
 use crate::models::interface::ParticleModel;
 use crate::observable::Observable;
 use crate::spans::{CaseError, SpanIndex};
+
+impl KindTraits for SphCfg {
+    const CARRIES_BOUNDARY_PARTICLES: bool = true;
+}
 
 impl FluidModel for SphCfg {
     fn kind(&self) -> &'static str {
@@ -28,10 +33,6 @@ impl FluidModel for SphCfg {
 
     fn validate(&self, case: &dyn CaseView, ix: &SpanIndex) -> Result<(), CaseError> {
         super::validate::validate_sph(case, self, ix)
-    }
-
-    fn carries_boundary_particles(&self) -> bool {
-        true
     }
 
     fn accepts_integrator(&self, integrator: &IntegratorCfg) -> Result<(), String> {
@@ -400,6 +401,35 @@ fn field_numbers<const D: usize>(case: &dyn CaseView, sph: &SphCfg) -> f64 {
 }
 
 impl<const D: usize> BuildModels<D> for SphCfg {
+    /// Walls (fluid, lower wall, upper wall; beyond the box along the wall axis) and
+    /// inclusions (the particles inside a disc or ball).
+    fn species_layout(&self, case: &dyn CaseView) -> Option<SpeciesLayout<D>> {
+        if case.walls().is_none() && case.inclusions().is_none() {
+            return None;
+        }
+        let table =
+            super::boundary_species::<D>(case.walls(), case.inclusions().is_some(), case.mass());
+        let wall_axis = case.walls().map(|w| {
+            let axis = w.axis.index();
+            (axis, case.lengths()[axis])
+        });
+        let inclusions = case.inclusions().cloned();
+        Some(SpeciesLayout {
+            table,
+            species_at: Box::new(move |x: &[f64; D]| match wall_axis {
+                Some((axis, _)) if x[axis] < 0.0 => super::LOWER_WALL,
+                Some((axis, l)) if x[axis] >= l => super::UPPER_WALL,
+                _ if inclusions
+                    .as_ref()
+                    .is_some_and(|inc| inc.offset(x).is_some()) =>
+                {
+                    super::INCLUSION
+                }
+                _ => super::FLUID,
+            }),
+        })
+    }
+
     fn build_fluid(&self, case: &dyn CaseView) -> Box<dyn ParticleModel<D>> {
         let lengths = std::array::from_fn(|d| case.lengths()[d]);
         let composite = case.wants(Observable::CompositeViscosity);
