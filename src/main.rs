@@ -254,8 +254,8 @@ fn main() -> ExitCode {
             Ok(loaded) => {
                 let ranks = ranks.max(1);
                 let loaded = match loaded.scene {
-                    config::Scene::Particles(c) => *c,
-                    config::Scene::HomogeneousFlow(flow) => {
+                    config::CaseScene::Particles(c) => *c,
+                    config::CaseScene::HomogeneousFlow(flow) => {
                         let (report, verdict) = mesorheo::check::flow_report(&flow, ranks);
                         if root {
                             print!("{report}");
@@ -336,10 +336,10 @@ fn main() -> ExitCode {
             };
             session(&*comm, &out, cli.quiet, cli.verbose, |comm| {
                 match &loaded.scene {
-                    config::Scene::HomogeneousFlow(flow) => {
+                    config::CaseScene::HomogeneousFlow(flow) => {
                         mesorheo::driver::run_flow_case(flow, &loaded.path, comm, &options)
                     }
-                    config::Scene::Particles(c) => {
+                    config::CaseScene::Particles(c) => {
                         let particles = config::LoadedCase {
                             case: (**c).clone(),
                             path: loaded.path.clone(),

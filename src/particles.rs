@@ -66,10 +66,13 @@ pub struct ExtraField {
     pub data: Vec<f64>,
 }
 
-/// Storage precision of a variable-length field.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+/// Storage precision of a variable-length field (and the case key that chooses it for the
+/// dumbbells' connectors, `polymer.precision = "double" | "single"`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
 pub enum Precision {
-    /// f64.
+    /// f64 (8 bytes per number).
+    #[default]
     Double,
     /// f32: half the memory of the largest state (dumbbell ensembles); a kernel widens a row to
     /// f64, works in f64 and rounds back, so the storage adds a relative error of 2⁻²⁴ per step.

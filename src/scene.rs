@@ -12,7 +12,7 @@ use crate::config::{OutputCfg, RunCfg};
 use crate::diagnostics::{DENSITY_PROFILE_PREFIX, Estimate};
 use crate::error::Error;
 use crate::sim::{PhaseTimes, Simulation};
-use crate::summary::{DensityPoint, ProfilePoint, Summary, Validation, validate};
+use crate::summary::{DensityPoint, ProfilePoint, Summary, Validation, check_references};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -334,7 +334,7 @@ impl<const D: usize> Scene for ParticleScene<'_, D> {
             })
             .collect();
         let validation = if completed {
-            validate(
+            check_references(
                 case,
                 &observables,
                 &velocity_profile,

@@ -243,7 +243,7 @@ fn check_startup(
 
 /// Evaluates the case's references (`series`: the instantaneous profiles, for start-up
 /// references; a run that did not keep them fails those).
-pub fn validate(
+pub fn check_references(
     case: &Case,
     observables: &BTreeMap<String, Estimate>,
     profile: &[ProfilePoint],
@@ -522,7 +522,7 @@ mod tests {
             })
             .collect();
         let profile_check = |profile: &[ProfilePoint]| {
-            validate(&case, &BTreeMap::new(), profile, None)
+            check_references(&case, &BTreeMap::new(), profile, None)
                 .into_iter()
                 .find(|v| v.metric.starts_with("max_bin"))
                 .expect("the case has a profile reference")

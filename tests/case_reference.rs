@@ -350,7 +350,7 @@ fn documented_keys_are_exactly_the_parsed_keys() {
     // The homogeneous-flow scene's keys (shared ones such as run.* appear in both).
     let flow = mesorheo::config::parse_scene(EVERY_FLOW_KEY, std::path::Path::new("flow.toml"))
         .unwrap_or_else(|e| panic!("{e}"));
-    let mesorheo::config::Scene::HomogeneousFlow(flow) = flow else {
+    let mesorheo::config::CaseScene::HomogeneousFlow(flow) = flow else {
         panic!("a [flow] table makes a homogeneous-flow scene");
     };
     let text = toml::to_string(&flow).expect("serialise");

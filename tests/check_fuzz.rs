@@ -13,7 +13,7 @@
 //! mutations that still triggers it. Deterministic: variant `i` of case `f` comes from a
 //! SplitMix64 seeded by (f, i), so the long run's first variants are the normal run's.
 
-use mesorheo::config::{self, Scene};
+use mesorheo::config::{self, CaseScene};
 use std::cell::{Cell, RefCell};
 use std::collections::{BTreeMap, BTreeSet, HashMap};
 use std::panic::PanicHookInfo;
@@ -567,7 +567,7 @@ fn check_like_the_cli(text: &str) -> bool {
     };
     for ranks in RANKS {
         match &scene {
-            Scene::Particles(case) => {
+            CaseScene::Particles(case) => {
                 std::hint::black_box(mesorheo::check::report(case, ranks));
                 let memory = mesorheo::capacity::check_rank_memory(
                     case,
@@ -577,7 +577,7 @@ fn check_like_the_cli(text: &str) -> bool {
                 std::hint::black_box(memory.err());
                 std::hint::black_box(mesorheo::capacity::max_ranks(case));
             }
-            Scene::HomogeneousFlow(flow) => {
+            CaseScene::HomogeneousFlow(flow) => {
                 let (text, verdict) = mesorheo::check::flow_report(flow, ranks);
                 std::hint::black_box((text, verdict.err()));
             }

@@ -7,7 +7,7 @@
 
 mod common;
 use common::case_from_str;
-use mesorheo::config::{self, Scene};
+use mesorheo::config::{self, CaseScene};
 use mesorheo::driver::{RunOptions, in_process, restart_case, run_case};
 use mesorheo::output::checkpoint::{self, FORMAT_VERSION, SceneKind};
 use std::path::{Path, PathBuf};
@@ -72,7 +72,8 @@ fn a_version_1_particle_checkpoint_restarts_bitwise_on_one_and_two_ranks() {
 #[test]
 fn a_version_1_flow_checkpoint_restarts_bitwise() {
     let path = fixture("flow_v1.toml");
-    let Scene::HomogeneousFlow(case) = config::load_scene(&path, &[]).expect("case").scene else {
+    let CaseScene::HomogeneousFlow(case) = config::load_scene(&path, &[]).expect("case").scene
+    else {
         panic!("a homogeneous-flow scene");
     };
     let whole = in_process(1, move |comm| {

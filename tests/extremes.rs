@@ -180,7 +180,7 @@ fn fene_at_wi_100_with_b_2_01() {
     let path = dir.path().join("fene.toml");
     std::fs::write(&path, text).expect("write");
     let loaded = mesorheo::config::load_scene(&path, &overrides).unwrap_or_else(|e| panic!("{e}"));
-    let mesorheo::config::Scene::HomogeneousFlow(flow) = loaded.scene else {
+    let mesorheo::config::CaseScene::HomogeneousFlow(flow) = loaded.scene else {
         panic!("a homogeneous-flow scene");
     };
     let comm = mesorheo::comm::SerialComm::new();
@@ -378,7 +378,7 @@ fn check_refuses_every_measured_unstable_dpd_step() {
             overrides.push("run.beyond_stability_limits=true".into());
             let loaded = mesorheo::config::load_scene(&root.join("cases").join(case), &overrides)
                 .unwrap_or_else(|e| panic!("{name} {overrides:?}: {e}"));
-            let mesorheo::config::Scene::Particles(c) = loaded.scene else {
+            let mesorheo::config::CaseScene::Particles(c) = loaded.scene else {
                 panic!("{name}: a particle scene")
             };
             let limit = dpd_limits_of_case(&c).expect("DPD").combined;
@@ -427,7 +427,7 @@ fn check_refuses_every_measured_unstable_dpd_step() {
         let loaded =
             mesorheo::config::load_scene(&root.join("cases/dpd_equilibrium_2d.toml"), &overrides)
                 .expect("the study's case");
-        let mesorheo::config::Scene::Particles(c) = loaded.scene else {
+        let mesorheo::config::CaseScene::Particles(c) = loaded.scene else {
             panic!("a particle scene")
         };
         let limit = dpd_limits_of_case(&c).expect("DPD").combined;

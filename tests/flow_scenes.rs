@@ -5,7 +5,7 @@
 //! only at the rounding level; scenes that do not fit the memory are refused up front.
 #![cfg(feature = "hdf5")]
 
-use mesorheo::config::{FlowCase, Scene, parse_scene};
+use mesorheo::config::{CaseScene, FlowCase, parse_scene};
 use mesorheo::driver::run_flow_case;
 use mesorheo::driver::{RunOptions, in_process, restart_case};
 use mesorheo::summary::Summary;
@@ -40,8 +40,8 @@ blocks = 4
 "#
     );
     match parse_scene(&text, Path::new("flow.toml")).unwrap_or_else(|e| panic!("{e}")) {
-        Scene::HomogeneousFlow(c) => *c,
-        Scene::Particles(_) => panic!("a [flow] table makes a flow scene"),
+        CaseScene::HomogeneousFlow(c) => *c,
+        CaseScene::Particles(_) => panic!("a [flow] table makes a flow scene"),
     }
 }
 
@@ -241,7 +241,7 @@ fn stock_dumbbell_scenes_pass_their_references() {
             .join("cases")
             .join(name);
         let loaded = mesorheo::config::load_scene(&path, &[]).unwrap_or_else(|e| panic!("{e}"));
-        let Scene::HomogeneousFlow(case) = loaded.scene else {
+        let CaseScene::HomogeneousFlow(case) = loaded.scene else {
             panic!("{name} is a homogeneous-flow scene");
         };
         let s = run(&case, 1, options(2, None, None));

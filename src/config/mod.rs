@@ -468,35 +468,35 @@ pub struct LoadedCase {
 
 /// What a case file describes.
 #[derive(Clone, Debug, PartialEq)]
-pub enum Scene {
+pub enum CaseScene {
     /// Particles in a box with a fluid model (DPD, …): the engine with halo, lists, shear.
     Particles(Box<Case>),
     /// Particles carrying dumbbell ensembles in an imposed homogeneous flow (a `[flow]` table).
     HomogeneousFlow(Box<FlowCase>),
 }
 
-impl Scene {
+impl CaseScene {
     /// Spatial dimension.
     pub fn dimension(&self) -> usize {
         match self {
-            Scene::Particles(c) => c.dimension,
-            Scene::HomogeneousFlow(c) => c.dimension,
+            CaseScene::Particles(c) => c.dimension,
+            CaseScene::HomogeneousFlow(c) => c.dimension,
         }
     }
 
     /// The time step and the run lengths.
     pub fn dt_and_run(&self) -> (f64, &RunCfg) {
         match self {
-            Scene::Particles(c) => (c.integrator.dt(), &c.run),
-            Scene::HomogeneousFlow(c) => (c.integrator.dt, &c.run),
+            CaseScene::Particles(c) => (c.integrator.dt(), &c.run),
+            CaseScene::HomogeneousFlow(c) => (c.integrator.dt, &c.run),
         }
     }
 
     /// The scene as TOML (the echo stored in checkpoints and summaries).
     pub fn to_toml(&self) -> Result<String, String> {
         match self {
-            Scene::Particles(c) => toml::to_string(c),
-            Scene::HomogeneousFlow(c) => toml::to_string(c),
+            CaseScene::Particles(c) => toml::to_string(c),
+            CaseScene::HomogeneousFlow(c) => toml::to_string(c),
         }
         .map_err(|e| format!("cannot echo the case: {e}"))
     }
@@ -506,7 +506,7 @@ impl Scene {
 #[derive(Clone, Debug)]
 pub struct LoadedScene {
     /// The scene.
-    pub scene: Scene,
+    pub scene: CaseScene,
     /// The file.
     pub path: PathBuf,
     /// The (possibly overridden) text.
@@ -531,11 +531,11 @@ pub fn load_scene(path: &Path, overrides: &[String]) -> Result<LoadedScene, Case
 
 /// Parses and validates case text of any kind of scene: a `[flow]` table makes it a
 /// homogeneous-flow scene, otherwise it is a particle scene.
-pub fn parse_scene(source: &str, path: &Path) -> Result<Scene, CaseError> {
+pub fn parse_scene(source: &str, path: &Path) -> Result<CaseScene, CaseError> {
     let index = spans::SpanIndex::new(source, path)?;
     let table: toml::Table = toml::from_str(source).map_err(|e| index.syntax_error(&e))?;
     if !table.contains_key("flow") {
-        return parse(source, path).map(|c| Scene::Particles(Box::new(c)));
+        return parse(source, path).map(|c| CaseScene::Particles(Box::new(c)));
     }
     tagged::precheck_references(&table, &index)?;
     let de = toml::Deserializer::parse(source).map_err(|e| index.syntax_error(&e))?;
@@ -549,7 +549,7 @@ pub fn parse_scene(source: &str, path: &Path) -> Result<Scene, CaseError> {
         err
     })?;
     flow::validate(&case, &index)?;
-    Ok(Scene::HomogeneousFlow(Box::new(case)))
+    Ok(CaseScene::HomogeneousFlow(Box::new(case)))
 }
 
 /// Reads a case file, applies `key.path=value` overrides (as `--set` on the command line gives

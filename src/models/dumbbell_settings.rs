@@ -32,16 +32,8 @@ pub enum SchemeKind {
     SemiImplicit,
 }
 
-/// Storage precision of the connector vectors.
-#[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq, Eq, Default)]
-#[serde(rename_all = "snake_case")]
-pub enum Precision {
-    /// 8 bytes per component.
-    #[default]
-    Double,
-    /// 4 bytes per component (arithmetic still in double precision).
-    Single,
-}
+/// Storage precision of the connector vectors (`polymer.precision`): the particle store's own.
+pub use crate::particles::Precision;
 
 /// The spring law of the keys `spring` and `b` (b validated to exist for FENE).
 pub fn spring_law(spring: SpringKind, b: Option<f64>) -> Spring {

@@ -224,8 +224,8 @@ pub fn read_case(path: &Path) -> Result<FlowCase, CheckpointError> {
 
 fn parse_echo(path: &Path, text: &str, echo: &Path) -> Result<FlowCase, CheckpointError> {
     match crate::config::parse_scene(text, echo) {
-        Ok(crate::config::Scene::HomogeneousFlow(c)) => Ok(*c),
-        Ok(crate::config::Scene::Particles(_)) => Err(CheckpointError::damaged(
+        Ok(crate::config::CaseScene::HomogeneousFlow(c)) => Ok(*c),
+        Ok(crate::config::CaseScene::Particles(_)) => Err(CheckpointError::damaged(
             path,
             "the case echo is not a homogeneous-flow scene",
         )),

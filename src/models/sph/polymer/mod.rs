@@ -12,7 +12,7 @@
 //! The stress is stored packed, the upper triangle row by row: (xx, xy, yy) in 2D,
 //! (xx, xy, xz, yy, yz, zz) in 3D.
 
-use crate::models::dumbbell_settings::{Precision as ConnectorPrecision, SchemeKind, SpringKind};
+use crate::models::dumbbell_settings::{SchemeKind, SpringKind};
 use crate::models::dumbbells::{DumbbellParams, Scheme, Spring};
 use crate::particles::Precision;
 use serde::{Deserialize, Serialize};
@@ -45,7 +45,7 @@ pub struct PolymerCfg {
     pub scheme: Option<SchemeKind>,
     /// `dumbbells`: storage precision of the connectors (default double).
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub precision: Option<ConnectorPrecision>,
+    pub precision: Option<Precision>,
 }
 
 impl PolymerCfg {
@@ -88,10 +88,7 @@ impl PolymerCfg {
 
     /// The connectors' storage precision.
     pub fn connector_precision(&self) -> Precision {
-        match self.precision.unwrap_or_default() {
-            ConnectorPrecision::Double => Precision::Double,
-            ConnectorPrecision::Single => Precision::Single,
-        }
+        self.precision.unwrap_or_default()
     }
 
     /// Bytes of connector storage per fluid particle (0 for a constitutive model).
