@@ -1,6 +1,8 @@
 #!/usr/bin/env python3
 """Long validations of mesorheo (`./run validate [NAME]`); prints Markdown for docs/validation.md
-and writes plots to docs/ when matplotlib is available.
+and writes plots to docs/ when matplotlib is available. Exits 1 when any recorded check misses
+(`verdict`), naming each miss; every verdict goes to out/validate/results.json
+(MESORHEO_VALIDATE_JSON). A target without verdicts prints tables only, and the summary says so.
 
   kt_vs_dt       k_BT and p of the Groot–Warren fluid vs Δt for λ = 0.5 and 0.65 (3D, ρ = 3)
   viscosity      η, N₁, N₂ of Lees–Edwards shear vs run length (stability of the estimate)
@@ -101,6 +103,43 @@ def run_text(text, sets=(), ranks=1, threads=2):
 
 def fmt(e):
     return f"{e['mean']:.4f} ± {e['stderr']:.4f}"
+
+
+# Every verdict of this invocation: (target, check, pass, detail). A target that records none
+# prints a table for a reader and cannot fail yet; the summary at the end says which.
+VERDICTS = []
+CURRENT = {"target": None}
+
+
+def verdict(check, passed, detail=""):
+    """Records one pass/fail check of the running target (what `./run validate` exits on)."""
+    VERDICTS.append({"target": CURRENT["target"], "check": check, "pass": bool(passed),
+                     "detail": detail})
+    if not passed:
+        print(f"**MISS** {CURRENT['target']}: {check} {detail}", file=sys.stderr, flush=True)
+
+
+def finish(todo):
+    """Writes the verdicts as JSON (MESORHEO_VALIDATE_JSON, default out/validate/results.json),
+    names every miss and the targets without verdicts, and exits 1 on a miss."""
+    path = os.environ.get("MESORHEO_VALIDATE_JSON",
+                          os.path.join(ROOT, "out", "validate", "results.json"))
+    os.makedirs(os.path.dirname(path), exist_ok=True)
+    commit = subprocess.run(["git", "-C", ROOT, "rev-parse", "--short", "HEAD"],
+                            capture_output=True, text=True).stdout.strip()
+    import datetime
+    with open(path, "w") as f:
+        json.dump({"date": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
+                   "commit": commit, "binary": BIN, "targets": todo, "verdicts": VERDICTS},
+                  f, indent=1)
+    misses = [v for v in VERDICTS if not v["pass"]]
+    silent = [t for t in todo if not any(v["target"] == t for v in VERDICTS)]
+    print(f"\n{len(VERDICTS)} checks, {len(misses)} missed; results in {path}", file=sys.stderr)
+    for v in misses:
+        print(f"  MISS {v['target']}: {v['check']} {v['detail']}", file=sys.stderr)
+    if silent:
+        print(f"  tables only, no pass/fail yet: {', '.join(silent)}", file=sys.stderr)
+    sys.exit(1 if misses else 0)
 
 
 def kt_vs_dt():
@@ -258,6 +297,7 @@ def stock():
             layout = f"1 × 2{via} (2 ranks failed: {_stock_cell(err, 200)})"
             if s is None:
                 failed.append(case)
+                verdict(f"{case}: runs", False, _stock_cell(err1, 200))
                 print(f"| {case} | {layout} | {secs:.1f} | run failed on 1 rank too: {_stock_cell(err1, 200)} "
                       f"| | | | | ERROR |", flush=True)
                 continue
@@ -265,6 +305,9 @@ def stock():
         if wall > 300:
             slow.append((case, wall))
         rows = s.get("validation") or []
+        for v in rows:
+            verdict(f"{case}: {v['name']}", v["pass"],
+                    f"({v['metric']} {v['value']:.4g}, tolerance {v['tolerance']:.4g})")
         if not rows:
             print(f"| {case} | {layout} | {wall:.1f} | (no [[reference]]) | | | | | – |", flush=True)
         for i, v in enumerate(rows):
@@ -468,10 +511,13 @@ def viscometric():
                 dev = (m - exact) / e if e > 0 else (0.0 if abs(m - exact) < 1e-12 else float("inf"))
                 ok &= abs(dev) <= 3
                 three_sigma_ok &= 3 * e <= 0.01 * scale
+                verdict(f"D = {dim}, Wi = {wi}: {name} within 3σ of {exact}", abs(dev) <= 3,
+                        f"({m:.6g} ± {e:.2g}, {dev:+.1f}σ)")
                 # Ψ₂ is ≈ 0 with error bars far below 10⁻⁴: scientific notation shows them.
                 fmt = ".2e" if exact == 0.0 else ".4f"
                 row += [f"{m / scale:{fmt}} ± {e / scale:{fmt}}", f"{dev:+.1f}"]
             ok &= three_sigma_ok
+            verdict(f"D = {dim}, Wi = {wi}: 3σ ≤ 1 % of each function", three_sigma_ok)
             row += ["yes" if three_sigma_ok else "**no**", f"{s['wall_seconds']:.0f}"]
             print("| " + " | ".join(row) + " |")
     print(f"\nAll within 3σ with 3σ ≤ 1 %: {'yes' if ok else '**no**'}\n")
@@ -1205,6 +1251,9 @@ def fene_table():
                 for name, _ in FENE_OBSERVABLES:
                     m, e = o[name]["mean"], o[name]["stderr"]
                     dev = (m - fp[name]) / e
+                    # 4σ: 18 rows × 3 functions at a two-sided 4σ miss 6·10⁻⁵ each by chance.
+                    verdict(f"d = {dim}, b = {b}, Wi = {wi:g}: {name} within 4σ of Fokker–Planck",
+                            abs(dev) <= 4, f"({m:.5g} ± {e:.2g} against {fp[name]:.5g}, {dev:+.1f}σ)")
                     if abs(dev) > abs(worst[0]):
                         worst = (dev, f"d = {dim}, b = {b}, Wi = {wi:g}, {name}")
                     row += [f"{m:.4f} ± {e:.4f}", f"{fp[name]:.4f}", f"{dev:+.1f}"]
@@ -1480,6 +1529,9 @@ def dpd_stability():
         mark = "**" if accepts < 0.8 or limit >= unstable else ""
         print(f"| {name} | {point} | {stable:.4g} | {unstable:.4g} | {limit:.4g} | "
               f"{limit / unstable:.3f} | {mark}{100 * accepts:.0f} %{mark} |")
+    for name, point, stable, unstable, limit in rows:
+        verdict(f"{name} at {point}: check refuses the smallest unstable Δt", limit < unstable,
+                f"(check {limit:.4g}, unstable {unstable:.4g})")
     accepted = sorted(min(l, s) / s for _, _, s, _, l in rows)
     print(f"\n{len(rows)} points: check refuses the unstable step at "
           f"{sum(l < u for *_, u, l in rows)}; accepts ≥ 80 % of the stable range at "
@@ -1515,4 +1567,7 @@ if __name__ == "__main__":
     for name in todo:
         if name not in targets:
             sys.exit(f"unknown validation '{name}'; valid: {', '.join(targets)}")
+    for name in todo:
+        CURRENT["target"] = name
         targets[name]()
+    finish(todo)
