@@ -53,6 +53,7 @@ pub mod flow_scene;
 pub mod geometry;
 pub mod green_kubo;
 pub mod integrators;
+pub mod key_doc;
 pub mod models;
 pub mod neighbour;
 pub mod observable;

@@ -235,7 +235,7 @@ struct DocKey {
 
 /// What mutations draw from besides the case itself.
 struct Pools {
-    /// Every key of `config::reference::KEYS`.
+    /// Every key of `config::reference::keys()`.
     documented: Vec<DocKey>,
     /// Index into `documented` by dotted path.
     by_path: HashMap<String, usize>,
@@ -245,7 +245,7 @@ struct Pools {
 
 impl Pools {
     fn new(stocks: &[Stock]) -> Self {
-        let documented: Vec<DocKey> = config::reference::KEYS
+        let documented: Vec<DocKey> = config::reference::keys()
             .iter()
             .map(|doc| {
                 let (table, key) = doc.path.rsplit_once('.').unwrap_or(("", doc.path));

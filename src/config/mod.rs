@@ -2,7 +2,7 @@
 //!
 //! Every error names the file, line and column, the key path, what was found and what would be
 //! valid; nothing panics and nothing runs on a bad case. The key reference in
-//! `docs/case-reference.md` is generated from [`reference::KEYS`], and a test checks that the
+//! `docs/case-reference.md` is generated from [`reference::keys`], and a test checks that the
 //! table, the structs and the document agree.
 
 pub use crate::models::dpd::physical as dpd_physical;

@@ -2,34 +2,21 @@
 //! (`mesorheo keys > docs/case-reference.md`). A test checks that the table lists exactly the
 //! keys the structs accept and that the document is up to date.
 
-/// One documented key.
-pub struct KeyDoc {
-    /// Dotted path; `[]` marks an array of tables.
-    pub path: &'static str,
-    /// Type and allowed values.
-    pub kind: &'static str,
-    /// Default, or "required".
-    pub default: &'static str,
-    /// Meaning.
-    pub doc: &'static str,
+pub use crate::key_doc::KeyDoc;
+use crate::key_doc::key;
+
+/// Every key of a case file, in the order of the reference: the general keys, each registered
+/// fluid model's own (its `KindTraits::KEYS`, in the registry's order), then the rest.
+pub fn keys() -> Vec<&'static KeyDoc> {
+    EARLIER_KEYS
+        .iter()
+        .chain(super::registry::fluid_keys())
+        .chain(LATER_KEYS)
+        .collect()
 }
 
-const fn key(
-    path: &'static str,
-    kind: &'static str,
-    default: &'static str,
-    doc: &'static str,
-) -> KeyDoc {
-    KeyDoc {
-        path,
-        kind,
-        default,
-        doc,
-    }
-}
-
-/// Every key of a case file.
-pub const KEYS: &[KeyDoc] = &[
+/// The keys before the fluid model's own (`[box]`, `[particles]`, `fluid.kind`).
+const EARLIER_KEYS: &[KeyDoc] = &[
     key(
         "title",
         "string",
@@ -109,234 +96,10 @@ pub const KEYS: &[KeyDoc] = &[
         "required",
         "Fluid model. \"dpd\": dissipative particle dynamics (Groot–Warren). \"sph\": weakly compressible SPH for Newtonian fluids (Ellero 2004 ch. 2). \"summation_gas\": the engine's two-pass test model, an isothermal SPH gas (Lucy kernel, summation density, p = c²ρ).",
     ),
-    key(
-        "fluid.a",
-        "float ≥ 0",
-        "required (dpd)",
-        "Conservative repulsion a: F^C = a (1 − r/r_c) e_ij.",
-    ),
-    key(
-        "fluid.gamma",
-        "float > 0",
-        "required (dpd)",
-        "Dissipation γ: F^D = −γ w_D (e_ij·v_ij) e_ij.",
-    ),
-    key(
-        "fluid.kt",
-        "float > 0",
-        "required (dpd)",
-        "Thermostat temperature k_BT; σ = √(2γ k_BT).",
-    ),
-    key(
-        "fluid.cutoff",
-        "float > 0",
-        "1.0",
-        "Cutoff r_c of all three forces. cutoff + neighbour.skin must not exceed half the box on periodic axes.",
-    ),
-    key(
-        "fluid.weight_exponent",
-        "float > 0",
-        "2.0",
-        "s in w_D = (1 − r/r_c)^s, w_R = √w_D (2: standard DPD; 0.5: modified). Set by [fluid.physical] when given.",
-    ),
-    key(
-        "fluid.body_force",
-        "array of D floats",
-        "none",
-        "DPD: a constant acceleration g on every particle (force m g). With it, \"velocity_profile\" bins u_x along y.",
-    ),
-    key(
-        "fluid.body_force_profile",
-        "\"uniform\" | \"reverse\"",
-        "\"uniform\"",
-        "DPD: \"reverse\" applies +g for y ≥ L_y/2 and −g below: the reverse (double) Poiseuille flow of a periodic box.",
-    ),
-    key(
-        "fluid.conservative_exponent",
-        "float > 0",
-        "1.0",
-        "s̄ in w_C = (1 − r/r_c)^s̄ of the conservative force a w_C (1: Groot–Warren). Set by [fluid.physical] when given.",
-    ),
-    key(
-        "fluid.physical.viscosity",
-        "float > 0",
-        "required in [fluid.physical]",
-        "DPD from physical properties (Nguyen 2021; `mesorheo check` prints both sides): a `[fluid.physical]` table replaces a, gamma, weight_exponent and conservative_exponent, which are mapped from it (a raw key given beside it must equal the mapped value). The density and mass come from [particles], k_BT and r_c from [fluid]. `viscosity`: η, imposed as the kinetic-theory dissipative viscosity η̄_D (the measured η differs; measure it).",
-    ),
-    key(
-        "fluid.physical.time_scale_ratio",
-        "float > 0",
-        "none: classical-water repulsion",
-        "α = γ² r_c/(m a), the ratio of the dissipative to the conservative time scale; a = γ² r_c/(α m), and s̄ matches the compressibility. Without it a = 15(κ⁻¹ − 1)k_BT/(π n r_c⁴) (3D; 12(κ⁻¹ − 1)k_BT/(π n r_c³) in 2D) with s̄ = 1.",
-    ),
-    key(
-        "fluid.physical.inverse_compressibility",
-        "float > 1",
-        "15.9835 (water)",
-        "κ⁻¹ = (1/k_BT) ∂p/∂n.",
-    ),
-    key(
-        "fluid.physical.schmidt_number",
-        "float > 0",
-        "none (s = 1/2)",
-        "Sc = η̄_D/(ρD) to impose: fixes the dissipative exponent s (exclusive with particle_diffusion_time); infeasible values are refused with the allowed range.",
-    ),
-    key(
-        "fluid.physical.particle_diffusion_time",
-        "float > 0",
-        "none (s = 1/2)",
-        "τ_P = R²/D to impose (3D only): fixes s instead of a Schmidt number.",
-    ),
-    key(
-        "fluid.noise",
-        "\"gaussian\" | \"uniform\"",
-        "\"gaussian\"",
-        "Distribution of θ_ij: standard normal, or √3(2u − 1) (unit variance).",
-    ),
-    key(
-        "fluid.smoothing_length",
-        "float > 0",
-        "required (sph, summation_gas)",
-        "Smoothing length h. Support (the interaction cutoff): h for Lucy, 2h for cubic_spline and wendland_c2, 3h for quintic_spline.",
-    ),
-    key(
-        "fluid.kernel",
-        "\"lucy\" | \"cubic_spline\" | \"quintic_spline\" | \"wendland_c2\" | \"truncated_gaussian\"",
-        "\"lucy\"",
-        "SPH smoothing kernel (sph). Supports: Lucy h, cubic spline and Wendland C2 2h, quintic spline 3h, truncated Gaussian 2h (Murashima & Taniguchi's MSPH kernel, A_d/(h√π)^d (e^{−r²/h²} − e^{−4}); its W′ jumps at 2h).",
-    ),
-    key(
-        "fluid.rest_density",
-        "float > 0",
-        "1.0",
-        "Rest density ρ₀ (sph); particles.mass must be ρ₀ / particles.density within 5 %.",
-    ),
-    key(
-        "fluid.equation_of_state",
-        "\"quadratic\" | \"tait\"",
-        "\"quadratic\"",
-        "sph: p = c₀²ρ²/(2ρ₀) (the thesis's, background pressure ρ₀c₀²/2) or Tait p = (c₀²ρ₀/7)((ρ/ρ₀)⁷ − 1). Near moving walls the quadratic one's background pressure drags the fluid (docs/validation.md).",
-    ),
-    key(
-        "fluid.density",
-        "\"summation\" | \"continuity\"",
-        "\"summation\"",
-        "sph: ρ_i = Σ m_j W_ij every evaluation, or dρ/dt = Σ m_j v_ij·∇W_ij integrated from ρ₀.",
-    ),
-    key(
-        "fluid.viscosity",
-        "float ≥ 0",
-        "required (sph)",
-        "Dynamic viscosity η (sph): of the whole fluid, or of the solvent when [fluid.polymer] adds a polymer stress.",
-    ),
-    key(
-        "fluid.viscous_term",
-        "\"nested_summation\" | \"morris\"",
-        "\"nested_summation\"",
-        "sph: the thesis's two-pass stress σ̄ = η(G + Gᵀ − (2/d) tr G I) from the velocity-gradient estimate, or Morris's direct term (one pass, better damping at the lattice scale).",
-    ),
-    key(
-        "fluid.body_force",
-        "array of D floats",
-        "none",
-        "Body force per unit mass on fluid particles (sph; Poiseuille flow).",
-    ),
-    key(
-        "fluid.morris_regularisation",
-        "float ≥ 0",
-        "0.0",
-        "ε of 1/(r² + εh²) in Morris's term (sph). Not needed by any offered kernel; 0.01 with Lucy weakens the viscosity by ~5 %.",
-    ),
-    key(
-        "fluid.xsph",
-        "float in [0, 1]",
-        "0.0",
-        "XSPH factor ε (sph): particles move with v + ε Σ_j (m_j/ρ̄_ij)(v_j − v_i) W_ij; the momentum equation is unchanged. 0.5 is usual; needs kick_drift_kick.",
-    ),
-    key(
-        "fluid.background_pressure",
-        "float",
-        "0.0",
-        "Constant p_b added to the equation of state (sph). No continuum pressure gradient changes; it keeps the total stress compressive where a polymer stress pulls (τ_xx > 0 in shear), which the SPH tensile instability feeds on.",
-    ),
-    key(
-        "fluid.velocity_gradient",
-        "\"sph\" | \"corrected\"",
-        "\"sph\"",
-        "The velocity-gradient estimate G_i (sph): \"sph\" is Σ_j (m_j/ρ_j)(v_j − v_i) ⊗ ∇W_ij (Ellero Eq. 3.7), exact for a linear field only on an undisturbed lattice; \"corrected\" is G_i M_i⁻¹ with M_i = Σ_j (m_j/ρ_j)(x_j − x_i) ⊗ ∇W_ij, exact on any arrangement (a particle with det M_i < 10⁻³ keeps G_i). Use \"corrected\" where noise disorders the particles (dumbbell ensembles): there the plain estimate reads the shear rate ~1 % low.",
-    ),
-    key(
-        "fluid.derivatives",
-        "\"sph\" | \"msph\"",
-        "\"sph\"",
-        "The derivative operator of ∇v and ∇·σ (sph). \"sph\": pairwise (the gradient of velocity_gradient, the momentum equation in antisymmetric pair form, momentum conserved pair by pair). \"msph\": Zhang–Batra moment-matrix derivatives (Murashima–Taniguchi), exact for quadratic fields: per particle a 6×6 (2D) or 10×10 (3D) system, factored once per step and reused for v and σ = −pI + σ̄ + τ; a system whose h-scaled condition number exceeds 10⁴ is solved to first order (counted in the summary). Needs kernel = \"truncated_gaussian\", summation density, walls treatment \"mirror\" (or \"layers\", the paper's literal, ill-posed walls), and a Morris viscosity for damping (morris_share, or viscous_term = \"morris\").",
-    ),
-    key(
-        "fluid.morris_share",
-        "float in [0, 1)",
-        "0.0",
-        "With viscous_term = \"nested_summation\" (sph): the share s of η applied by Morris's pairwise term, (1 − s)η by the nested summation. MSPH's two-pass Newtonian stress leaves particle-scale velocity modes undamped; s = 0.1 damps them (docs/theory/msph_dumbbells.md §5.1).",
-    ),
-    key(
-        "fluid.polymer.model",
-        "\"corotational_maxwell\" | \"upper_convected_maxwell\" | \"dumbbells\" | \"fene_p\"",
-        "required ([fluid.polymer])",
-        "A polymer stress τ carried by every particle (sph): the corotational (Jaumann) Maxwell model of Ellero 2004 ch. 3 with its printed sign corrected, dτ/dt = Ωτ − τΩ + (2η_p/λ)D̄ − τ/λ, or the upper-convected Maxwell model dτ/dt = Gτ + τGᵀ + (2η_p/λ)D − τ/λ (Oldroyd-B with fluid.viscosity > 0): τ starts at 0, is advanced by the integrator and checkpointed. \"dumbbells\" (CONNFFESSIT): every fluid particle carries per_particle Brownian dumbbells advanced once per step with the traceless part of its own velocity gradient; τ is their Kramers stress G(⟨QF(Q)⟩ − I), G = η_p/λ; the connectors start at equilibrium and are checkpointed; walls and inclusions carry none. \"fene_p\": the FENE-P closure of FENE dumbbells (needs b), dc/dt = Gc + cGᵀ − (Zc − I)/λ, Z = 1/(1 − tr c/b), τ = (η_p/λ)(Zc − I), advanced in τ; zero-shear polymer viscosity η_p b/(b + D).",
-    ),
-    key(
-        "fluid.polymer.per_particle",
-        "integer in [1, 2²⁶]",
-        "required (dumbbells)",
-        "Dumbbells per fluid particle N_d (model = \"dumbbells\"). The stress noise falls as N_d^(−1/2); memory N_d × D × 8 bytes per particle (4 in single precision).",
-    ),
-    key(
-        "fluid.polymer.spring",
-        "\"hookean\" | \"fene\"",
-        "\"hookean\"",
-        "Spring law of the dumbbells (model = \"dumbbells\"). Hookean dumbbells are the Oldroyd-B fluid (η_p = Gλ); FENE needs b, and its zero-shear polymer viscosity is Gλ b/(b + D + 2).",
-    ),
-    key(
-        "fluid.polymer.b",
-        "float > 2 (dumbbells), > 0 (fene_p)",
-        "required (fene, fene_p)",
-        "FENE extensibility b = H Q₀²/k_BT (model = \"dumbbells\" with spring = \"fene\", or model = \"fene_p\").",
-    ),
-    key(
-        "fluid.polymer.scheme",
-        "\"euler_maruyama\" | \"heun\" | \"semi_implicit\"",
-        "\"heun\" (Hookean), \"semi_implicit\" (FENE)",
-        "Stochastic scheme of the dumbbells (model = \"dumbbells\"); FENE needs \"semi_implicit\".",
-    ),
-    key(
-        "fluid.polymer.precision",
-        "\"double\" | \"single\"",
-        "\"double\"",
-        "Storage of the connectors (model = \"dumbbells\"); the arithmetic is double either way.",
-    ),
-    key(
-        "fluid.polymer.viscosity",
-        "float > 0",
-        "required ([fluid.polymer])",
-        "Polymer (zero-shear) viscosity η_p = Gλ. The fluid's zero-shear viscosity is fluid.viscosity + η_p.",
-    ),
-    key(
-        "fluid.polymer.relaxation_time",
-        "float > 0",
-        "required ([fluid.polymer])",
-        "Relaxation time λ; Δt must stay below it and below the elastic-wave limit 0.35 r_s/√(c₀² + η_p/(ρ₀λ)) (the coefficient measured).",
-    ),
-    key(
-        "fluid.polymer.rotation",
-        "bool",
-        "true",
-        "The rotation terms Ωτ − τΩ of the corotational model; false is the thesis's linear variant (SPH2).",
-    ),
-    key(
-        "fluid.sound_speed",
-        "float > 0",
-        "required (sph, summation_gas)",
-        "Sound speed: c₀ of the SPH equation of state; c of the summation gas (p = c² ρ, Δt < 0.25 h/c). SPH time steps are refused beyond the acoustic r_s/c₀, viscous (0.125 r_s²ρ₀/η nested, 0.042 r_s²ρ₀/η Morris) and body-force 0.25√(r_s/|F|) limits (r_s: support).",
-    ),
+];
+
+/// The keys after `[fluid]` (the fluid models document their own: [`keys`]).
+const LATER_KEYS: &[KeyDoc] = &[
     key(
         "integrator.kind",
         "\"groot_warren\" | \"kick_drift_kick\" | \"heun\" | \"midpoint\" | \"thesis_predictor_corrector\" | \"brownian_dynamics\"",
@@ -697,7 +460,7 @@ pub fn render_markdown() -> String {
          would be valid. `mesorheo check CASE` prints the derived numbers.\n\n\
          | key | type | default | meaning |\n|---|---|---|---|\n",
     );
-    for k in KEYS {
+    for k in keys() {
         s.push_str(&format!(
             "| `{}` | {} | {} | {} |\n",
             k.path,

@@ -53,6 +53,12 @@ macro_rules! fluid_registry {
             format!("kind = {}", kinds.join(" | "))
         }
 
+        /// Every registered kind's documented `[fluid]` keys, in the registry's order.
+        pub fn fluid_keys() -> impl Iterator<Item = &'static crate::key_doc::KeyDoc> {
+            std::iter::empty()
+                $( .chain(<$cfg as KindTraits>::KEYS.iter()) )*
+        }
+
         /// Every registered `kind` with the check of its table (for the case parser).
         pub(super) const FLUIDS: &[(&str, super::tagged::Check)] = &[
             $( ($kind, super::tagged::check::<$cfg>), )*

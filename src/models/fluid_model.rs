@@ -291,6 +291,8 @@ pub trait BuildModels<const D: usize> {
 pub trait KindTraits {
     /// Whether the kind carries boundary particles (`[walls]`, `[inclusions]`).
     const CARRIES_BOUNDARY_PARTICLES: bool = false;
+    /// Its `[fluid]` keys, documented for the case-file reference (`mesorheo keys`).
+    const KEYS: &'static [crate::key_doc::KeyDoc] = &[];
 }
 
 /// The species number of the particle whose initial position is the argument.

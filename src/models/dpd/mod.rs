@@ -16,6 +16,7 @@
 //! follows from the compressibility when the fluid is given by its physical properties
 //! (`[fluid.physical]`, [`crate::dpd_parameters`]).
 
+pub mod keys;
 pub mod physical;
 pub mod spec;
 pub mod time_step;

@@ -10,7 +10,9 @@ use crate::models::interface::ParticleModel;
 use crate::observable::Observable;
 use crate::spans::{CaseError, Segment, SpanIndex};
 
-impl crate::models::fluid_model::KindTraits for DpdCfg {}
+impl crate::models::fluid_model::KindTraits for DpdCfg {
+    const KEYS: &'static [crate::key_doc::KeyDoc] = super::keys::KEYS;
+}
 
 impl FluidModel for DpdCfg {
     fn kind(&self) -> &'static str {

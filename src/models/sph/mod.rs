@@ -62,6 +62,7 @@
 //! spacing (the initial fluid–wall distance, where the force vanishes) and D to c₀².
 
 pub mod kernels;
+pub mod keys;
 mod lanes;
 pub mod mirror;
 mod momentum_flux;

@@ -16,6 +16,7 @@ use crate::spans::{CaseError, SpanIndex};
 
 impl KindTraits for SphCfg {
     const CARRIES_BOUNDARY_PARTICLES: bool = true;
+    const KEYS: &'static [crate::key_doc::KeyDoc] = super::keys::KEYS;
 }
 
 impl FluidModel for SphCfg {

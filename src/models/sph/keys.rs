@@ -1,0 +1,152 @@
+//! The `[fluid]` keys of the SPH fluid, for the case-file reference (`mesorheo keys`,
+//! `docs/case-reference.md`) (also the summation gas's `smoothing_length` and `sound_speed`).
+
+use crate::key_doc::{KeyDoc, key};
+
+/// The keys, in the order of the reference.
+pub const KEYS: &[KeyDoc] = &[
+    key(
+        "fluid.smoothing_length",
+        "float > 0",
+        "required (sph, summation_gas)",
+        "Smoothing length h. Support (the interaction cutoff): h for Lucy, 2h for cubic_spline and wendland_c2, 3h for quintic_spline.",
+    ),
+    key(
+        "fluid.kernel",
+        "\"lucy\" | \"cubic_spline\" | \"quintic_spline\" | \"wendland_c2\" | \"truncated_gaussian\"",
+        "\"lucy\"",
+        "SPH smoothing kernel (sph). Supports: Lucy h, cubic spline and Wendland C2 2h, quintic spline 3h, truncated Gaussian 2h (Murashima & Taniguchi's MSPH kernel, A_d/(h√π)^d (e^{−r²/h²} − e^{−4}); its W′ jumps at 2h).",
+    ),
+    key(
+        "fluid.rest_density",
+        "float > 0",
+        "1.0",
+        "Rest density ρ₀ (sph); particles.mass must be ρ₀ / particles.density within 5 %.",
+    ),
+    key(
+        "fluid.equation_of_state",
+        "\"quadratic\" | \"tait\"",
+        "\"quadratic\"",
+        "sph: p = c₀²ρ²/(2ρ₀) (the thesis's, background pressure ρ₀c₀²/2) or Tait p = (c₀²ρ₀/7)((ρ/ρ₀)⁷ − 1). Near moving walls the quadratic one's background pressure drags the fluid (docs/validation.md).",
+    ),
+    key(
+        "fluid.density",
+        "\"summation\" | \"continuity\"",
+        "\"summation\"",
+        "sph: ρ_i = Σ m_j W_ij every evaluation, or dρ/dt = Σ m_j v_ij·∇W_ij integrated from ρ₀.",
+    ),
+    key(
+        "fluid.viscosity",
+        "float ≥ 0",
+        "required (sph)",
+        "Dynamic viscosity η (sph): of the whole fluid, or of the solvent when [fluid.polymer] adds a polymer stress.",
+    ),
+    key(
+        "fluid.viscous_term",
+        "\"nested_summation\" | \"morris\"",
+        "\"nested_summation\"",
+        "sph: the thesis's two-pass stress σ̄ = η(G + Gᵀ − (2/d) tr G I) from the velocity-gradient estimate, or Morris's direct term (one pass, better damping at the lattice scale).",
+    ),
+    key(
+        "fluid.body_force",
+        "array of D floats",
+        "none",
+        "Body force per unit mass on fluid particles (sph; Poiseuille flow).",
+    ),
+    key(
+        "fluid.morris_regularisation",
+        "float ≥ 0",
+        "0.0",
+        "ε of 1/(r² + εh²) in Morris's term (sph). Not needed by any offered kernel; 0.01 with Lucy weakens the viscosity by ~5 %.",
+    ),
+    key(
+        "fluid.xsph",
+        "float in [0, 1]",
+        "0.0",
+        "XSPH factor ε (sph): particles move with v + ε Σ_j (m_j/ρ̄_ij)(v_j − v_i) W_ij; the momentum equation is unchanged. 0.5 is usual; needs kick_drift_kick.",
+    ),
+    key(
+        "fluid.background_pressure",
+        "float",
+        "0.0",
+        "Constant p_b added to the equation of state (sph). No continuum pressure gradient changes; it keeps the total stress compressive where a polymer stress pulls (τ_xx > 0 in shear), which the SPH tensile instability feeds on.",
+    ),
+    key(
+        "fluid.velocity_gradient",
+        "\"sph\" | \"corrected\"",
+        "\"sph\"",
+        "The velocity-gradient estimate G_i (sph): \"sph\" is Σ_j (m_j/ρ_j)(v_j − v_i) ⊗ ∇W_ij (Ellero Eq. 3.7), exact for a linear field only on an undisturbed lattice; \"corrected\" is G_i M_i⁻¹ with M_i = Σ_j (m_j/ρ_j)(x_j − x_i) ⊗ ∇W_ij, exact on any arrangement (a particle with det M_i < 10⁻³ keeps G_i). Use \"corrected\" where noise disorders the particles (dumbbell ensembles): there the plain estimate reads the shear rate ~1 % low.",
+    ),
+    key(
+        "fluid.derivatives",
+        "\"sph\" | \"msph\"",
+        "\"sph\"",
+        "The derivative operator of ∇v and ∇·σ (sph). \"sph\": pairwise (the gradient of velocity_gradient, the momentum equation in antisymmetric pair form, momentum conserved pair by pair). \"msph\": Zhang–Batra moment-matrix derivatives (Murashima–Taniguchi), exact for quadratic fields: per particle a 6×6 (2D) or 10×10 (3D) system, factored once per step and reused for v and σ = −pI + σ̄ + τ; a system whose h-scaled condition number exceeds 10⁴ is solved to first order (counted in the summary). Needs kernel = \"truncated_gaussian\", summation density, walls treatment \"mirror\" (or \"layers\", the paper's literal, ill-posed walls), and a Morris viscosity for damping (morris_share, or viscous_term = \"morris\").",
+    ),
+    key(
+        "fluid.morris_share",
+        "float in [0, 1)",
+        "0.0",
+        "With viscous_term = \"nested_summation\" (sph): the share s of η applied by Morris's pairwise term, (1 − s)η by the nested summation. MSPH's two-pass Newtonian stress leaves particle-scale velocity modes undamped; s = 0.1 damps them (docs/theory/msph_dumbbells.md §5.1).",
+    ),
+    key(
+        "fluid.polymer.model",
+        "\"corotational_maxwell\" | \"upper_convected_maxwell\" | \"dumbbells\" | \"fene_p\"",
+        "required ([fluid.polymer])",
+        "A polymer stress τ carried by every particle (sph): the corotational (Jaumann) Maxwell model of Ellero 2004 ch. 3 with its printed sign corrected, dτ/dt = Ωτ − τΩ + (2η_p/λ)D̄ − τ/λ, or the upper-convected Maxwell model dτ/dt = Gτ + τGᵀ + (2η_p/λ)D − τ/λ (Oldroyd-B with fluid.viscosity > 0): τ starts at 0, is advanced by the integrator and checkpointed. \"dumbbells\" (CONNFFESSIT): every fluid particle carries per_particle Brownian dumbbells advanced once per step with the traceless part of its own velocity gradient; τ is their Kramers stress G(⟨QF(Q)⟩ − I), G = η_p/λ; the connectors start at equilibrium and are checkpointed; walls and inclusions carry none. \"fene_p\": the FENE-P closure of FENE dumbbells (needs b), dc/dt = Gc + cGᵀ − (Zc − I)/λ, Z = 1/(1 − tr c/b), τ = (η_p/λ)(Zc − I), advanced in τ; zero-shear polymer viscosity η_p b/(b + D).",
+    ),
+    key(
+        "fluid.polymer.per_particle",
+        "integer in [1, 2²⁶]",
+        "required (dumbbells)",
+        "Dumbbells per fluid particle N_d (model = \"dumbbells\"). The stress noise falls as N_d^(−1/2); memory N_d × D × 8 bytes per particle (4 in single precision).",
+    ),
+    key(
+        "fluid.polymer.spring",
+        "\"hookean\" | \"fene\"",
+        "\"hookean\"",
+        "Spring law of the dumbbells (model = \"dumbbells\"). Hookean dumbbells are the Oldroyd-B fluid (η_p = Gλ); FENE needs b, and its zero-shear polymer viscosity is Gλ b/(b + D + 2).",
+    ),
+    key(
+        "fluid.polymer.b",
+        "float > 2 (dumbbells), > 0 (fene_p)",
+        "required (fene, fene_p)",
+        "FENE extensibility b = H Q₀²/k_BT (model = \"dumbbells\" with spring = \"fene\", or model = \"fene_p\").",
+    ),
+    key(
+        "fluid.polymer.scheme",
+        "\"euler_maruyama\" | \"heun\" | \"semi_implicit\"",
+        "\"heun\" (Hookean), \"semi_implicit\" (FENE)",
+        "Stochastic scheme of the dumbbells (model = \"dumbbells\"); FENE needs \"semi_implicit\".",
+    ),
+    key(
+        "fluid.polymer.precision",
+        "\"double\" | \"single\"",
+        "\"double\"",
+        "Storage of the connectors (model = \"dumbbells\"); the arithmetic is double either way.",
+    ),
+    key(
+        "fluid.polymer.viscosity",
+        "float > 0",
+        "required ([fluid.polymer])",
+        "Polymer (zero-shear) viscosity η_p = Gλ. The fluid's zero-shear viscosity is fluid.viscosity + η_p.",
+    ),
+    key(
+        "fluid.polymer.relaxation_time",
+        "float > 0",
+        "required ([fluid.polymer])",
+        "Relaxation time λ; Δt must stay below it and below the elastic-wave limit 0.35 r_s/√(c₀² + η_p/(ρ₀λ)) (the coefficient measured).",
+    ),
+    key(
+        "fluid.polymer.rotation",
+        "bool",
+        "true",
+        "The rotation terms Ωτ − τΩ of the corotational model; false is the thesis's linear variant (SPH2).",
+    ),
+    key(
+        "fluid.sound_speed",
+        "float > 0",
+        "required (sph, summation_gas)",
+        "Sound speed: c₀ of the SPH equation of state; c of the summation gas (p = c² ρ, Δt < 0.25 h/c). SPH time steps are refused beyond the acoustic r_s/c₀, viscous (0.125 r_s²ρ₀/η nested, 0.042 r_s²ρ₀/η Morris) and body-force 0.25√(r_s/|F|) limits (r_s: support).",
+    ),
+];
