@@ -599,7 +599,12 @@ fn fokker_planck(b: f64, wi: f64) -> Option<(f64, f64, f64)> {
             std::env::var("MESORHEO_REQUIRE_PYTHON").is_err(),
             "MESORHEO_PYTHON is not set"
         );
-        eprintln!("skipped the Fokker–Planck comparison: set MESORHEO_PYTHON (./run test does)");
+        // On the uncaptured stderr: a passing test's eprintln! would be silent.
+        use std::io::Write;
+        let _ = writeln!(
+            std::io::stderr().lock(),
+            "SKIPPED the Fokker–Planck comparison: set MESORHEO_PYTHON (./run test does)"
+        );
         return None;
     };
     let tool = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tools/fene_fokker_planck.py");

@@ -138,7 +138,10 @@ fn the_h5py_snippet_reads_the_series_and_the_xdmf_matches() {
             std::env::var("MESORHEO_REQUIRE_PYTHON").is_err(),
             "MESORHEO_PYTHON is not set"
         );
-        eprintln!("skipped: set MESORHEO_PYTHON to a Python with h5py (./run test does)");
+        common::report_skip(
+            "the h5py snippet",
+            "set MESORHEO_PYTHON to a Python with h5py (./run test does)",
+        );
         return;
     };
     let text = case(60, "");

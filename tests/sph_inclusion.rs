@@ -130,7 +130,10 @@ fn stokes_references_of_the_stock_cell_come_from_the_independent_solver() {
             std::env::var("MESORHEO_REQUIRE_PYTHON").is_err(),
             "MESORHEO_PYTHON is not set"
         );
-        eprintln!("skipped the Stokes-cell comparison: set MESORHEO_PYTHON (./run test does)");
+        common::report_skip(
+            "the Stokes-cell comparison",
+            "set MESORHEO_PYTHON (./run test does)",
+        );
         return;
     };
     let tool =
