@@ -2,8 +2,6 @@
 //! constitutive stress, the correlators of the fluctuation methods) and their exact global sums.
 
 use super::*;
-#[allow(unused_imports)]
-use crate::error::Error;
 
 /// The bin of coordinate `y` among `bins` equal bins across [0, `ly`) (clamped to the ends).
 pub(super) fn profile_bin(y: f64, ly: f64, bins: usize) -> usize {

@@ -139,7 +139,7 @@ pub struct Simulation<'c, const D: usize> {
     stop_agreed: bool,
 }
 
-pub use crate::error::UNSTABLE;
+use crate::error::UNSTABLE;
 
 mod factory;
 mod initial;
