@@ -326,35 +326,29 @@ fn check_memory_estimate_covers_the_measured_peak() {
     }
 }
 
-/// `check`'s DPD time-step limit against the measured stability maps (issue #18): at every
-/// measured point it refuses the smallest unstable step with a margin (limit ≤ 0.97 × the
-/// first unstable step; the bisection brackets the boundary to 3 %), and it accepts at least
-/// 80 % of the stable range except where docs/validation.md says it is conservative (at most
-/// 11 of the 137 points, none below 72 %: the fit gives 11 and 73.2 %; the six maps over seeds
-/// show that one trial's limit scatters by up to 18 %), and it refuses every Δt that blew up
-/// in the 1500-step γ × Δt study (docs/studies/dpd_gamma_dt.csv: at γ = 40 that is 0.015,
-/// below the 1000-step map's 0.0158). The maps are runs of the engine with its blow-up
-/// detectors, independent of the formula; the limit is recomputed here from the library, so a
-/// change of a coefficient is judged against the measurement, and the `check_limit` column
-/// the docs' tables print must be the library's (to 10⁻³; tools/dpd_stability_fit.py, which
-/// wrote it, mirrors the library). Fails without the thermal relief in the random-start bound
-/// (22 points below 80 %, worst 52 %), with α₂ = √2 (accepts 0.1016 at 2D a = 25, γ = 2,
-/// lattice, unstable at 0.1038), or without the free-flight part (accepts 0.1057 at a = 25,
-/// γ = 2, random start, unstable at 0.1060; the ideal gas at γ = 1, 10 × its unstable step).
-#[test]
-fn check_refuses_every_measured_unstable_dpd_step() {
+/// One measured point of a stability map (docs/stability/<map>.csv) with `check`'s limit there.
+struct MapPoint {
+    /// The map and the value of its second parameter, e.g. `held2_a12_g18 seed=3`.
+    label: String,
+    largest_stable: f64,
+    smallest_unstable: f64,
+    /// The `check_limit` column (what the docs' tables print).
+    printed: f64,
+    /// The library's limit, recomputed here.
+    limit: f64,
+}
+
+/// Every point of the maps listed in docs/stability/`manifest`, with the library's limit.
+fn map_points(manifest: &str) -> (usize, Vec<MapPoint>) {
     let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
-    let manifest = std::fs::read_to_string(root.join("docs/stability/dpd_maps.txt"))
-        .expect("docs/stability/dpd_maps.txt");
-    let maps: Vec<Vec<&str>> = manifest
+    let text = std::fs::read_to_string(root.join("docs/stability").join(manifest))
+        .unwrap_or_else(|e| panic!("docs/stability/{manifest}: {e}"));
+    let maps: Vec<Vec<&str>> = text
         .lines()
         .filter(|l| !l.starts_with('#') && !l.trim().is_empty())
         .map(|l| l.split('|').map(str::trim).collect())
         .collect();
-    assert_eq!(maps.len(), 32, "the maps of docs/stability/dpd_maps.txt");
-    let (mut points, mut conservative, mut worst) = (0, 0, f64::INFINITY);
-    // The first point whose printed limit is not the library's (judged after the physics).
-    let mut stale: Option<String> = None;
+    let mut points = Vec::new();
     for map in &maps {
         let (name, case) = (map[0], map[1]);
         let fixed: Vec<&str> = map[4].split_whitespace().collect();
@@ -381,32 +375,64 @@ fn check_refuses_every_measured_unstable_dpd_step() {
             let mesorheo::config::CaseScene::Particles(c) = loaded.scene else {
                 panic!("{name}: a particle scene")
             };
-            let limit = dpd_limits_of_case(&c).expect("DPD").combined;
             let parse = |k: usize| cells[k].parse::<f64>().expect("a number");
-            let (s, u) = (parse(stable), parse(unstable));
-            if (parse(printed) - limit).abs() > 1e-3 * limit && stale.is_none() {
-                stale = Some(format!(
-                    "{name} {}={}: the CSV's check_limit {} is not the library's {limit:.6e}",
-                    header[0], cells[0], cells[printed]
-                ));
-            }
-            assert!(
-                limit <= 0.97 * u,
-                "{name} {}={}: check accepts {limit:.4e}, unstable at {u:.4e}",
-                header[0],
-                cells[0]
-            );
-            let accepted = limit.min(s) / s;
-            worst = worst.min(accepted);
-            if accepted < 0.8 {
-                conservative += 1;
-            }
-            points += 1;
+            points.push(MapPoint {
+                label: format!("{name} {}={}", header[0], cells[0]),
+                largest_stable: parse(stable),
+                smallest_unstable: parse(unstable),
+                printed: parse(printed),
+                limit: dpd_limits_of_case(&c).expect("DPD").combined,
+            });
         }
     }
-    assert_eq!(points, 137, "the maps of docs/stability");
+    (maps.len(), points)
+}
+
+/// `check`'s DPD time-step limit against the measured stability maps it was fitted to (issue
+/// #18, #40): at every point it refuses the smallest unstable step with a margin (limit ≤ 0.97
+/// × the first unstable step; the bisection brackets the boundary to 3 %), and it accepts at
+/// least 80 % of the stable range except where docs/validation.md says it is conservative (at
+/// most 16 of the 197 points, none below 68 %: the fit gives 16 and 68.4 %; the six maps over
+/// seeds show that one trial's limit scatters by up to 18 %), and it refuses every Δt that blew
+/// up in the 1500-step γ × Δt study (docs/studies/dpd_gamma_dt.csv: at γ = 40 that is 0.015,
+/// below the 1000-step map's 0.0158). The maps are runs of the engine with its blow-up
+/// detectors, independent of the formula; the limit is recomputed here from the library, so a
+/// change of a coefficient is judged against the measurement, and the `check_limit` column
+/// the docs' tables print must be the library's (to 10⁻³; tools/dpd_stability_fit.py, which
+/// wrote it, mirrors the library). Fails without the 3D random start's factor (accepts 1.09 ×
+/// 0.97 × the unstable step at 3D a = 5, γ = 25, seed 3), with α₂ = 1.35 (the 2D a = 150,
+/// ρ = 2 map), or without the free-flight part (the ideal gas at γ = 1, 10 × its unstable
+/// step).
+#[test]
+fn check_refuses_every_measured_unstable_dpd_step() {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+    let (maps, points) = map_points("dpd_maps.txt");
+    assert_eq!(maps, 52, "the maps of docs/stability/dpd_maps.txt");
+    assert_eq!(points.len(), 197, "the points of docs/stability");
+    let (mut conservative, mut worst) = (0, f64::INFINITY);
+    // The first point whose printed limit is not the library's (judged after the physics).
+    let mut stale: Option<String> = None;
+    for p in &points {
+        let (s, u, limit) = (p.largest_stable, p.smallest_unstable, p.limit);
+        if (p.printed - limit).abs() > 1e-3 * limit && stale.is_none() {
+            stale = Some(format!(
+                "{}: the CSV's check_limit {} is not the library's {limit:.6e}",
+                p.label, p.printed
+            ));
+        }
+        assert!(
+            limit <= 0.97 * u,
+            "{}: check accepts {limit:.4e}, unstable at {u:.4e}",
+            p.label
+        );
+        let accepted = limit.min(s) / s;
+        worst = worst.min(accepted);
+        if accepted < 0.8 {
+            conservative += 1;
+        }
+    }
     assert!(
-        conservative <= 11 && worst >= 0.72,
+        conservative <= 16 && worst >= 0.68,
         "{conservative} conservative points, worst {worst:.2}"
     );
     assert!(stale.is_none(), "{}", stale.unwrap_or_default());
@@ -438,6 +464,58 @@ fn check_refuses_every_measured_unstable_dpd_step() {
         blowups += 1;
     }
     assert!(blowups >= 3, "{blowups} blow-ups in the study");
+}
+
+/// `check`'s DPD limit out of sample (issue #40): the maps of docs/stability/dpd_held_out.txt
+/// (20 maps × seeds 1–3, chosen before the current fit and never read by
+/// tools/dpd_stability_fit.py). A point fails when the limit accepts its measured unstable
+/// step (limit ≥ the smallest unstable Δt). The limit fails there at four points, all named
+/// below and in docs/validation.md: three random starts at weak repulsion and strong friction,
+/// which blow up in their first 5–19 steps with a 1.7× scatter of the unstable step between
+/// seeds (the start's densest cluster decides: no mean-field formula sees it), and a 3D λ = 0.5
+/// lattice point at 1.011 ×. The test holds those four as the known failures: a new failure
+/// anywhere else, a loosened limit (any coefficient that raises the limit by 4 % fails at 3D
+/// a = 18, γ = 14, λ = 0.5 seeds 1 and 2, at 0.990 ×), or a fix of the known ones (then this
+/// list and the docs must change) all fail it. It also holds the accepted fraction of the
+/// stable range where the limit refuses the unstable step: ≥ 80 % at 46 of the 56 (measured:
+/// 46, worst 69.9 %).
+#[test]
+fn check_against_the_held_out_dpd_stability_maps() {
+    let (maps, points) = map_points("dpd_held_out.txt");
+    assert_eq!((maps, points.len()), (20, 60), "the held-out maps");
+    let known = [
+        "held2_a12_g18 seed=3",
+        "held2_a6_g20_rho5 seed=1",
+        "held2_a6_g20_rho5 seed=3",
+        "held23_a18_g14_lambda05_lattice seed=3",
+    ];
+    let mut accepted_unstable = Vec::new();
+    let (mut at_least_80, mut refused, mut worst) = (0, 0, f64::INFINITY);
+    for p in &points {
+        let ratio = p.limit / p.smallest_unstable;
+        eprintln!(
+            "{}: stable {:.4e}, unstable {:.4e}, check {:.4e} ({ratio:.3} × unstable)",
+            p.label, p.largest_stable, p.smallest_unstable, p.limit
+        );
+        if ratio >= 1.0 {
+            accepted_unstable.push(p.label.clone());
+            continue;
+        }
+        refused += 1;
+        let accepted = p.limit.min(p.largest_stable) / p.largest_stable;
+        worst = worst.min(accepted);
+        if accepted >= 0.8 {
+            at_least_80 += 1;
+        }
+    }
+    assert_eq!(
+        accepted_unstable, known,
+        "the held-out points whose measured unstable step check accepts"
+    );
+    assert!(
+        refused == 56 && at_least_80 >= 46 && worst >= 0.69,
+        "{at_least_80} of {refused} refused points accept ≥ 80 %, worst {worst:.3}"
+    );
 }
 
 /// The DPD time-step limits of a case whose fluid is DPD.

@@ -58,6 +58,8 @@ and writes plots to docs/ when matplotlib is available. Exits 1 when any recorde
   dpd_stability  the DPD stability maps of docs/stability/dpd_maps.txt (`mesorheo stability`,
                  1000-step trials): CSV and PNG to docs/stability/, and the tables of
                  docs/validation.md "Stability maps against `check`" (~15 min on 2 cores)
+  dpd_held_out   the held-out DPD maps of docs/stability/dpd_held_out.txt (20 maps × seeds 1–3
+                 the fit never saw): the same table and verdicts (~10 min)
   fuzz           the long fuzz of the stock case files through `mesorheo check` (the ignored test
                  tests/check_fuzz.rs::long_fuzz_through_check; MESORHEO_FUZZ_VARIANTS per case,
                  default here 100 000, ~7 min): no panic, no hang
@@ -1483,10 +1485,10 @@ blocks = 10
               f"{cells[1][1]} | {T8_THESIS_SETD[dt]:.4f} | {steps} |")
 
 
-def dpd_maps():
-    """The maps of docs/stability/dpd_maps.txt: [(name, case, over, options, fixed overrides)]."""
+def dpd_maps(manifest="dpd_maps.txt"):
+    """The maps of docs/stability/<manifest>: [(name, case, over, options, fixed overrides)]."""
     maps = []
-    with open(os.path.join(ROOT, "docs/stability/dpd_maps.txt")) as f:
+    with open(os.path.join(ROOT, "docs/stability", manifest)) as f:
         for line in f:
             if line.startswith("#") or not line.strip():
                 continue
@@ -1495,13 +1497,13 @@ def dpd_maps():
     return maps
 
 
-def dpd_stability():
+def dpd_stability(manifest="dpd_maps.txt"):
     """Runs every DPD stability map (a serial child per trial) and prints, per map, the measured
     bracket and `check`'s verdict at each point, then the summary over all points."""
     import csv, shutil
     out = os.path.join(ROOT, "docs/stability")
     rows = []
-    for name, case, over, options, fixed in dpd_maps():
+    for name, case, over, options, fixed in dpd_maps(manifest):
         work = os.path.join(tempfile.gettempdir(), f"mesorheo_stability_{name}")
         args = ["stability", f"cases/{case}", "--over", over, *options, "--steps", "1000",
                 "--tolerance", "0.03"]
@@ -1540,6 +1542,12 @@ def dpd_stability():
           f"{max(l / u for *_, u, l in rows):.3f}")
 
 
+def dpd_held_out():
+    """The held-out DPD stability maps (docs/stability/dpd_held_out.txt): points the fit of
+    `check`'s limit never saw; the same table and verdicts as dpd_stability."""
+    dpd_stability("dpd_held_out.txt")
+
+
 def launch_text(text, sets=(), ranks=1, threads=2):
     """launch() on a case given as text."""
     with tempfile.NamedTemporaryFile("w", suffix=".toml", delete=False) as f:
@@ -1554,7 +1562,7 @@ if __name__ == "__main__":
     todo = sys.argv[1:] or ["stock", "kt_vs_dt", "viscosity", "viscometric", "sph", "sph_convergence", "maxwell",
                             "inclusion", "maxwell_convergence", "maxwell_stability", "connffessit_shear",
                             "msph_channel", "weak_order", "fene_table", "transverse_current",
-                            "kt_vs_dt_low_mass", "dpd_stability", "fuzz", "maxwell_couette_causes", "maxwell_couette"]
+                            "kt_vs_dt_low_mass", "dpd_stability", "dpd_held_out", "fuzz", "maxwell_couette_causes", "maxwell_couette"]
     targets = {"kt_vs_dt": kt_vs_dt, "viscosity": viscosity, "stock": stock,
                "viscometric": viscometric, "sph": sph, "sph_convergence": sph_convergence,
                "maxwell": maxwell, "inclusion": inclusion,
@@ -1562,7 +1570,7 @@ if __name__ == "__main__":
                "connffessit_shear": connffessit_shear, "msph_channel": msph_channel,
                "weak_order": weak_order, "fene_table": fene_table,
                "transverse_current": transverse_current, "kt_vs_dt_low_mass": kt_vs_dt_low_mass,
-               "dpd_stability": dpd_stability, "fuzz": fuzz, "maxwell_couette": maxwell_couette,
+               "dpd_stability": dpd_stability, "dpd_held_out": dpd_held_out, "fuzz": fuzz, "maxwell_couette": maxwell_couette,
                "maxwell_couette_causes": maxwell_couette_causes}
     for name in todo:
         if name not in targets:

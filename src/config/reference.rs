@@ -110,7 +110,7 @@ const LATER_KEYS: &[KeyDoc] = &[
         "integrator.dt",
         "float > 0",
         "required",
-        "Time step Δt. DPD: refused beyond the measured stability limit ((Δt_C⁻ᵖ + Δt_D⁻ᵖ)^(p′/p) + Δt_F^(−p′))^(−1/p′), p = 2.09, p′ = 2.95: Δt_C = α/ω_E from the conservative force, Δt_D (the root of ω_DΔt = c(1 + (KΔt)^q)) from the explicit friction and Δt_F = F r_c/√(k_BT/m) (F = 0.17 in 2D, 0.196 in 3D) from the free flight (neither of the last two with thermostat = \"exponential\"); `check` prints the three parts and docs/validation.md the maps they are fitted to. Dumbbells: the explicit schemes (euler_maruyama, heun) are refused beyond 0.95 × 4λ/(1 + 2λc), c the flow's largest compressive rate (their stability limit with a 5 % margin); semi_implicit is stable at any Δt; beyond λ/2 or rate × Δt = 0.5 `check` and `run` warn (accuracy; measure it with `mesorheo study`); Δt ≤ λ/10 advised.",
+        "Time step Δt. DPD: refused beyond the measured stability limit ((Δt_C⁻ᵖ + Δt_D⁻ᵖ)^(p′/p) + Δt_F^(−p′))^(−1/p′), p = 2.24, p′ = 2.88: Δt_C = α/ω_E from the conservative force, Δt_D (the root of ω_DΔt = c(1 + (KΔt)^q)) from the explicit friction and Δt_F = F r_c/√(k_BT/m) (F = 0.171 in 2D, 0.192 in 3D) from the free flight (neither of the last two with thermostat = \"exponential\"); `check` prints the three parts and docs/validation.md the maps they are fitted to. Dumbbells: the explicit schemes (euler_maruyama, heun) are refused beyond 0.95 × 4λ/(1 + 2λc), c the flow's largest compressive rate (their stability limit with a 5 % margin); semi_implicit is stable at any Δt; beyond λ/2 or rate × Δt = 0.5 `check` and `run` warn (accuracy; measure it with `mesorheo study`); Δt ≤ λ/10 advised.",
     ),
     key(
         "integrator.lambda",
