@@ -58,6 +58,8 @@ and writes plots to docs/ when matplotlib is available. Exits 1 when any recorde
   dpd_stability  the DPD stability maps of docs/stability/dpd_maps.txt (`mesorheo stability`,
                  1000-step trials): CSV and PNG to docs/stability/, and the tables of
                  docs/validation.md "Stability maps against `check`" (~15 min on 2 cores)
+  connffessit_channel_seeds  cases/connffessit_channel_2d.toml at seeds 1–4: the seed spread its
+                 header and the README quote, each seed against its 7.5 % (~5 min)
   dpd_held_out   the held-out DPD maps of docs/stability/dpd_held_out.txt (20 maps × seeds 1–3
                  the fit never saw): the same table and verdicts (~10 min)
   fuzz           the long fuzz of the stock case files through `mesorheo check` (the ignored test
@@ -426,7 +428,7 @@ def sph_convergence():
         print("Max over bins of |u − u_series| / (plate or steady centre velocity); loop seconds on 1 rank × 2 "
               "threads. The observed order p = log₂(e(Δt)/e(Δt/2)) against the series is ≈ 0 where the "
               "spatial error dominates; the order in time itself (self-convergence, "
-              "`tests/sph_channel.rs`) is 2 for kick–drift–kick, Heun and midpoint and 1 for the thesis's "
+              "`tests/sph_suite/sph_channel.rs`) is 2 for kick–drift–kick, Heun and midpoint and 1 for the thesis's "
               "scheme as printed.\n")
         print("| integrator | Δt | error | p | loop s |")
         print("|---|---|---|---|---|")
@@ -1147,6 +1149,33 @@ def msph_channel():
           f"the 2D profile; {runs[3]['wall_seconds']:.0f} s (2D: {runs[2]['wall_seconds']:.0f} s).\n")
 
 
+def connffessit_channel_seeds():
+    """The seed spread that cases/connffessit_channel_2d.toml and the README quote: the stock case
+    at seeds 1–4, max over rows |ū − u_series| / 0.072 at t = 50, 100, 150; mean and sd of the
+    12 errors; each seed against the case's 7.5 % (~5 min on 2 cores)."""
+    with open(os.path.join(ROOT, "cases/connffessit_channel_2d.toml")) as f:
+        text = f.read()
+    errors = []
+    print("| seed | max row error t = 50 / 100 / 150 (% of 0.072) | wall s |")
+    print("|---|---|---|")
+    for seed in (1, 2, 3, 4):
+        s, cmd, err = launch_text(text, [f"seed={seed}"])
+        if s is None:
+            verdict(f"connffessit_channel_2d seed {seed} runs", False, err.strip()[-200:])
+            continue
+        errs = startup_errors(s)
+        row = [100 * errs[t] for t in sorted(errs)]
+        errors += row
+        print(f"| {seed} | {' / '.join(f'{e:.1f}' for e in row)} | {s['wall_seconds']:.0f} |")
+        verdict(f"connffessit_channel_2d seed {seed}: every row within 7.5 % at t = 50, 100, 150",
+                max(row) < 7.5, f"(worst {max(row):.2f} %)")
+    if errors:
+        mean = sum(errors) / len(errors)
+        sd = math.sqrt(sum((e - mean) ** 2 for e in errors) / max(len(errors) - 1, 1))
+        print(f"\n{len(errors)} errors: mean {mean:.1f} %, sd {sd:.1f} % (the case file quotes "
+              "mean 3.7 %, sd 0.9 %)")
+
+
 def weak_order():
     """Bias of the stock Hookean shear scene's Ψ₁/(2Gλ²) − 1 and η_p/(Gλ) − 1 against Δt, for
     Euler–Maruyama and Heun, with the averaging time long enough that the bias is resolved; the
@@ -1561,7 +1590,7 @@ def launch_text(text, sets=(), ranks=1, threads=2):
 if __name__ == "__main__":
     todo = sys.argv[1:] or ["stock", "kt_vs_dt", "viscosity", "viscometric", "sph", "sph_convergence", "maxwell",
                             "inclusion", "maxwell_convergence", "maxwell_stability", "connffessit_shear",
-                            "msph_channel", "weak_order", "fene_table", "transverse_current",
+                            "msph_channel", "connffessit_channel_seeds", "weak_order", "fene_table", "transverse_current",
                             "kt_vs_dt_low_mass", "dpd_stability", "dpd_held_out", "fuzz", "maxwell_couette_causes", "maxwell_couette"]
     targets = {"kt_vs_dt": kt_vs_dt, "viscosity": viscosity, "stock": stock,
                "viscometric": viscometric, "sph": sph, "sph_convergence": sph_convergence,
@@ -1570,7 +1599,8 @@ if __name__ == "__main__":
                "connffessit_shear": connffessit_shear, "msph_channel": msph_channel,
                "weak_order": weak_order, "fene_table": fene_table,
                "transverse_current": transverse_current, "kt_vs_dt_low_mass": kt_vs_dt_low_mass,
-               "dpd_stability": dpd_stability, "dpd_held_out": dpd_held_out, "fuzz": fuzz, "maxwell_couette": maxwell_couette,
+               "dpd_stability": dpd_stability, "dpd_held_out": dpd_held_out,
+               "connffessit_channel_seeds": connffessit_channel_seeds, "fuzz": fuzz, "maxwell_couette": maxwell_couette,
                "maxwell_couette_causes": maxwell_couette_causes}
     for name in todo:
         if name not in targets:

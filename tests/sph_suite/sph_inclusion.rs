@@ -10,7 +10,7 @@
 //!   (3γ̇ at the surface);
 //! - a sheared cell with an inclusion gives the same bits on 1–4 ranks × 1–2 threads.
 
-mod common;
+use crate::common;
 use common::{assert_all_equal, assert_references_pass, digests_on_1_to_4_ranks, stock_case};
 use mesorheo::comm::SerialComm;
 use mesorheo::sim::Simulation;

@@ -8,7 +8,7 @@
 //!   particles; the noise is keyed by particle id and step).
 //! - Wall particles carry no dumbbells; fluid particles carry N_d each.
 
-mod common;
+use crate::common;
 use common::{
     assert_all_equal, assert_references_pass, case_from_str, digests_on_1_to_4_ranks, stock_text,
     stock_text_with, with_overrides,

@@ -4,7 +4,7 @@
 //! (docs/architecture.md rule 5); and so are the time-averaged observables
 //! (every diagnostic sum is exact).
 
-mod common;
+use crate::common;
 use common::{assert_all_equal, case_from_str, digests_on_1_to_4_ranks, small_dpd};
 use mesorheo::driver::run_in_process;
 

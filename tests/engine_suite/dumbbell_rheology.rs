@@ -1,4 +1,4 @@
-//! Rheology of dumbbell ensembles beyond the start-up checks of `tests/dumbbells.rs` (issue #5):
+//! Rheology of dumbbell ensembles beyond the start-up checks of `tests/engine_suite/dumbbells.rs` (issue #5):
 //! FENE steady-shear viscometric functions (against the deterministic Fokker–Planck solution of
 //! `tools/fene_fokker_planck.py`, the FENE-P closed form and a Δt → 0 Richardson reference), the equilibrium stress autocorrelation of Hookean dumbbells, and Hookean shear
 //! reversal against the exact moment recursion of the discrete scheme and the UCM solution.
@@ -685,7 +685,7 @@ fn fene_steady_shear(b: f64) {
 
     // (b) Wi = 1 and 10: a converged reference by Richardson extrapolation of the two finest
     // steps (the semi-implicit scheme is weak order 2, checked for Hookean springs in
-    // tests/dumbbells.rs): X_ref = (4X(h) − X(2h))/3, σ_ref = √(16σ_h² + σ_2h²)/3. Three steps h,
+    // tests/engine_suite/dumbbells.rs): X_ref = (4X(h) − X(2h))/3, σ_ref = √(16σ_h² + σ_2h²)/3. Three steps h,
     // 2h, 4h with h = 0.1λ (Wi = 1) and 0.02λ (Wi = 10, γ̇h = 0.2).
     for (wi, h, t_warm, t_avg) in [(1.0, 0.1, 5.0, 100.0), (10.0, 0.02, 3.0, 20.0)] {
         let runs: Vec<_> = [4.0 * h, 2.0 * h, h]

@@ -14,7 +14,7 @@
 //!   at rest under gravity is hydrostatic; the wall shear stress follows the start-up series;
 //! - the wall repulsion alone stops a row of fluid thrown at the wall before the wall plane.
 
-mod common;
+use crate::common;
 use common::{
     assert_all_equal, assert_references_pass, case_from_str, digests_on_1_to_4_ranks,
     sph_periodic_box as periodic_box, stock_case, with_overrides,

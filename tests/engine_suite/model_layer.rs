@@ -5,7 +5,7 @@
 //! ghost-field refresh delivers every ghost its original's value, with the Lees–Edwards
 //! velocity shift on velocity-like fields and on no others.
 
-mod common;
+use crate::common;
 use common::{assert_all_equal, case_from_str, digests_on_1_to_4_ranks, small_gas};
 use mesorheo::comm::Comm;
 use mesorheo::driver::{in_process, run_in_process};

@@ -2,7 +2,7 @@
 //! the Groot–Warren fluid, momentum conservation, and the linear profile of Lees–Edwards shear.
 //! Each stock scene carries its `[[reference]]` checks; here they must all pass.
 
-mod common;
+use crate::common;
 use common::{case_from_str, small_dpd, stock_case, stock_text_with, with_overrides};
 use mesorheo::comm::SerialComm;
 use mesorheo::driver::run_in_process;

@@ -11,7 +11,7 @@
 //! The constitutive update itself (start-up of simple shear against the analytic solution, the
 //! thesis's printed sign failing it) is a unit test of `models::sph::maxwell`.
 
-mod common;
+use crate::common;
 use common::{
     assert_all_equal, assert_references_pass, case_from_str, digests_on_1_to_4_ranks,
     sph_periodic_box, stock_case, stock_text, with_overrides,
@@ -41,7 +41,7 @@ fn maxwell_box(lambda: f64, rotation: bool, extra: &str) -> String {
 /// ω = √(νk²/λ − 1/(4λ²)) = 26.3, through a full oscillation (it changes sign at t ≈ 0.066).
 /// A = 0.01 keeps the rotation terms and advection below 10⁻³ of the signal. The SPH operator
 /// τ ← G, ∇·τ smooths twice, which lowers the effective νk² by ~2 % at kh = 0.38 (the Newtonian
-/// nested summation measured −2.0 % in tests/sph_channel.rs), so ω by ~1 %. Measured: worst
+/// nested summation measured −2.0 % in tests/sph_suite/sph_channel.rs), so ω by ~1 %. Measured: worst
 /// 1.29 % of A (t = 0.07, near the zero crossing). The bound, 1.5 % of A at every sampled time,
 /// fails a coupling off by 5 % (measured: the polymer term × 0.95 gives 4.6 %), the polymer
 /// stress left out of the momentum equation (the wave then just stands), or the sign of the

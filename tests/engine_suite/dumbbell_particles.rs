@@ -1,10 +1,10 @@
 //! Dumbbell ensembles carried by moving, migrating particles (the micro half of CONNFFESSIT, a
 //! model of the model layer) reproduce the homogeneous-flow ensembles — an independent path
-//! through the code, verified against the analytic rheology in `tests/dumbbells.rs` — bit for
+//! through the code, verified against the analytic rheology in `tests/engine_suite/dumbbells.rs` — bit for
 //! bit, in double and single storage, on 1–3 ranks, whether κ is imposed or read from each
 //! particle's own velocity-gradient field.
 
-mod common;
+use crate::common;
 use common::{case_from_str, small_dpd};
 use mesorheo::comm::{Comm, SerialComm, U64Op};
 use mesorheo::driver::in_process;

@@ -6,7 +6,7 @@
 //! leaves the previous one intact; SIGTERM stops a run cleanly with a checkpoint.
 #![cfg(feature = "hdf5")]
 
-mod common;
+use crate::common;
 use common::{case_from_str, small_dpd, stock_text_with};
 use mesorheo::comm::Comm;
 use mesorheo::driver::{CHECKPOINT_REFUSED, RunOptions, in_process, restart_case, run_case};

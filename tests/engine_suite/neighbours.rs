@@ -1,7 +1,7 @@
 //! Neighbour lists against an O(N²) reference, including Lees–Edwards images with velocities:
 //! 24 random configurations in 2D and 3D on 1–3 in-process ranks, at random steps (offsets).
 
-mod common;
+use crate::common;
 use common::{case_from_str, small_dpd};
 use mesorheo::comm::{Comm, local_universe};
 use mesorheo::sim::Simulation;

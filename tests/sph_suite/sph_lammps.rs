@@ -11,7 +11,7 @@
 //! precision (%.10g) with a factor 10 to spare. A regularised Morris term (ε = 0.01) gives
 //! 0.0099812536, 7·10⁻⁵ away; a missing factor 2 in 2η, 2·10⁻³.
 
-mod common;
+use crate::common;
 use common::stock_case;
 use mesorheo::comm::SerialComm;
 use mesorheo::sim::Simulation;

@@ -4,7 +4,7 @@
 //! their velocity; the walls are not counted as fluid in the temperature; and the channel may
 //! be cut into slabs along its length (x) as well as across it.
 
-mod common;
+use crate::common;
 use common::case_from_str;
 use mesorheo::comm::Comm;
 use mesorheo::driver::{RunOptions, in_process, restart_case};

@@ -14,7 +14,7 @@
 //!   "simplifies" back into them (docs/theory/msph_dumbbells.md §5.1);
 //! - the coupled channel is the same bits on 1–4 ranks × 1–2 threads.
 
-mod common;
+use crate::common;
 use common::{
     assert_all_equal, assert_references_pass, case_from_str, digests_on_1_to_4_ranks, stock_case,
     stock_text,
