@@ -11,20 +11,13 @@
 //! Gaussian leaves 4σ with probability 6·10⁻⁵, so ~30 comparisons give a false alarm < 0.2 %),
 //! stated separately where the reference itself is approximate (FENE-P).
 
+use crate::common::mean_se;
 use mesorheo::comm::SerialComm;
 use mesorheo::models::dumbbells::{
     DumbbellParams, Scheme, Spring, hookean_discrete_moment, kramers_stress,
 };
 use mesorheo::models::homogeneous_flow::{Flow, HomogeneousEnsembles};
 use mesorheo::particles::tensor_rows;
-
-/// Mean and standard error of independent samples.
-fn mean_se(v: &[f64]) -> (f64, f64) {
-    let n = v.len() as f64;
-    let m = v.iter().sum::<f64>() / n;
-    let var = v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (n - 1.0);
-    (m, (var / n).sqrt())
-}
 
 fn within(got: f64, se: f64, want: f64, k: f64, what: &str) {
     eprintln!(

@@ -7,6 +7,7 @@
 //! continuous Oldroyd-B/UCM solution within the time-step error, which is checked separately and
 //! deterministically (weak order 1 for Euler–Maruyama, 2 for Heun).
 
+use crate::common::mean_se;
 use mesorheo::comm::Comm;
 use mesorheo::driver::in_process;
 use mesorheo::models::dumbbells::{DumbbellParams, Scheme, Spring, hookean_discrete_moment};
@@ -482,11 +483,6 @@ fn fene_at_wi_100_matches_the_fokker_planck_tail_and_extension() {
         tails.push(tail as f64 / n as f64);
         q2s.push(q2_sum / n as f64);
     }
-    let mean_se = |v: &[f64]| {
-        let m = v.iter().sum::<f64>() / v.len() as f64;
-        let var = v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (v.len() - 1) as f64;
-        (m, (var / v.len() as f64).sqrt())
-    };
     let (q2, q2_se) = mean_se(&q2s);
     let (tail, tail_se) = mean_se(&tails);
     eprintln!("Wi = 100: ⟨|Q|²⟩ {q2:.5} ± {q2_se:.5}, tail {tail:.4e} ± {tail_se:.1e}");
