@@ -37,11 +37,14 @@ ETA_S = ETA_P = 0.5
 LAMBDA = 1.0
 
 
-def point_name(wi, nd, pb, density, seed):
-    return f"wi{wi:g}_nd{nd}_pb{pb:g}_rho{density:g}_seed{seed}"
+NOISE_SUFFIX = {"independent": "", "configuration_fields": "_cf"}
 
 
-def overrides(wi, nd, pb, density, seed):
+def point_name(wi, nd, pb, density, seed, noise="independent"):
+    return f"wi{wi:g}_nd{nd}_pb{pb:g}_rho{density:g}_seed{seed}{NOISE_SUFFIX[noise]}"
+
+
+def overrides(wi, nd, pb, density, seed, noise="independent"):
     """The --set overrides of one point."""
     scale = max(1.0, wi / 2.0)
     spacing = 1.0 / math.sqrt(density)
@@ -59,6 +62,7 @@ def overrides(wi, nd, pb, density, seed):
         f"fluid.sound_speed={10.0 * scale}",
         f"fluid.background_pressure={pb}",
         f"fluid.polymer.per_particle={nd}",
+        f'fluid.polymer.noise="{noise}"',
         f"integrator.dt={dt}",
         f"neighbour.skin={0.4 * spacing}",
         f"run.steps={steps}",
@@ -69,15 +73,15 @@ def overrides(wi, nd, pb, density, seed):
     ]
 
 
-def run_point(binary, out, wi, nd, pb, density, seed, threads):
-    folder = os.path.join(out, point_name(wi, nd, pb, density, seed))
+def run_point(binary, out, wi, nd, pb, density, seed, threads, noise):
+    folder = os.path.join(out, point_name(wi, nd, pb, density, seed, noise))
     summary = os.path.join(folder, "summary.json")
     if os.path.exists(summary):
         return summary
     cmd = [binary, "run", CASE, "--out", folder, "-q", "-t", str(threads)]
-    for s in overrides(wi, nd, pb, density, seed):
+    for s in overrides(wi, nd, pb, density, seed, noise):
         cmd += ["--set", s]
-    print("running", point_name(wi, nd, pb, density, seed), flush=True)
+    print("running", point_name(wi, nd, pb, density, seed, noise), flush=True)
     # A reference miss exits 3 (the stock case's references are for Wi = 1): not an error here.
     r = subprocess.run(cmd, capture_output=True, text=True)
     if r.returncode not in (0, 3) or not os.path.exists(summary):
@@ -93,7 +97,7 @@ def read_points(out):
             continue
         s = json.load(open(path))
         o = s["observables"]
-        fields = {}
+        fields = {"cf": 1.0 if name.endswith("_cf") else 0.0}
         for token in name.split("_"):
             for key in ("wi", "nd", "pb", "rho", "seed"):
                 if token.startswith(key):
@@ -119,10 +123,10 @@ def aggregate(rows):
     """Mean bias over seeds per setting, with its error bar."""
     groups = {}
     for r in rows:
-        groups.setdefault((r["wi"], r["nd"], r["pb"], r["rho"]), []).append(r)
+        groups.setdefault((r["cf"], r["wi"], r["nd"], r["pb"], r["rho"]), []).append(r)
     out = []
     for key, members in sorted(groups.items()):
-        g = dict(zip(("wi", "nd", "pb", "rho"), key))
+        g = dict(zip(("cf", "wi", "nd", "pb", "rho"), key))
         g["seeds"] = len(members)
         for label in ("eta_flux", "n1_flux", "eta_constitutive", "n1_constitutive"):
             values = [m[label] for m in members]
@@ -144,12 +148,12 @@ def report(out, png):
         w = csv.DictWriter(f, fieldnames=list(groups[0].keys()))
         w.writeheader()
         w.writerows(groups)
-    print("| Wi | N_d | p_b | particles | seeds | η flux | N₁ flux | η constitutive | N₁ constitutive | core-s/run |")
-    print("|---|---|---|---|---|---|---|---|---|---|")
+    print("| noise | Wi | N_d | p_b | particles | seeds | η flux | N₁ flux | η constitutive | N₁ constitutive | core-s/run |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
     pct = lambda g, k: f"{100 * g[k]:+.2f} ± {100 * g[k + '_err']:.2f} %"
     for g in groups:
         print(
-            f"| {g['wi']:g} | {g['nd']:g} | {g['pb']:g} | {g['rho']:g} | {g['seeds']} | "
+            f"| {'configuration fields' if g['cf'] else 'independent'} | {g['wi']:g} | {g['nd']:g} | {g['pb']:g} | {g['rho']:g} | {g['seeds']} | "
             f"{pct(g, 'eta_flux')} | {pct(g, 'n1_flux')} | {pct(g, 'eta_constitutive')} | "
             f"{pct(g, 'n1_constitutive')} | {g['core_seconds']:.0f} |"
         )
@@ -160,13 +164,13 @@ def report(out, png):
         import matplotlib.pyplot as plt
 
         fig, axes = plt.subplots(1, 2, figsize=(11, 4.2), sharex=True)
-        settings = sorted({(g["nd"], g["pb"], g["rho"]) for g in groups})
+        settings = sorted({(g["cf"], g["nd"], g["pb"], g["rho"]) for g in groups})
         for ax, quantity, title in [
             (axes[0], "eta", "shear viscosity η"),
             (axes[1], "n1", "first normal stress difference N₁"),
         ]:
-            for nd, pb, rho in settings:
-                sel = [g for g in groups if (g["nd"], g["pb"], g["rho"]) == (nd, pb, rho)]
+            for cf, nd, pb, rho in settings:
+                sel = [g for g in groups if (g["cf"], g["nd"], g["pb"], g["rho"]) == (cf, nd, pb, rho)]
                 wi = [g["wi"] for g in sel]
                 for kind, style in (("flux", "-o"), ("constitutive", "--s")):
                     k = f"{quantity}_{kind}"
@@ -176,7 +180,7 @@ def report(out, png):
                         yerr=[100 * g[k + "_err"] for g in sel],
                         fmt=style,
                         capsize=3,
-                        label=f"{kind}, N_d = {nd:g}, p_b = {pb:g}, N = {rho:g}",
+                        label=f"{kind}, {'conf. fields, ' if cf else ''}N_d = {nd:g}, p_b = {pb:g}, N = {rho:g}",
                     )
             ax.axhline(0.0, color="k", lw=0.8)
             ax.set_xscale("log", base=2)
@@ -200,6 +204,13 @@ def main():
     a.add_argument("--seeds", type=int, nargs="*", default=[1])
     a.add_argument("--density", type=float, nargs="*", default=[400.0])
     a.add_argument("--threads", type=int, default=1)
+    a.add_argument(
+        "--noise",
+        nargs="*",
+        default=["independent"],
+        choices=list(NOISE_SUFFIX),
+        help="fluid.polymer.noise of the runs (configuration_fields: points named …_cf)",
+    )
     a.add_argument("--report", metavar="PNG", nargs="?", const="", default=None)
     args = a.parse_args()
     os.makedirs(args.out, exist_ok=True)
@@ -208,7 +219,10 @@ def main():
             for pb in args.pb:
                 for wi in args.wi:
                     for seed in args.seeds:
-                        run_point(args.binary, args.out, wi, nd, pb, density, seed, args.threads)
+                        for noise in args.noise:
+                            run_point(
+                                args.binary, args.out, wi, nd, pb, density, seed, args.threads, noise
+                            )
     if args.report is not None:
         report(args.out, args.report or None)
 

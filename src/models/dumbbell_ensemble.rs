@@ -21,8 +21,12 @@
 //! Keys: the initial ensemble of particle g is drawn from the stream (seed, g) and the noise of
 //! step n from (seed, g, n, stage 0) — the keys of [`super::homogeneous_flow`], so a particle
 //! scene with an imposed flow reproduces a homogeneous-flow scene's connectors bit for bit
-//! (tested), on any decomposition, however the particles migrate.
+//! (tested), on any decomposition, however the particles migrate. With
+//! `noise = "configuration_fields"` every particle draws from particle 0's streams
+//! ([`EnsembleNoise`]: Brownian configuration fields), so a coupled scene in homogeneous
+//! flow carries homogeneous-flow particle 0's ensemble at every particle.
 
+use super::dumbbell_settings::EnsembleNoise;
 use super::dumbbells::{
     DumbbellParams, Spring, init_stream, kramers_stress, noise_stream, outside_domain,
     sample_equilibrium, step_ensemble,
@@ -62,6 +66,8 @@ pub struct DumbbellEnsemble<const D: usize> {
     carrier: Option<u8>,
     /// Whether a field κ is used without its trace (κ − (tr κ/D) I).
     deviatoric: bool,
+    /// Whose streams each particle draws its connectors and increments from.
+    noise: EnsembleNoise,
     /// Field indices: connectors (var), stress, κ (extra, when a field is the source).
     connectors: usize,
     stress: usize,
@@ -88,6 +94,7 @@ impl<const D: usize> DumbbellEnsemble<D> {
             kappa,
             carrier: None,
             deviatoric: false,
+            noise: EnsembleNoise::Independent,
             connectors: usize::MAX,
             stress: usize::MAX,
             kappa_field: None,
@@ -121,6 +128,7 @@ impl<const D: usize> DumbbellEnsemble<D> {
         )?;
         e.carrier = carrier;
         e.deviatoric = true;
+        e.noise = cfg.ensemble_noise();
         Ok(e)
     }
 
@@ -197,7 +205,7 @@ impl<const D: usize> ParticleModel<D> for DumbbellEnsemble<D> {
             }
         };
         if !restarted {
-            let (n_d, seed, spring) = (self.n_d, self.seed, self.params.spring);
+            let (n_d, seed, spring, noise) = (self.n_d, self.seed, self.params.spring, self.noise);
             let carrier = self.carrier;
             let Particles {
                 var, gid, species, ..
@@ -208,7 +216,11 @@ impl<const D: usize> ParticleModel<D> for DumbbellEnsemble<D> {
                     return Vec::new();
                 }
                 let mut q = vec![0.0; n_d * D];
-                sample_equilibrium::<D>(&mut q, spring, &mut init_stream(seed, gid[i]));
+                sample_equilibrium::<D>(
+                    &mut q,
+                    spring,
+                    &mut init_stream(seed, noise.stream_owner(gid[i])),
+                );
                 q
             };
             let n = var[self.connectors].data.len();
@@ -233,7 +245,7 @@ impl<const D: usize> ParticleModel<D> for DumbbellEnsemble<D> {
     /// the lowest particle id and dumbbell index first.
     fn update_state(&self, p: &mut Particles<D>, step: u64) -> Option<StateBlowUp> {
         let n = step - 1;
-        let (params, seed) = (self.params, self.seed);
+        let (params, seed, streams) = (self.params, self.seed, self.noise);
         let imposed = match &self.kappa {
             VelocityGradient::Imposed(flow) => {
                 Some(tensor_rows(&flow.kappa::<D>(n as f64 * params.dt)))
@@ -271,7 +283,7 @@ impl<const D: usize> ParticleModel<D> for DumbbellEnsemble<D> {
                     if q.is_empty() {
                         return None;
                     }
-                    let mut noise = noise_stream(seed, gid[i], n, 0);
+                    let mut noise = noise_stream(seed, streams.stream_owner(gid[i]), n, 0);
                     step_ensemble::<D>(q, &kappa_of(i), &params, &mut noise);
                     outside_domain::<D, f64>(q, limit).map(|(k, q2)| (gid[i], k, q2))
                 })
@@ -286,7 +298,7 @@ impl<const D: usize> ParticleModel<D> for DumbbellEnsemble<D> {
                         }
                         wide.clear();
                         wide.extend(q.iter().map(|&x| f64::from(x)));
-                        let mut noise = noise_stream(seed, gid[i], n, 0);
+                        let mut noise = noise_stream(seed, streams.stream_owner(gid[i]), n, 0);
                         step_ensemble::<D>(wide, &kappa_of(i), &params, &mut noise);
                         for (s, w) in q.iter_mut().zip(wide.iter()) {
                             *s = *w as f32;

@@ -32,6 +32,43 @@ pub enum SchemeKind {
     SemiImplicit,
 }
 
+/// Whose Wiener increments the ensembles of a CONNFFESSIT fluid draw (`fluid.polymer.noise`).
+///
+/// - `Independent`: particle g draws its initial connectors and the increments of step n from
+///   the streams (seed, g) and (seed, g, n): M·N_d independent dumbbells. The stress of
+///   neighbouring particles then differs by independent noise of relative size N_d^(−1/2),
+///   whose divergence pushes the particles off their ordered arrangement; the disorder feeds
+///   the velocity gradient and the pair forces, and the measured η and N₁ acquire a bias of
+///   order 1/N_d that grows with Wi (docs/validation.md, "The coupled shear's bias").
+/// - `ConfigurationFields`: every particle draws from the streams of particle 0, so dumbbell k
+///   of every particle starts from the same connector and receives the same increments: the
+///   k-th dumbbells form a Brownian configuration field Q_k(r, t), smooth in space (Hulsen, van
+///   Heel & van den Brule, J. Non-Newtonian Fluid Mech. 70 (1997) 79). The stress is
+///   still the Kramers stress of N_d dumbbells at each particle, with the same expectation,
+///   but its noise is the same at neighbouring particles and so drives no relative motion:
+///   in homogeneous flow every particle carries the homogeneous-flow ensemble of particle 0
+///   exactly. The price: the mean stress averages N_d independent dumbbells, not M·N_d.
+#[derive(Clone, Copy, Debug, Default, Serialize, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum EnsembleNoise {
+    /// Every particle its own streams (the default).
+    #[default]
+    Independent,
+    /// One set of streams shared by every particle (Brownian configuration fields).
+    ConfigurationFields,
+}
+
+impl EnsembleNoise {
+    /// The particle id whose streams particle `gid` draws from.
+    #[inline]
+    pub fn stream_owner(self, gid: u64) -> u64 {
+        match self {
+            Self::Independent => gid,
+            Self::ConfigurationFields => 0,
+        }
+    }
+}
+
 /// Storage precision of the connector vectors (`polymer.precision`): the particle store's own.
 pub use crate::particles::Precision;
 

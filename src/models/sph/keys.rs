@@ -126,6 +126,12 @@ pub const KEYS: &[KeyDoc] = &[
         "Storage of the connectors (model = \"dumbbells\"); the arithmetic is double either way.",
     ),
     key(
+        "fluid.polymer.noise",
+        "\"independent\" | \"configuration_fields\"",
+        "\"independent\"",
+        "Whose Wiener increments the dumbbells draw (model = \"dumbbells\"). \"independent\": every particle its own (M·N_d independent dumbbells; the stress noise differs between neighbours, disorders the particles and biases η and N₁ by O(1/N_d), growing with Wi). \"configuration_fields\": dumbbell k of every particle starts from the same connector and gets the same increments (Brownian configuration fields, Hulsen, van Heel & van den Brule 1997): the stress field is smooth, the coupling carries no noise-driven bias, and in homogeneous flow every particle holds the homogeneous-flow ensemble exactly; the mean stress then averages N_d independent dumbbells, not M·N_d, so its error bar is √M larger.",
+    ),
+    key(
         "fluid.polymer.viscosity",
         "float > 0",
         "required ([fluid.polymer])",

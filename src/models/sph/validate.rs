@@ -231,6 +231,7 @@ pub(super) fn validate_sph(
             ("b", poly.b.is_some()),
             ("scheme", poly.scheme.is_some()),
             ("precision", poly.precision.is_some()),
+            ("noise", poly.noise.is_some()),
         ];
         if let Some((key, _)) = optional
             .iter()

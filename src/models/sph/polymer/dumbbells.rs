@@ -11,7 +11,14 @@ pub struct Dumbbells;
 
 impl Law for Dumbbells {
     const ENSEMBLE: bool = true;
-    const KEYS: &'static [&'static str] = &["per_particle", "spring", "b", "scheme", "precision"];
+    const KEYS: &'static [&'static str] = &[
+        "per_particle",
+        "spring",
+        "b",
+        "scheme",
+        "precision",
+        "noise",
+    ];
 
     fn validate(cfg: &PolymerCfg) -> Result<(), (&'static str, String)> {
         if cfg.per_particle.is_none() {

@@ -12,7 +12,7 @@
 //! The stress is stored packed, the upper triangle row by row: (xx, xy, yy) in 2D,
 //! (xx, xy, xz, yy, yz, zz) in 3D.
 
-use crate::models::dumbbell_settings::{SchemeKind, SpringKind};
+use crate::models::dumbbell_settings::{EnsembleNoise, SchemeKind, SpringKind};
 use crate::models::dumbbells::{DumbbellParams, Scheme, Spring};
 use crate::particles::Precision;
 use serde::{Deserialize, Serialize};
@@ -46,6 +46,9 @@ pub struct PolymerCfg {
     /// `dumbbells`: storage precision of the connectors (default double).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub precision: Option<Precision>,
+    /// `dumbbells`: whose Wiener increments the ensembles draw (default independent).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub noise: Option<EnsembleNoise>,
 }
 
 impl PolymerCfg {
@@ -84,6 +87,11 @@ impl PolymerCfg {
     /// The ensembles' modulus G = η_p/λ (= n k_BT: the stress unit of ⟨QF(Q)⟩ − I).
     pub fn modulus(&self) -> f64 {
         self.viscosity / self.relaxation_time
+    }
+
+    /// The ensembles' noise (independent per particle unless `noise = "configuration_fields"`).
+    pub fn ensemble_noise(&self) -> EnsembleNoise {
+        self.noise.unwrap_or_default()
     }
 
     /// The connectors' storage precision.
