@@ -233,7 +233,7 @@ fn a_connector_outside_its_domain_stops_a_particle_scene() {
 /// thousand times the round-off, far below any κ error: a gradient 10⁻⁶ off moves τ by
 /// ~10⁻⁶); 0.6 % for η and 2 % for N₁, about 2.5× the measured lattice error. Dropping the
 /// polymer term of the momentum equation moves η by −40 %, flipping its sign by −80 %, and
-/// Morris's force × 1.1 moves η by +6 %: each fails.
+/// Morris's force × 1.1 moves η by +5.7 % (each run 2026-11-27: η −41 %, −82 %, +5.7 % at Wi = 2): each fails.
 #[test]
 fn configuration_fields_carry_the_homogeneous_twin_ensemble() {
     use mesorheo::models::dumbbells::{
