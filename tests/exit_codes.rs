@@ -304,3 +304,46 @@ fn a_finished_run_is_not_restarted_and_an_extended_one_lists_its_segments() {
         .sum();
     assert_eq!(s["total_wall_seconds"].as_f64(), Some(walls), "{s}");
 }
+
+/// `./run case` called from another directory takes the case file and `--out` relative to that
+/// directory, and puts a case's default output under its `out/` (MESORHEO_BIN: this build, no
+/// MPI build). Fails if the script resolves them in the repository again (mutation: drop
+/// `file=$(from_caller "$file")` or the `from_caller` of `--out` in `run_case`).
+#[test]
+fn the_run_script_takes_paths_from_the_callers_directory() {
+    if Command::new("mpirun").arg("--version").output().is_err() {
+        use std::io::Write;
+        let _ = writeln!(
+            std::io::stderr().lock(),
+            "SKIPPED ./run from another directory: no mpirun on the PATH (./run test installs it)"
+        );
+        return;
+    }
+    let dir = tempfile::tempdir().expect("temp dir");
+    std::fs::create_dir(dir.path().join("cases")).expect("mkdir");
+    std::fs::copy(
+        stock("dpd_shear_2d.toml"),
+        dir.path().join("cases/mycase.toml"),
+    )
+    .expect("copy");
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("run");
+    let run = |out: &[&str]| {
+        let o = Command::new("bash")
+            .arg(&script)
+            .args(["case", "cases/mycase.toml", "-n", "1", "-t", "1"])
+            .args(out)
+            .args(["-q", "--steps", "200", "--set", "run.equilibration=100"])
+            .args(["--set", "reference=[]", "--set", "diagnostics.blocks=2"])
+            .current_dir(dir.path())
+            .env("MESORHEO_BIN", env!("CARGO_BIN_EXE_mesorheo"))
+            .output()
+            .expect("run the script");
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    };
+    run(&["--out", "results/a"]);
+    assert!(dir.path().join("results/a/summary.json").is_file());
+    run(&[]);
+    assert!(dir.path().join("out/mycase/summary.json").is_file());
+    let repo = Path::new(env!("CARGO_MANIFEST_DIR"));
+    assert!(!repo.join("results").exists() && !repo.join("out/mycase").exists());
+}
