@@ -141,14 +141,21 @@ pub fn block_warnings(scalars: &BTreeMap<String, Vec<f64>>, blocks: usize) -> Ve
         let tau_stderr = (2.0 * tau * var / n as f64).sqrt();
         let usable = ((n as f64 / (BLOCK_CORRELATION_TIMES * tau)).floor() as usize).max(1);
         let fix = if usable >= 2 {
-            format!("set [diagnostics] blocks ≤ {usable} or run longer")
+            format!(
+                "set `blocks = {usable}` (or fewer) under [diagnostics], or run longer (a larger \
+                 run.steps)"
+            )
         } else {
-            "run longer (the series spans fewer than 2 blocks of 10 τ_int)".to_owned()
+            "run longer (a larger run.steps): the averaging window is too short for even 2 \
+             independent blocks"
+                .to_owned()
         };
         out.push(format!(
-            "{name}: blocks of {block_len:.0} samples are shorter than {BLOCK_CORRELATION_TIMES} \
-             correlation times (τ_int = {tau:.1} samples), so its block error bar is too small; \
-             the τ_int estimate gives ± {tau_stderr:.3e}; {fix}"
+            "{name}: its ± error bar is probably too small: the samples stay correlated over \
+             about {tau:.1} samples, and each of the {nb} averaging blocks holds only \
+             {block_len:.0}, fewer than the {:.0} ({BLOCK_CORRELATION_TIMES} × {tau:.1}) an \
+             honest error bar needs; a corrected one is ± {tau_stderr:.2e}. To fix it, {fix}",
+            BLOCK_CORRELATION_TIMES * tau
         ));
     }
     out
@@ -263,7 +270,9 @@ mod tests {
         let w = block_warnings(&scalars, 1000);
         assert_eq!(w.len(), 1, "{w:?}");
         assert!(
-            w[0].starts_with("viscosity:") && w[0].contains("blocks ≤"),
+            w[0].starts_with("viscosity:")
+                && w[0].contains("set `blocks = ")
+                && !w[0].contains("τ_int"),
             "{}",
             w[0]
         );

@@ -107,7 +107,14 @@ pub fn restart_candidates(path: &Path) -> Vec<PathBuf> {
     {
         use crate::output::checkpoint;
         if path.is_dir() {
-            return checkpoint::list(path).into_iter().map(|(_, p)| p).collect();
+            let found = checkpoint::list(path);
+            // A run directory OUT (not OUT/checkpoints): its checkpoints.
+            let found = if found.is_empty() {
+                checkpoint::list(&path.join("checkpoints"))
+            } else {
+                found
+            };
+            return found.into_iter().map(|(_, p)| p).collect();
         }
         let mut out = vec![path.to_path_buf()];
         let name = path.file_name().and_then(|n| n.to_str()).unwrap_or("");
@@ -139,30 +146,47 @@ pub fn restart_candidates(path: &Path) -> Vec<PathBuf> {
 /// one) begins; the path and the reason follow.
 pub const CHECKPOINT_REFUSED: &str = "checkpoint refused, an older one used";
 
+/// Refuses, before anything is opened or written, what `restart` cannot start from: a path
+/// that does not exist, a file that is not a checkpoint (a case file given by mistake: it is
+/// left exactly as it is), a directory without checkpoints. An invalid request (exit code 2).
+pub fn check_restart_source(checkpoint: &Path) -> Result<(), Error> {
+    if !checkpoint.exists() {
+        return Err(Error::InvalidCase(format!(
+            "{}: no such checkpoint file or directory (checkpoints are written to \
+             OUT/checkpoints/checkpoint_<step>.h5)",
+            checkpoint.display()
+        )));
+    }
+    #[cfg(feature = "hdf5")]
+    {
+        crate::output::checkpoint::identify(checkpoint)
+            .map_err(|e| Error::InvalidCase(e.to_string()))?;
+        if checkpoint.is_dir() && restart_candidates(checkpoint).is_empty() {
+            return Err(Error::InvalidCase(format!(
+                "no checkpoint found in {} (checkpoints are OUT/checkpoints/\
+                 checkpoint_<step>.h5; give the file, OUT/checkpoints or the run directory OUT)",
+                checkpoint.display()
+            )));
+        }
+    }
+    Ok(())
+}
+
 /// Continues a run from a checkpoint (collective), whatever its scene. A checkpoint that
 /// cannot be used is reported and the previous one in the same directory is tried instead; a
-/// damaged one is also set aside ([`crate::output::checkpoint::CheckpointError`]).
+/// damaged one of ours is also set aside ([`crate::output::checkpoint::CheckpointError`]); a
+/// file mesorheo did not write is refused and never touched.
 pub fn restart_case(
     checkpoint: &Path,
     comm: &dyn Comm,
     options: &RunOptions,
 ) -> Result<Summary, Error> {
+    check_restart_source(checkpoint)?;
     #[cfg(feature = "hdf5")]
     {
         use crate::output::checkpoint::{self as ck, SceneKind};
         let threads = threads_of(options);
-        if !checkpoint.exists() {
-            return Err(format!(
-                "{}: no such checkpoint file or directory (checkpoints are written to \
-                 OUT/checkpoints/checkpoint_<step>.h5)",
-                checkpoint.display()
-            )
-            .into());
-        }
         let candidates = restart_candidates(checkpoint);
-        if candidates.is_empty() {
-            return Err(format!("no checkpoint found in {}", checkpoint.display()).into());
-        }
         let mut refused = Vec::new();
         for path in candidates {
             // Every rank identifies the file itself; the verdict is agreed collectively.
@@ -182,6 +206,11 @@ pub fn restart_case(
                 }
                 Err(Restart::Failed(e)) => return Err(e),
                 Err(Restart::Refused(e)) => {
+                    // A file that is not a checkpoint at all: the request is wrong, and no
+                    // other file is a substitute for it.
+                    if e.is_not_a_checkpoint() {
+                        return Err(Error::InvalidCase(e.to_string()));
+                    }
                     if comm.rank() == 0 {
                         tracing::warn!("checkpoint refused: {e}; trying the previous one");
                     }
@@ -253,9 +282,9 @@ fn restore_and_drive<const D: usize>(
     drive(scene, &loaded.path, Some(path), comm, options, threads).map_err(Restart::Failed)
 }
 
-/// A checkpoint refused because it is damaged on any rank (not, e.g., for a dimension
-/// mismatch) is renamed `NAME.corrupt` by rank 0, so it is kept for inspection but no restart
-/// picks it again (collective).
+/// A checkpoint of ours refused because it is damaged on any rank (not, e.g., for a dimension
+/// mismatch, and never a file mesorheo did not write) is renamed `NAME.h5.corrupt` by rank 0,
+/// so it is kept for inspection but no restart picks it again (collective).
 #[cfg(feature = "hdf5")]
 pub(crate) fn set_aside_if_damaged(
     path: &Path,
@@ -267,8 +296,16 @@ pub(crate) fn set_aside_if_damaged(
     if comm.rank() == 0 && damaged[0] > 0.0 && path.is_file() {
         let aside = path.with_extension("h5.corrupt");
         match std::fs::rename(path, &aside) {
-            Ok(()) => tracing::warn!("renamed {} to {}", path.display(), aside.display()),
-            Err(e) => tracing::warn!("cannot rename {}: {e}", path.display()),
+            Ok(()) => tracing::warn!(
+                "{} is a damaged mesorheo checkpoint: renamed to {} (kept for inspection; no \
+                 later restart picks it)",
+                path.display(),
+                aside.display()
+            ),
+            Err(e) => tracing::warn!(
+                "{} is a damaged mesorheo checkpoint and cannot be renamed: {e}",
+                path.display()
+            ),
         }
     }
     comm.barrier();

@@ -24,6 +24,12 @@ struct Cli {
     /// Debug output on the console.
     #[arg(long, short, global = true, conflicts_with = "quiet")]
     verbose: bool,
+    /// Level of the per-rank log files OUT/logs/rankNNNN.log: error, warn, info, debug or
+    /// trace, or a tracing directive such as `mesorheo=debug` [default: MESORHEO_LOG, else
+    /// info]. At debug, each rank logs its neighbour-list rebuilds once per progress interval;
+    /// at trace, every rebuild.
+    #[arg(long, global = true, value_name = "LEVEL", value_parser = log_level)]
+    log_level: Option<String>,
     #[command(subcommand)]
     command: Command,
 }
@@ -334,19 +340,22 @@ fn main() -> ExitCode {
                 out: Some(out.clone()),
                 max_hours,
             };
-            session(&*comm, &out, cli.quiet, cli.verbose, |comm| {
-                match &loaded.scene {
-                    config::CaseScene::HomogeneousFlow(flow) => {
-                        mesorheo::driver::run_flow_case(flow, &loaded.path, comm, &options)
-                    }
-                    config::CaseScene::Particles(c) => {
-                        let particles = config::LoadedCase {
-                            case: (**c).clone(),
-                            path: loaded.path.clone(),
-                            source: loaded.source.clone(),
-                        };
-                        run_case(&particles, comm, &options)
-                    }
+            let logs = Logs {
+                quiet: cli.quiet,
+                verbose: cli.verbose,
+                file_level: cli.log_level.clone(),
+            };
+            session(&*comm, &out, &logs, |comm| match &loaded.scene {
+                config::CaseScene::HomogeneousFlow(flow) => {
+                    mesorheo::driver::run_flow_case(flow, &loaded.path, comm, &options)
+                }
+                config::CaseScene::Particles(c) => {
+                    let particles = config::LoadedCase {
+                        case: (**c).clone(),
+                        path: loaded.path.clone(),
+                        source: loaded.source.clone(),
+                    };
+                    run_case(&particles, comm, &options)
                 }
             })
         }
@@ -358,6 +367,13 @@ fn main() -> ExitCode {
             until_step,
             max_hours,
         } => {
+            // Refused before anything is written: no logs, no summary, the file untouched.
+            if let Err(e) = mesorheo::driver::check_restart_source(&checkpoint) {
+                if root {
+                    eprintln!("error: {e}");
+                }
+                return ExitCode::from(e.exit_code());
+            }
             // OUT/checkpoints/checkpoint_N.h5 → OUT; OUT/checkpoints → OUT.
             let out = out.unwrap_or_else(|| {
                 let dir = if checkpoint.is_dir() {
@@ -391,7 +407,12 @@ fn main() -> ExitCode {
                 out: Some(out.clone()),
                 max_hours,
             };
-            session(&*comm, &out, cli.quiet, cli.verbose, |comm| {
+            let logs = Logs {
+                quiet: cli.quiet,
+                verbose: cli.verbose,
+                file_level: cli.log_level.clone(),
+            };
+            session(&*comm, &out, &logs, |comm| {
                 restart_case(&checkpoint, comm, &options)
             })
         }
@@ -511,20 +532,36 @@ fn install_signal_handlers() {
     });
 }
 
+/// What the console and the log files show.
+struct Logs {
+    /// `-q`: only warnings and errors on the console.
+    quiet: bool,
+    /// `-v`: debug output on the console.
+    verbose: bool,
+    /// `--log-level`: the level of the per-rank files.
+    file_level: Option<String>,
+}
+
+/// The target of the log records that only the files take (the console shows the same text in
+/// the results table).
+const FILES_ONLY: &str = "mesorheo::results";
+
 /// Logging, signal handlers, the run itself, summary.json and the exit code.
 fn session(
     comm: &dyn Comm,
     out: &std::path::Path,
-    quiet: bool,
-    verbose: bool,
+    logs: &Logs,
     job: impl FnOnce(&dyn Comm) -> Result<mesorheo::summary::Summary, mesorheo::error::Error>,
 ) -> ExitCode {
     let root = comm.rank() == 0;
-    let _guard = match init_logging(comm.rank(), out, quiet, verbose) {
+    let quiet = logs.quiet;
+    let _guard = match init_logging(comm.rank(), out, logs) {
         Ok(g) => g,
         Err(e) => {
-            eprintln!("error: cannot write logs under {}: {e}", out.display());
-            return ExitCode::FAILURE;
+            if root {
+                eprintln!("error: {e}");
+            }
+            return ExitCode::from(2);
         }
     };
     install_signal_handlers();
@@ -535,8 +572,16 @@ fn session(
                     eprintln!("error: cannot write {}/summary.json: {e}", out.display());
                     return ExitCode::FAILURE;
                 }
+                // Each warning once on the console: in the results table, or alone under -q.
                 if !quiet {
                     eprint!("{}", mesorheo::summary::render(&summary));
+                } else {
+                    for w in &summary.warnings {
+                        eprintln!("warning: {w}");
+                    }
+                }
+                for w in &summary.warnings {
+                    tracing::warn!(target: FILES_ONLY, "{w}");
                 }
                 tracing::info!("wrote {}/summary.json", out.display());
             }
@@ -562,44 +607,84 @@ fn session(
     }
 }
 
-/// Rank 0 logs to stderr; every rank logs to `OUT/logs/rankNNNN.log`.
+/// The level of the log files when neither `--log-level` nor MESORHEO_LOG sets one.
+const DEFAULT_FILE_LEVEL: &str = "info";
+
+/// Rank 0 logs to stderr; every rank logs to `OUT/logs/rankNNNN.log`, at `--log-level`, else
+/// MESORHEO_LOG, else info. The console follows MESORHEO_LOG, else -q / -v, else info.
 fn init_logging(
     rank: usize,
     out: &std::path::Path,
-    quiet: bool,
-    verbose: bool,
-) -> std::io::Result<tracing_appender::non_blocking::WorkerGuard> {
+    logs: &Logs,
+) -> Result<tracing_appender::non_blocking::WorkerGuard, String> {
+    use tracing_subscriber::filter::{FilterExt, filter_fn};
+    let from_env = match std::env::var("MESORHEO_LOG") {
+        Ok(v) if !v.trim().is_empty() => {
+            Some(log_level(&v).map_err(|e| format!("MESORHEO_LOG={v:?}: {e}"))?)
+        }
+        _ => None,
+    };
+    let file_level = (logs.file_level.clone())
+        .or_else(|| from_env.clone())
+        .unwrap_or_else(|| DEFAULT_FILE_LEVEL.to_owned());
     let dir = out.join("logs");
-    std::fs::create_dir_all(&dir)?;
+    std::fs::create_dir_all(&dir)
+        .map_err(|e| format!("cannot write logs under {}: {e}", out.display()))?;
     let file = tracing_appender::rolling::never(&dir, format!("rank{rank:04}.log"));
     let (writer, guard) = tracing_appender::non_blocking(file);
     let file_layer = fmt::layer()
         .with_ansi(false)
         .with_writer(writer)
-        .with_filter(EnvFilter::new("debug"));
-    let console_level = if quiet {
+        .with_filter(EnvFilter::new(file_level));
+    let console_level = if logs.quiet {
         "warn"
-    } else if verbose {
+    } else if logs.verbose {
         "debug"
     } else {
         "info"
     };
+    let console_level = from_env.unwrap_or_else(|| console_level.to_owned());
     let console = (rank == 0).then(|| {
         fmt::layer()
             .with_writer(std::io::stderr)
             .with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr()))
             .with_target(false)
             .with_filter(
-                EnvFilter::try_from_env("MESORHEO_LOG")
-                    .unwrap_or_else(|_| EnvFilter::new(console_level)),
+                EnvFilter::new(console_level).and(filter_fn(|meta| meta.target() != FILES_ONLY)),
             )
     });
     tracing_subscriber::registry()
         .with(file_layer)
         .with(console)
         .try_init()
-        .map_err(std::io::Error::other)?;
+        .map_err(|e| format!("cannot start logging: {e}"))?;
     Ok(guard)
+}
+
+/// `--log-level` and MESORHEO_LOG: a level or a tracing directive.
+fn log_level(text: &str) -> Result<String, String> {
+    let text = text.trim();
+    if text.is_empty() {
+        return Err("empty; give error, warn, info, debug or trace".to_owned());
+    }
+    // A bare word would parse as a target name ("debg": everything of a target `debg`, so
+    // nothing at all): a single word must be a level.
+    const LEVELS: [&str; 6] = ["off", "error", "warn", "info", "debug", "trace"];
+    if !text.contains(['=', ',']) && !LEVELS.contains(&text.to_ascii_lowercase().as_str()) {
+        return Err(format!(
+            "{text:?} is not a log level: give error, warn, info, debug or trace, or a \
+             directive such as mesorheo=debug"
+        ));
+    }
+    EnvFilter::builder()
+        .parse(text)
+        .map(|_| text.to_owned())
+        .map_err(|e| {
+            format!(
+                "{text:?} is not a log level ({e}): give error, warn, info, debug or trace, or \
+                 a directive such as mesorheo=debug"
+            )
+        })
 }
 
 /// `--max-hours` (and `--target`): a positive, finite number.

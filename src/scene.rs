@@ -516,12 +516,36 @@ pub fn drive(
         scene.set_steps(n);
     }
     let last_step = scene.run().steps;
+    if let Some(checkpoint) = restarted_from
+        && first_step >= last_step
+    {
+        return Err(Error::InvalidCase(format!(
+            "{}: the run is already complete: it reached its last step {last_step} (run.steps \
+             = {last_step}), so there is nothing to run, and {} is left as it was. To extend \
+             it, give the new total step count: `mesorheo restart {} --steps N` with N > \
+             {first_step} (--steps and --until-step are step numbers counted from the start of \
+             the first run, not a number of further steps)",
+            checkpoint.display(),
+            options.out.as_deref().map_or_else(
+                || "the summary".to_owned(),
+                |o| o.join("summary.json").display().to_string()
+            ),
+            checkpoint.display()
+        )));
+    }
     let stop_at = options.until_step.map_or(last_step, |k| k.min(last_step));
     if stop_at <= first_step && first_step < last_step {
-        return Err(
-            format!("--until-step {stop_at} is not after the current step {first_step}").into(),
-        );
+        return Err(Error::InvalidCase(format!(
+            "--until-step {stop_at} is not after the current step {first_step} (--until-step \
+             is a step number counted from the start of the first run, not a number of \
+             further steps)"
+        )));
     }
+    // The segments run before this one, from the run directory's summary.json (a restart).
+    let earlier = match (restarted_from, &options.out) {
+        (Some(_), Some(out)) => crate::summary::earlier_segments(&out.join("summary.json")),
+        _ => Vec::new(),
+    };
     let is_root = comm.rank() == 0;
     if is_root {
         tracing::info!(
@@ -546,6 +570,8 @@ pub fn drive(
     let every = scene.run().progress_seconds;
     let checkpoint_every = scene.output().checkpoint_every;
     let mut last_report = Instant::now();
+    // Each rank's neighbour-list rebuilds, logged as one line per progress interval.
+    let mut rebuilds = RebuildLog::new(scene.times(), first_step);
     let start = Instant::now();
     let mut last_checkpoint: Option<PathBuf> = None;
     let mut checkpointed_at = None;
@@ -596,17 +622,23 @@ pub fn drive(
                 break;
             }
         }
-        if is_root && every > 0.0 && last_report.elapsed().as_secs_f64() >= every {
+        // Every rank on its own clock: only logging, no collective.
+        if every > 0.0 && last_report.elapsed().as_secs_f64() >= every {
             last_report = Instant::now();
-            let rate = (step - first_step) as f64 / start.elapsed().as_secs_f64();
-            let eta = (stop_at - step) as f64 / rate.max(1e-12);
-            tracing::info!(
-                "step {step}/{last_step} t = {:.4} {} ETA {eta:.0} s",
-                scene.time(),
-                scene.progress(rate),
-            );
+            if is_root {
+                let rate = (step - first_step) as f64 / start.elapsed().as_secs_f64();
+                let eta = (stop_at - step) as f64 / rate.max(1e-12);
+                tracing::info!(
+                    "step {step}/{last_step} t = {:.4} {} ETA {eta:.0} s",
+                    scene.time(),
+                    scene.progress(rate),
+                );
+            }
+            rebuilds.log(scene.times(), step);
         }
     }
+    let reached = scene.step();
+    rebuilds.log(scene.times(), reached);
     let loop_seconds = start.elapsed().as_secs_f64();
     let completed = scene.step() >= last_step;
     let wants_final = scene.output().checkpoint_at_end || !completed;
@@ -637,18 +669,31 @@ pub fn drive(
         .into());
     }
     scene.close_outputs(options.out.as_deref())?;
+    // The warnings reach the console once, with the results (`mesorheo::summary::render`).
     let report = scene.report(completed)?;
-    for w in &report.warnings {
-        tracing::warn!("{w}");
-    }
     let steps_run = (scene.step() - first_step) as f64;
     let rate = |n: f64| n * steps_run / loop_seconds.max(1e-300);
     let mut peak = [crate::capacity::peak_resident_memory().unwrap_or(-1.0)];
     comm.allreduce_max(&mut peak);
+    let wall_seconds = wall.elapsed().as_secs_f64();
+    let mut segments = earlier;
+    segments.push(crate::summary::Segment {
+        started_from: case_file.display().to_string(),
+        first_step,
+        last_step: scene.step(),
+        ranks: comm.size(),
+        threads,
+        wall_seconds,
+        loop_seconds,
+    });
     Ok(Summary {
         version: env!("CARGO_PKG_VERSION").to_owned(),
         case: report.case,
-        case_file: case_file.display().to_string(),
+        // The case the first segment started from (a restart's own checkpoint when the run
+        // directory holds no earlier summary).
+        case_file: segments[0].started_from.clone(),
+        total_wall_seconds: segments.iter().map(|s| s.wall_seconds).sum(),
+        segments,
         ranks: comm.size(),
         threads,
         dimension: report.dimension,
@@ -658,7 +703,7 @@ pub fn drive(
         restarted_from: restarted_from.map(|p| p.display().to_string()),
         last_checkpoint: last_checkpoint.map(|p| p.display().to_string()),
         time: scene.time(),
-        wall_seconds: wall.elapsed().as_secs_f64(),
+        wall_seconds,
         loop_seconds,
         particle_steps_per_second: rate(report.particles as f64),
         dumbbell_steps_per_second: report.dumbbells.map(|n| rate(n as f64)),
@@ -672,6 +717,38 @@ pub fn drive(
         state_digest: report.state_digest,
         phase_seconds: scene.times().clone(),
     })
+}
+
+/// One rank's neighbour-list rebuilds since its last progress interval, logged at debug as one
+/// line per interval (each rebuild itself is a trace record), so a long run's log stays
+/// bounded.
+struct RebuildLog {
+    rebuilds: u64,
+    seconds: f64,
+    step: u64,
+}
+
+impl RebuildLog {
+    fn new(times: &PhaseTimes, step: u64) -> Self {
+        Self {
+            rebuilds: times.rebuilds,
+            seconds: times.neighbour + times.rebuild_comm,
+            step,
+        }
+    }
+
+    fn log(&mut self, times: &PhaseTimes, step: u64) {
+        let now = Self::new(times, step);
+        if step > self.step && now.rebuilds > self.rebuilds {
+            tracing::debug!(
+                "steps {}–{step}: {} neighbour-list rebuilds ({:.1} ms)",
+                self.step + 1,
+                now.rebuilds - self.rebuilds,
+                (now.seconds - self.seconds) * 1e3
+            );
+        }
+        *self = now;
+    }
 }
 
 /// On a blow-up (every detector decides collectively, so every rank is here), writes the state

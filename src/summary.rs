@@ -47,6 +47,61 @@ pub struct DensityPoint {
     pub stderr: f64,
 }
 
+/// One segment of a run: the first run, or one restart.
+#[derive(Clone, Debug, Serialize, serde::Deserialize, PartialEq)]
+pub struct Segment {
+    /// The case file (first segment) or the checkpoint (a restart) it started from.
+    pub started_from: String,
+    /// The step it started at.
+    pub first_step: u64,
+    /// The step it reached.
+    pub last_step: u64,
+    /// Ranks.
+    pub ranks: usize,
+    /// Threads per rank.
+    pub threads: usize,
+    /// Its wall time (set-up, stepping, output).
+    pub wall_seconds: f64,
+    /// Its wall time of the time-stepping loop only.
+    pub loop_seconds: f64,
+}
+
+/// The segments of the run that wrote the summary `path` (an earlier segment of the run a
+/// restart continues); none when there is no readable summary. A summary written before
+/// segments were recorded gives its one run as the first segment, when it was not itself a
+/// restart.
+pub fn earlier_segments(path: &std::path::Path) -> Vec<Segment> {
+    let Some(v) = std::fs::read_to_string(path)
+        .ok()
+        .and_then(|t| serde_json::from_str::<serde_json::Value>(&t).ok())
+    else {
+        return Vec::new();
+    };
+    if let Some(list) = v.get("segments") {
+        return serde_json::from_value(list.clone()).unwrap_or_default();
+    }
+    if v.get("restarted_from").is_some() {
+        return Vec::new();
+    }
+    let number = |k: &str| v.get(k).and_then(serde_json::Value::as_f64);
+    let count = |k: &str| v.get(k).and_then(serde_json::Value::as_u64);
+    match (
+        v.get("case_file").and_then(serde_json::Value::as_str),
+        count("steps"),
+    ) {
+        (Some(case_file), Some(steps)) => vec![Segment {
+            started_from: case_file.to_owned(),
+            first_step: 0,
+            last_step: steps,
+            ranks: count("ranks").unwrap_or(0) as usize,
+            threads: count("threads").unwrap_or(0) as usize,
+            wall_seconds: number("wall_seconds").unwrap_or(0.0),
+            loop_seconds: number("loop_seconds").unwrap_or(0.0),
+        }],
+        _ => Vec::new(),
+    }
+}
+
 /// The run summary (the README documents every field).
 #[derive(Clone, Debug, Serialize)]
 pub struct Summary {
@@ -54,8 +109,14 @@ pub struct Summary {
     pub version: String,
     /// Echo of the case with defaults filled in.
     pub case: serde_json::Value,
-    /// Case file.
+    /// The case file the run started from (after restarts, still the first segment's; a
+    /// restart's checkpoint when the run directory held no earlier summary).
     pub case_file: String,
+    /// The first run and every restart, in order; `wall_seconds` and `loop_seconds` are the
+    /// last segment's.
+    pub segments: Vec<Segment>,
+    /// Wall time of all segments together.
+    pub total_wall_seconds: f64,
     /// Ranks.
     pub ranks: usize,
     /// Threads per rank.
@@ -76,11 +137,11 @@ pub struct Summary {
     pub last_checkpoint: Option<String>,
     /// Simulated time at the end.
     pub time: f64,
-    /// Wall time of the whole run (set-up, stepping, output).
+    /// Wall time of this segment (set-up, stepping, output).
     pub wall_seconds: f64,
-    /// Wall time of the time-stepping loop only.
+    /// Wall time of this segment's time-stepping loop only.
     pub loop_seconds: f64,
-    /// particles × (steps run in this session) / loop_seconds.
+    /// particles × (steps run in this segment) / loop_seconds.
     pub particle_steps_per_second: f64,
     /// dumbbells × (steps run in this session) / loop_seconds (scenes with ensembles).
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -365,15 +426,26 @@ pub fn check_value(v: &ValueReference, observables: &BTreeMap<String, Estimate>)
 /// Human-readable end-of-run report.
 pub fn render(summary: &Summary) -> String {
     let mut s = String::new();
+    let (first, segments) = (
+        summary.segments.last().map_or(0, |g| g.first_step),
+        summary.segments.len(),
+    );
     s.push_str(&format!(
         "{} particles × {} steps on {} rank(s) × {} thread(s): {:.3} s loop, {:.3e} particle-steps/s\n",
         summary.particles,
-        summary.steps,
+        summary.steps - first,
         summary.ranks,
         summary.threads,
         summary.loop_seconds,
         summary.particle_steps_per_second
     ));
+    if segments > 1 {
+        s.push_str(&format!(
+            "  steps {first} → {} in this restart; the run: {} steps in {segments} segments, \
+             {:.1} s wall in all (summary.json `segments`)\n",
+            summary.steps, summary.steps, summary.total_wall_seconds
+        ));
+    }
     if let Some(r) = summary.dumbbell_steps_per_second {
         s.push_str(&format!(
             "  {r:.3e} dumbbell-steps/s ({:.3e} per thread)\n",

@@ -162,3 +162,57 @@ fn the_h5py_snippet_reads_the_series_and_the_xdmf_matches() {
     assert!(stdout.contains("648 particles, 3 frames"), "{stdout}");
     assert!(stdout.contains("XDMF sidecar OK (3 frames"), "{stdout}");
 }
+
+/// The XDMF sidecar read as a viewer reads it (tools/check_xdmf.py: the XDMF evaluated item by
+/// item against the H5MD datasets, and through VTK's vtkXdmfReader, ParaView's, when VTK is
+/// installed): velocity, force and image are N × 3 `Vector` attributes in 2D (padded with a
+/// zero z) as in 3D. Fails with 2D vectors declared N × 2 again (mutation: `vector` returning
+/// `slab(field, frame)` for D = 2, or `AttributeType="Matrix"`). Needs MESORHEO_PYTHON like the
+/// h5py test.
+#[test]
+fn the_xdmf_gives_viewers_n_by_3_vectors_in_2d_and_3d() {
+    let Ok(python) = std::env::var("MESORHEO_PYTHON") else {
+        assert!(
+            std::env::var("MESORHEO_REQUIRE_PYTHON").is_err(),
+            "MESORHEO_PYTHON is not set"
+        );
+        common::report_skip(
+            "the XDMF reader check",
+            "set MESORHEO_PYTHON to a Python with h5py (./run test does)",
+        );
+        return;
+    };
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tools/check_xdmf.py");
+    let dir = tempfile::tempdir().expect("tempdir");
+    for dimension in [2, 3] {
+        let text = small_dpd(
+            dimension,
+            6.0,
+            0.4,
+            60,
+            "[output]\nsnapshot_every = 20\nsnapshot_fields = [\"position\", \"velocity\", \"force\", \"image\"]\n",
+        );
+        let out = dir.path().join(format!("d{dimension}"));
+        run(&text, 1, &out, None);
+        // Under ./run test (MESORHEO_REQUIRE_PYTHON), VTK must be there and read it too.
+        let mut cmd = std::process::Command::new(&python);
+        cmd.arg(&script).arg(out.join("snapshots.xdmf"));
+        if std::env::var("MESORHEO_REQUIRE_PYTHON").is_ok() {
+            cmd.arg("--require-vtk");
+        }
+        let o = cmd.output().expect("python");
+        let stdout = String::from_utf8_lossy(&o.stdout);
+        assert!(
+            o.status.success(),
+            "{dimension}D: {stdout}\n{}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+        assert!(
+            stdout.contains("XDMF OK: 3 frames of ")
+                && stdout.contains(&format!(
+                    "({dimension}D), vectors N × 3: force, image, velocity"
+                )),
+            "{stdout}"
+        );
+    }
+}

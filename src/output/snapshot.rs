@@ -358,7 +358,10 @@ fn write_observables(
 }
 
 /// The XDMF 3 sidecar: a temporal collection with one polyvertex grid per frame, each reading
-/// hyperslab `[frame, :, :]` of the H5MD datasets.
+/// hyperslab `[frame, :, :]` of the H5MD datasets. Vectors are N × 3 `Vector` attributes in 2D
+/// too, as VTK and ParaView need them (an N × 2 one is read as a single tuple of 2N
+/// components): a `JOIN($0, $1, 0 * $0)` of the x and y columns and a zero z column, computed
+/// by the reader, so the file keeps its two components.
 pub fn xdmf<const D: usize>(
     h5_name: &str,
     n: usize,
@@ -378,6 +381,31 @@ pub fn xdmf<const D: usize>(
              \x20       </DataItem>\n",
             field.name()
         )
+    };
+    // One column of a 2D field in frame `frame`, as an N × 1 hyperslab.
+    let column = |field: SnapshotField, frame: usize, c: usize| -> String {
+        let (number, precision) = match field {
+            SnapshotField::Image => ("Int", 4),
+            _ => ("Float", 8),
+        };
+        format!(
+            "          <DataItem ItemType=\"HyperSlab\" Dimensions=\"{n} 1\" Type=\"HyperSlab\">\n\
+             \x20           <DataItem Dimensions=\"3 3\" Format=\"XML\">{frame} 0 {c} 1 1 1 1 {n} 1</DataItem>\n\
+             \x20           <DataItem Dimensions=\"{total} {n} {D}\" NumberType=\"{number}\" Precision=\"{precision}\" Format=\"HDF\">{h5_name}:/{GROUP}/{}/value</DataItem>\n\
+             \x20         </DataItem>\n",
+            field.name()
+        )
+    };
+    let vector = |field: SnapshotField, frame: usize| -> String {
+        if D == 3 {
+            slab(field, frame)
+        } else {
+            format!(
+                "        <DataItem ItemType=\"Function\" Function=\"JOIN($0, $1, 0 * $0)\" Dimensions=\"{n} 3\">\n{}{}        </DataItem>\n",
+                column(field, frame, 0),
+                column(field, frame, 1)
+            )
+        }
     };
     let mut s = String::from(
         "<?xml version=\"1.0\" ?>\n<Xdmf Version=\"3.0\">\n  <Domain>\n    <Grid Name=\"particles\" GridType=\"Collection\" CollectionType=\"Temporal\">\n",
@@ -402,11 +430,10 @@ pub fn xdmf<const D: usize>(
                 continue;
             }
             s.push_str(&format!(
-                "      <Attribute Name=\"{}\" AttributeType=\"{}\" Center=\"Node\">\n",
+                "      <Attribute Name=\"{}\" AttributeType=\"Vector\" Center=\"Node\">\n",
                 field.name(),
-                if D == 3 { "Vector" } else { "Matrix" }
             ));
-            s.push_str(&slab(field, k));
+            s.push_str(&vector(field, k));
             s.push_str("      </Attribute>\n");
         }
         s.push_str("    </Grid>\n");

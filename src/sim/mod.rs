@@ -644,7 +644,9 @@ impl<'c, const D: usize> Simulation<'c, D> {
         if self.wants_full_list {
             self.full = FullList::from_half(&self.list, self.particles.n_owned);
         }
-        tracing::debug!(
+        // One record per rebuild (every step in DPD shear): trace only; the step loop logs a
+        // count per progress interval at debug.
+        tracing::trace!(
             owned = self.particles.n_owned,
             ghosts = self.particles.len() - self.particles.n_owned,
             pairs = self.list.len(),

@@ -67,10 +67,13 @@ impl SceneKind {
     }
 }
 
-/// Why a checkpoint cannot be used. A restart falls back to the previous checkpoint in either
-/// case; a [`CheckpointError::Damaged`] file is also renamed `NAME.h5.corrupt`, so no later
-/// restart picks it again, while an [`CheckpointError::Incompatible`] one (another format,
-/// version, scene or dimension: a good file of another kind) is left where it is.
+/// Why a checkpoint cannot be used. A restart falls back to the previous checkpoint in every
+/// case; a [`CheckpointError::Damaged`] file (one of ours: its `format` attribute, or its name
+/// `checkpoint_<step>.h5`, says mesorheo wrote it) is also renamed `NAME.h5.corrupt`, so no
+/// later restart picks it again, while an [`CheckpointError::Incompatible`] one (another
+/// format, version, scene or dimension: a good file of another kind) and a
+/// [`CheckpointError::NotACheckpoint`] (a file mesorheo did not write, such as a case file) are
+/// never touched.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum CheckpointError {
     /// Truncated, not HDF5, a dataset missing or of the wrong shape, a checksum mismatch.
@@ -92,6 +95,15 @@ pub enum CheckpointError {
     /// Read on this rank, but another rank could not.
     #[error("{0}: unreadable on another rank")]
     OtherRank(String),
+    /// A file mesorheo did not write (not HDF5, or HDF5 that cannot be opened, under a name
+    /// that is not a checkpoint's): refused and left exactly as it is.
+    #[error("{path}: not a mesorheo checkpoint: {reason}")]
+    NotACheckpoint {
+        /// The file.
+        path: String,
+        /// What it is, and what to do instead.
+        reason: String,
+    },
 }
 
 impl CheckpointError {
@@ -115,6 +127,73 @@ impl CheckpointError {
     pub fn is_damaged(&self) -> bool {
         matches!(self, Self::Damaged { .. })
     }
+
+    /// Whether the file is not a checkpoint at all.
+    pub fn is_not_a_checkpoint(&self) -> bool {
+        matches!(self, Self::NotACheckpoint { .. })
+    }
+
+    /// A file that is not a checkpoint, with a hint of what to do with it.
+    fn not_a_checkpoint(path: &Path, what: &str) -> Self {
+        let hint = if path.extension().is_some_and(|e| e == "toml") {
+            format!(
+                "it looks like a case file: start it with `mesorheo run {0}` (or `./run case \
+                 {0}`); `restart` takes a checkpoint OUT/checkpoints/checkpoint_<step>.h5 or \
+                 the directory OUT/checkpoints of an earlier run",
+                path.display()
+            )
+        } else {
+            "`restart` takes a checkpoint OUT/checkpoints/checkpoint_<step>.h5 written by \
+             `mesorheo run`, or the directory OUT/checkpoints"
+                .to_owned()
+        };
+        Self::NotACheckpoint {
+            path: path.display().to_string(),
+            reason: format!("{what}; the file is left as it is; {hint}"),
+        }
+    }
+}
+
+/// The HDF5 format signature, at offset 0 or at a user block's end (512, 1024, 2048, …).
+const HDF5_SIGNATURE: [u8; 8] = *b"\x89HDF\r\n\x1a\n";
+
+/// Whether `path` carries the HDF5 signature (reads at most a few 8-byte words).
+pub fn has_hdf5_signature(path: &Path) -> bool {
+    use std::io::{Read, Seek, SeekFrom};
+    let Ok(mut f) = std::fs::File::open(path) else {
+        return false;
+    };
+    let len = f.metadata().map_or(0, |m| m.len());
+    let mut offset = 0u64;
+    while offset + 8 <= len {
+        let mut word = [0u8; 8];
+        if f.seek(SeekFrom::Start(offset)).is_err() || f.read_exact(&mut word).is_err() {
+            return false;
+        }
+        if word == HDF5_SIGNATURE {
+            return true;
+        }
+        offset = if offset == 0 { 512 } else { offset * 2 };
+    }
+    false
+}
+
+/// Whether the file name is one mesorheo gives its checkpoints ([`file_name`]).
+pub fn named_like_a_checkpoint(path: &Path) -> bool {
+    path.file_name()
+        .and_then(|n| n.to_str())
+        .and_then(|n| n.strip_prefix("checkpoint_"))
+        .and_then(|n| n.strip_suffix(".h5"))
+        .is_some_and(|d| d.len() == 12 && d.bytes().all(|b| b.is_ascii_digit()))
+}
+
+/// Refuses, without opening it as HDF5, a file that neither carries the HDF5 signature nor a
+/// checkpoint's name (a case file passed to `restart` by mistake).
+pub fn identify(path: &Path) -> Result<(), CheckpointError> {
+    if path.is_file() && !has_hdf5_signature(path) && !named_like_a_checkpoint(path) {
+        return Err(CheckpointError::not_a_checkpoint(path, "not an HDF5 file"));
+    }
+    Ok(())
 }
 
 /// An open checkpoint whose format and version this code reads.
@@ -126,9 +205,18 @@ pub(crate) struct Opened {
 
 /// Opens `path` and identifies it: format, version, scene.
 pub(crate) fn open(path: &Path) -> Result<Opened, CheckpointError> {
-    let file = super::h5_options()
-        .open(path)
-        .map_err(|e| CheckpointError::damaged(path, format!("not a readable HDF5 file ({e})")))?;
+    identify(path)?;
+    let file = super::h5_options().open(path).map_err(|e| {
+        // Ours only if named like ours: an unreadable file of anyone else is not touched.
+        if named_like_a_checkpoint(path) {
+            CheckpointError::damaged(path, format!("not a readable HDF5 file ({e})"))
+        } else {
+            CheckpointError::not_a_checkpoint(
+                path,
+                &format!("an HDF5 file that cannot be read ({e})"),
+            )
+        }
+    })?;
     let format = read_attr_str(&file, "/", "format").map_err(|_| {
         CheckpointError::incompatible(path, "not a mesorheo checkpoint (no `format` attribute)")
     })?;
