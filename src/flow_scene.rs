@@ -38,6 +38,15 @@ use std::time::Instant;
 /// ⟨|Q|²⟩'s name (the average older checkpoints do not hold).
 const MEAN_SQUARE_LENGTH: &str = "mean_square_connector_length";
 
+/// The observables that lead a row of `observables.csv` (and the progress line), in order.
+const HEADLINE: [&str; 5] = [
+    "polymer_viscosity",
+    "extensional_viscosity",
+    "first_normal_stress_difference",
+    "polymer_stress_xy",
+    MEAN_SQUARE_LENGTH,
+];
+
 /// Suffix of the per-sample standard errors (particle-to-particle spread) in the series.
 const STDERR: &str = "_stderr";
 
@@ -282,6 +291,8 @@ pub struct FlowScene<'c, const D: usize> {
     comm: &'c dyn Comm,
     stop_requested_here: bool,
     stop_agreed: bool,
+    /// The observables of the last step, when it was sampled.
+    row: Option<Vec<(String, f64)>>,
 }
 
 impl<'c, const D: usize> FlowScene<'c, D> {
@@ -386,6 +397,7 @@ impl<'c, const D: usize> FlowScene<'c, D> {
             comm,
             stop_requested_here: false,
             stop_agreed: false,
+            row: None,
         }
     }
 }
@@ -429,6 +441,24 @@ impl<const D: usize> Scene for FlowScene<'_, D> {
             let t = Instant::now();
             sample(&self.e, &self.case, &mut self.series, &mut self.averages);
             self.times.diagnostics += t.elapsed().as_secs_f64();
+            // The sample just taken, for the time series (the particle-spread errors stay in
+            // polymer_stress.csv).
+            let k = self.series.steps.len() - 1;
+            let mut row: Vec<(String, f64)> = (self.series.scalars.iter())
+                .filter(|(name, _)| !name.ends_with(STDERR))
+                .map(|(name, v)| (name.clone(), v[k]))
+                .collect();
+            // The flow's material function and N₁ first (what the progress line shows).
+            let headline = |name: &str| {
+                HEADLINE
+                    .iter()
+                    .position(|h| *h == name)
+                    .unwrap_or(HEADLINE.len())
+            };
+            row.sort_by_key(|(name, _)| headline(name));
+            self.row = Some(row);
+        } else {
+            self.row = None;
         }
         // Every rank stops after the same step; one reduction carries the stop requests and
         // the blow-ups. The rank that saw a dumbbell leave its domain names it; the others say
@@ -466,13 +496,14 @@ impl<const D: usize> Scene for FlowScene<'_, D> {
     }
 
     fn progress(&self, steps_per_second: f64) -> String {
-        let latest = |n: &str| self.series.scalars.get(n).and_then(|v| v.last().copied());
         format!(
-            "τ_xy = {:.5} N₁ = {:.5} {:.3e} dumbbell-steps/s",
-            latest("polymer_stress_xy").unwrap_or(f64::NAN),
-            latest("first_normal_stress_difference").unwrap_or(f64::NAN),
+            "{:.3e} dumbbell-steps/s",
             steps_per_second * (self.e.total * self.e.n_d as u64) as f64,
         )
+    }
+
+    fn observables_row(&self) -> Option<&[(String, f64)]> {
+        self.row.as_deref()
     }
 
     fn write_checkpoint(&mut self, dir: &Path, keep: usize) -> Result<PathBuf, Error> {

@@ -57,6 +57,7 @@ pub mod key_doc;
 pub mod models;
 pub mod neighbour;
 pub mod observable;
+pub mod observables_csv;
 #[cfg(feature = "hdf5")]
 pub mod output;
 pub mod particles;

@@ -34,6 +34,20 @@ pub struct RunOptions {
     pub max_hours: Option<f64>,
 }
 
+/// A duration for the progress line: seconds, minutes, hours or days as fits.
+fn duration(seconds: f64) -> String {
+    match seconds {
+        s if !s.is_finite() => "?".into(),
+        s if s < 90.0 => format!("{s:.0} s"),
+        s if s < 5400.0 => format!("{:.1} min", s / 60.0),
+        s if s < 172_800.0 => format!("{:.1} h", s / 3600.0),
+        s => format!("{:.1} d", s / 86400.0),
+    }
+}
+
+/// Observables a progress line shows (the case's first ones; all are in `observables.csv`).
+const THERMO_COLUMNS: usize = 4;
+
 /// Steps timed before a run with `--max-hours` decides whether it fits its budget.
 pub const BUDGET_PROBE_STEPS: u64 = 20;
 
@@ -82,6 +96,10 @@ pub trait Scene {
     fn stop_agreed(&self) -> bool;
     /// What the progress line says beside the step, the time and the ETA, at `steps_per_second`.
     fn progress(&self, steps_per_second: f64) -> String;
+    /// The scalar observables the last [`Self::advance`] recorded for the time series
+    /// (`observables.csv`), or `None` when its step is not a recorded one: every
+    /// `run.sample_every` steps from the first step on, equilibration included.
+    fn observables_row(&self) -> Option<&[(String, f64)]>;
     /// Writes the checkpoint of the current step into `dir`, keeping the newest `keep`
     /// (collective).
     fn write_checkpoint(&mut self, dir: &Path, keep: usize) -> Result<PathBuf, Error>;
@@ -129,6 +147,8 @@ pub struct ParticleScene<'c, const D: usize> {
     pub sim: Simulation<'c, D>,
     #[cfg(feature = "hdf5")]
     snapshots: Option<crate::output::snapshot::SnapshotWriter>,
+    /// The scalar observables of the last step, when it was a recorded one.
+    row: Option<Vec<(String, f64)>>,
 }
 
 impl<'c, const D: usize> ParticleScene<'c, D> {
@@ -138,6 +158,7 @@ impl<'c, const D: usize> ParticleScene<'c, D> {
             sim,
             #[cfg(feature = "hdf5")]
             snapshots: None,
+            row: None,
         }
     }
 }
@@ -172,8 +193,20 @@ impl<const D: usize> Scene for ParticleScene<'_, D> {
 
     fn advance(&mut self) -> Result<(), Error> {
         self.sim.advance()?;
+        // The profiles' bins are series of their own (the summary's profiles), not columns.
+        let scalar = |(name, _): &(String, f64)| {
+            !name.starts_with(crate::diagnostics::SHEAR_STRESS_PROFILE_PREFIX)
+                && !name.starts_with(DENSITY_PROFILE_PREFIX)
+        };
+        self.row = None;
         if self.sim.is_sample_step() {
-            self.sim.sample()?;
+            let mut row = self.sim.sample_values()?;
+            row.retain(scalar);
+            self.row = Some(row);
+        } else if self.sim.is_record_step() {
+            let mut row = self.sim.record();
+            row.retain(scalar);
+            self.row = Some(row);
         }
         if self.sim.is_correlation_step() {
             self.sim.correlate();
@@ -194,6 +227,10 @@ impl<const D: usize> Scene for ParticleScene<'_, D> {
 
     fn progress(&self, steps_per_second: f64) -> String {
         format!("{steps_per_second:.1} steps/s")
+    }
+
+    fn observables_row(&self) -> Option<&[(String, f64)]> {
+        self.row.as_deref()
     }
 
     fn write_checkpoint(&mut self, dir: &Path, keep: usize) -> Result<PathBuf, Error> {
@@ -567,6 +604,17 @@ pub fn drive(
         }
         scene.open_outputs(out, restarted_from.is_some())?;
     }
+    // The time series of the observables (rank 0), continued after a restart.
+    let mut csv = match &options.out {
+        Some(out) if comm.rank() == 0 => Some(crate::observables_csv::ObservablesCsv::open(
+            out,
+            restarted_from.is_some(),
+            first_step,
+        )?),
+        _ => None,
+    };
+    // The latest recorded observables, for the progress line.
+    let mut latest: Vec<(String, f64)> = Vec::new();
     let every = scene.run().progress_seconds;
     let checkpoint_every = scene.output().checkpoint_every;
     let mut last_report = Instant::now();
@@ -585,10 +633,20 @@ pub fn drive(
             return Err(keep_blown_up_state(&mut scene, options, e));
         }
         let step = scene.step();
+        if let Some(row) = scene.observables_row() {
+            if let Some(csv) = &mut csv {
+                csv.write(step, scene.time(), row)?;
+            }
+            latest.clear();
+            latest.extend_from_slice(row);
+        }
         if options.out.is_some() {
             scene.write_outputs()?;
         }
         if checkpoint_every > 0 && step.is_multiple_of(checkpoint_every) && options.out.is_some() {
+            if let Some(csv) = &mut csv {
+                csv.flush()?;
+            }
             last_checkpoint = checkpoint(&mut scene, options, comm)?;
             checkpointed_at = Some(step);
         }
@@ -628,17 +686,29 @@ pub fn drive(
             if is_root {
                 let rate = (step - first_step) as f64 / start.elapsed().as_secs_f64();
                 let eta = (stop_at - step) as f64 / rate.max(1e-12);
-                tracing::info!(
-                    "step {step}/{last_step} t = {:.4} {} ETA {eta:.0} s",
-                    scene.time(),
+                let line = [
+                    format!("step {step}/{last_step}"),
+                    format!("t={:.4}", scene.time()),
+                    crate::observables_csv::thermo(&latest, THERMO_COLUMNS),
                     scene.progress(rate),
-                );
+                    format!("ETA {}", duration(eta)),
+                ];
+                let line: Vec<&str> = (line.iter().map(String::as_str))
+                    .filter(|s| !s.is_empty())
+                    .collect();
+                tracing::info!("{}", line.join("  "));
+                if let Some(csv) = &mut csv {
+                    csv.flush()?;
+                }
             }
             rebuilds.log(scene.times(), step);
         }
     }
     let reached = scene.step();
     rebuilds.log(scene.times(), reached);
+    if let Some(csv) = &mut csv {
+        csv.flush()?;
+    }
     let loop_seconds = start.elapsed().as_secs_f64();
     let completed = scene.step() >= last_step;
     let wants_final = scene.output().checkpoint_at_end || !completed;

@@ -59,6 +59,23 @@ impl<'c, const D: usize> Simulation<'c, D> {
         self.step > r.equilibration && self.step.is_multiple_of(r.sample_every)
     }
 
+    /// Whether the current step is recorded in the time series of the observables
+    /// (`observables.csv`, the progress line): every `run.sample_every` steps from the first
+    /// step on, equilibration included (a superset of [`Self::is_sample_step`]).
+    pub fn is_record_step(&self) -> bool {
+        self.step > 0 && self.step.is_multiple_of(self.case.run.sample_every)
+    }
+
+    /// The scalar observables of the current step, for the time series only (collective):
+    /// nothing is averaged and no detector runs, so a step of the equilibration can be
+    /// recorded without changing what the summary averages.
+    pub fn record(&mut self) -> Vec<(String, f64)> {
+        let t0 = Instant::now();
+        let values = self.measure();
+        self.times.diagnostics += t0.elapsed().as_secs_f64();
+        values.scalars
+    }
+
     /// Whether the current step feeds the Green–Kubo correlators (every step after
     /// equilibration, when asked).
     pub fn is_correlation_step(&self) -> bool {
@@ -215,6 +232,11 @@ impl<'c, const D: usize> Simulation<'c, D> {
     /// whose kinetic temperature has passed [`crate::models::FluidModel::heating`] stops the run (the
     /// decision is on an exactly reduced sum, so every rank count stops alike).
     pub fn sample(&mut self) -> Result<(), Error> {
+        self.sample_values().map(drop)
+    }
+
+    /// [`Self::sample`], returning the scalar values it averaged (collective).
+    pub fn sample_values(&mut self) -> Result<Vec<(String, f64)>, Error> {
         let t0 = Instant::now();
         let values = self.measure();
         self.times.diagnostics += t0.elapsed().as_secs_f64();
@@ -237,14 +259,14 @@ impl<'c, const D: usize> Simulation<'c, D> {
             )
             .into());
         }
-        for (name, v) in values.scalars {
-            self.series.push(&name, v);
+        for (name, v) in &values.scalars {
+            self.series.push(name, *v);
         }
         if let Some(profile) = values.profile {
             self.series.profile.push(profile);
         }
         self.series.steps.push(self.step);
-        Ok(())
+        Ok(values.scalars)
     }
 
     /// Instantaneous observables (collective).

@@ -936,7 +936,10 @@ impl<'c, const D: usize> Simulation<'c, D> {
             );
             self.times.halo += t1.elapsed().as_secs_f64();
         }
-        let scope = if last && (self.is_sample_step() || self.is_correlation_step()) {
+        // A recorded step (every sample_every steps, equilibration included) keeps its virial
+        // too, so recording it does not evaluate the forces again; the virial only adds up
+        // the pair terms the step computes anyway.
+        let scope = if last && (self.is_record_step() || self.is_correlation_step()) {
             self.virial_scope
         } else {
             VirialScope::Off
