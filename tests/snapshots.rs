@@ -21,7 +21,7 @@ fn case(steps: u64, extra: &str) -> String {
     )
 }
 
-fn run(text: &str, ranks: usize, out: &Path, until: Option<u64>) {
+fn run(text: &str, ranks: usize, out: &Path, until: Option<u64>) -> mesorheo::summary::Summary {
     let loaded = case_from_str(text, "snap");
     let out = out.to_path_buf();
     in_process(ranks, move |c| {
@@ -37,7 +37,7 @@ fn run(text: &str, ranks: usize, out: &Path, until: Option<u64>) {
             },
         )
     })
-    .expect("run");
+    .expect("run")
 }
 
 #[test]
@@ -99,6 +99,14 @@ fn a_restart_drops_frames_written_after_its_checkpoint_and_rewrites_them() {
         )
     })
     .expect("restart");
+    // The time series likewise: the rows 101…150 of the stopped segment are dropped, not
+    // repeated (mutation: keep every row of the file in `ObservablesCsv::open`).
+    let csv = |dir: &Path| std::fs::read_to_string(dir.join("observables.csv")).expect("csv");
+    assert_eq!(
+        csv(&parts),
+        csv(&whole),
+        "observables.csv of the restarted run differs from the uninterrupted one"
+    );
     let a = content(&whole.join("snapshots.h5"));
     let b = content(&parts.join("snapshots.h5"));
     assert_eq!(a.len(), b.len());
@@ -126,6 +134,46 @@ fn a_restart_drops_frames_written_after_its_checkpoint_and_rewrites_them() {
         ck.contains("dt: 0.04\n") && ck.contains("time: 6.4"),
         "{ck}"
     );
+}
+
+/// `observables.csv` records the observables from the first sample step on, the
+/// equilibration included, and its rows after equilibration are exactly the samples the
+/// summary averages (the shortest round-trip decimal form: their mean is the summary's to
+/// round-off). Mutations: recording only after equilibration (`is_record_step` as
+/// `is_sample_step`) moves the first row to step 45; writing `{v:.6e}` breaks the mean.
+#[test]
+fn observables_csv_records_the_start_up_and_averages_to_the_summary() {
+    let text = case(120, "").replace("sample_every = 1", "sample_every = 5\nequilibration = 40");
+    let dir = tempfile::tempdir().expect("tempdir");
+    let summary = run(&text, 2, dir.path(), None);
+    let csv = std::fs::read_to_string(dir.path().join("observables.csv")).expect("csv");
+    let mut lines = csv.lines();
+    assert_eq!(lines.next(), Some("step,time,temperature,viscosity"));
+    let rows: Vec<Vec<f64>> = lines
+        .map(|l| l.split(',').map(|x| x.parse().expect("a number")).collect())
+        .collect();
+    let steps: Vec<f64> = rows.iter().map(|r| r[0]).collect();
+    let expected: Vec<f64> = (1..=24).map(|k| 5.0 * k as f64).collect();
+    assert_eq!(steps, expected, "one row every 5 steps from step 5");
+    assert!(
+        (rows[0][1] - 5.0 * 0.04).abs() < 1e-12,
+        "time {}",
+        rows[0][1]
+    );
+    for (column, name) in [(2, "temperature"), (3, "viscosity")] {
+        let after: Vec<f64> = rows
+            .iter()
+            .filter(|r| r[0] > 40.0)
+            .map(|r| r[column])
+            .collect();
+        assert_eq!(after.len(), 16);
+        let mean = after.iter().sum::<f64>() / after.len() as f64;
+        let reported = summary.observables[name].mean;
+        assert!(
+            (mean - reported).abs() <= 1e-12 * reported.abs(),
+            "{name}: the rows after equilibration average {mean}, the summary {reported}"
+        );
+    }
 }
 
 /// The h5py snippet of the docs reads the series and checks the XDMF sidecar against the
