@@ -149,8 +149,11 @@ fn significant(v: f64, digits: usize) -> String {
     format!("{v:.decimals$}")
 }
 
-/// The name a progress line shows for an observable.
+/// The name a progress line shows for an observable (`_c`: the constitutive stress's).
 fn short_name(name: &str) -> String {
+    if let Some(base) = name.strip_suffix("_constitutive") {
+        return format!("{}_c", short_name(base));
+    }
     match name {
         "first_normal_stress_difference" => "N1".into(),
         "second_normal_stress_difference" => "N2".into(),
@@ -173,9 +176,13 @@ mod tests {
             ("viscosity".to_owned(), 1.001_234),
             ("first_normal_stress_difference".to_owned(), 0.998),
             ("momentum_x".to_owned(), -3.2e-12),
+            (
+                "first_normal_stress_difference_constitutive".to_owned(),
+                1.5,
+            ),
         ];
         assert_eq!(thermo(&row, 2), "viscosity=1.001  N1=0.9980");
-        assert_eq!(thermo(&row, 5), "viscosity=1.001  N1=0.9980");
+        assert_eq!(thermo(&row, 5), "viscosity=1.001  N1=0.9980  N1_c=1.500");
         assert_eq!(significant(-3.2e-12, 4), "-3.200e-12");
         assert_eq!(significant(123.456, 4), "123.5");
         assert_eq!(significant(0.0, 4), "0");
