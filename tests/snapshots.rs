@@ -102,10 +102,13 @@ fn a_restart_drops_frames_written_after_its_checkpoint_and_rewrites_them() {
     // The time series likewise: the rows 101…150 of the stopped segment are dropped, not
     // repeated (mutation: keep every row of the file in `ObservablesCsv::open`).
     let csv = |dir: &Path| std::fs::read_to_string(dir.join("observables.csv")).expect("csv");
-    assert_eq!(
-        csv(&parts),
-        csv(&whole),
-        "observables.csv of the restarted run differs from the uninterrupted one"
+    let (restarted, uninterrupted) = (csv(&parts), csv(&whole));
+    assert!(
+        restarted == uninterrupted,
+        "observables.csv of the restarted run ({} lines) differs from the uninterrupted one's \
+         ({} lines)",
+        restarted.lines().count(),
+        uninterrupted.lines().count()
     );
     let a = content(&whole.join("snapshots.h5"));
     let b = content(&parts.join("snapshots.h5"));
