@@ -179,6 +179,67 @@ fn observables_csv_records_the_start_up_and_averages_to_the_summary() {
     }
 }
 
+/// A homogeneous-flow scene writes `observables.csv` too: the material function first, one row
+/// per sample from step 0 on (the start-up), the rows after equilibration averaging to the
+/// summary's per-particle means to round-off. Mutation: `FlowScene::observables_row` returning
+/// `None` (no file).
+#[test]
+fn a_homogeneous_flow_scene_writes_observables_csv_from_the_start() {
+    let text = common::stock_text_with(
+        "dumbbells_hookean_shear_3d.toml",
+        &[
+            "flow.particles=40",
+            "polymer.per_particle=50",
+            "run.steps=200",
+            "run.equilibration=100",
+        ],
+    );
+    let mesorheo::config::CaseScene::HomogeneousFlow(case) =
+        mesorheo::config::parse_scene(&text, Path::new("flow.toml")).expect("a flow case")
+    else {
+        panic!("a [flow] table makes a flow scene");
+    };
+    let dir = tempfile::tempdir().expect("tempdir");
+    let out = dir.path().to_path_buf();
+    let summary = in_process(2, move |c| {
+        mesorheo::driver::run_flow_case(
+            &case,
+            Path::new("flow.toml"),
+            c,
+            &RunOptions {
+                threads: 1,
+                out: Some(out.clone()),
+                ..RunOptions::default()
+            },
+        )
+    })
+    .expect("run");
+    let csv = std::fs::read_to_string(dir.path().join("observables.csv")).expect("csv");
+    let mut lines = csv.lines();
+    let header: Vec<&str> = lines.next().expect("header").split(',').collect();
+    assert_eq!(
+        header[..4],
+        [
+            "step",
+            "time",
+            "polymer_viscosity",
+            "first_normal_stress_difference"
+        ]
+    );
+    let rows: Vec<Vec<f64>> = lines
+        .map(|l| l.split(',').map(|x| x.parse().expect("a number")).collect())
+        .collect();
+    assert_eq!(rows.len(), 20);
+    assert_eq!(rows[0][0], 10.0);
+    let after: Vec<f64> = rows.iter().filter(|r| r[0] > 100.0).map(|r| r[2]).collect();
+    let mean = after.iter().sum::<f64>() / after.len() as f64;
+    let reported = summary.observables["polymer_viscosity"].mean;
+    assert!(
+        (mean - reported).abs() <= 1e-12 * reported.abs(),
+        "the rows after equilibration average {mean}, the summary {reported}"
+    );
+}
+
 /// The h5py snippet of the docs reads the series and checks the XDMF sidecar against the
 /// datasets. `./run test` provides a Python with h5py (MESORHEO_PYTHON); without it the test
 /// says so and passes only if MESORHEO_REQUIRE_PYTHON is unset.
