@@ -429,3 +429,27 @@ fn every_stock_case_is_valid() {
     }
     assert!(n >= 6);
 }
+
+/// The README's minimal case (the first ```toml block under "## A minimal case") parses, runs
+/// and reports the observables it asks for: the newcomer's first file cannot rot.
+#[test]
+fn the_readme_minimal_case_runs() {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("README.md");
+    let readme = std::fs::read_to_string(&path).expect("README.md");
+    let section = &readme[readme
+        .find("## A minimal case")
+        .expect("README has a \"## A minimal case\" section")..];
+    let start = section.find("```toml\n").expect("a ```toml block") + "```toml\n".len();
+    let text = &section[start..start + section[start..].find("```").expect("closed block")];
+    let loaded = case_from_str(text, "README minimal case");
+    let s = mesorheo::driver::run_in_process(&loaded, 1, 1, None)
+        .unwrap_or_else(|e| panic!("the README's minimal case: {e}"));
+    assert!(s.completed, "the README's minimal case did not complete");
+    for name in ["temperature", "viscosity"] {
+        let v = s
+            .observables
+            .get(name)
+            .unwrap_or_else(|| panic!("the README's minimal case reports no {name}"));
+        assert!(v.mean.is_finite() && v.mean > 0.0, "{name} = {}", v.mean);
+    }
+}
