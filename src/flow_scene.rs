@@ -1,4 +1,4 @@
-//! The homogeneous-flow scene (`[flow]` + `[polymer] kind = "dumbbells"`): set-up or restart
+//! The homogeneous-flow scene (`[flow]` + `[polymer] kind = "dumbbells" | "bddfs"`): set-up or restart
 //! of the ensembles, their step and the sampling of the polymer stress, its checkpoint, the
 //! stress time series and its part of the summary. The step loop, signals and checkpoint
 //! schedule are the one driver's ([`crate::scene::drive`]).
@@ -60,6 +60,9 @@ fn fresh<'c, const D: usize>(
     }
     if case.polymer.precision == Precision::Single {
         e = e.with_single_precision();
+    }
+    if let Some(grid) = case.polymer.histogram_grid() {
+        e = e.with_histograms(grid);
     }
     Ok(e)
 }
@@ -271,6 +274,36 @@ fn write_series_csv(series: &Series, dt: f64, out: &Path) -> std::io::Result<()>
     std::fs::rename(tmp, out.join("polymer_stress.csv"))
 }
 
+/// BDDFS: the connectors the grid clipped and the FENE reconstructions that fell back, summed
+/// over the ranks (collective; nothing without histograms).
+fn histogram_warnings<const D: usize>(
+    e: &HomogeneousEnsembles<'_, D>,
+    comm: &dyn Comm,
+) -> Vec<String> {
+    let Some(h) = &e.histograms else {
+        return Vec::new();
+    };
+    let mut counts = [h.clipped, h.fallbacks];
+    comm.allreduce_u64(&mut counts, crate::comm::U64Op::Sum);
+    let mut out = Vec::new();
+    if counts[0] > 0 {
+        out.push(format!(
+            "BDDFS: {} connector-steps left the grid [−{q}, {q}]^{D} and were counted in a \
+             boundary cell (this process's steps); a larger polymer.q_max removes the clipping",
+            counts[0],
+            q = h.grid.q_max
+        ));
+    }
+    if counts[1] > 0 {
+        out.push(format!(
+            "BDDFS: {} FENE reconstructions found no point of their cell inside |Q| < √b in 64 \
+             draws and took the cell's point nearest the origin",
+            counts[1]
+        ));
+    }
+    out
+}
+
 /// A homogeneous-flow scene: the ensembles, the case, the sampled series and the
 /// per-particle running sums.
 pub struct FlowScene<'c, const D: usize> {
@@ -312,6 +345,29 @@ impl<'c, const D: usize> FlowScene<'c, D> {
         check_memory(&case, comm).map_err(Restart::Failed)?;
         let r = crate::output::checkpoint::ensembles::read::<D>(path, comm)
             .map_err(Restart::Refused)?;
+        let histograms = matches!(
+            r.connectors,
+            crate::models::homogeneous_flow::Connectors::Histograms { .. }
+        );
+        if histograms != case.polymer.histogram_grid().is_some() {
+            return Err(Restart::Failed(
+                format!(
+                    "{}: the checkpoint holds {} but the case asks for {}",
+                    path.display(),
+                    if histograms {
+                        "BDDFS histograms"
+                    } else {
+                        "connectors"
+                    },
+                    if histograms {
+                        "connectors"
+                    } else {
+                        "BDDFS histograms"
+                    }
+                )
+                .into(),
+            ));
+        }
         let e = HomogeneousEnsembles::<D>::from_state(
             comm,
             threads,
@@ -412,8 +468,16 @@ impl<const D: usize> Scene for FlowScene<'_, D> {
     }
 
     fn describe(&self) -> String {
+        let storage = match &self.e.histograms {
+            Some(h) => format!(
+                "BDDFS histograms ({} cells per axis, {:.0} occupied per particle on average)",
+                h.grid.cells,
+                h.rows.iter().map(Vec::len).sum::<usize>() as f64 / h.rows.len().max(1) as f64
+            ),
+            None => "ensembles".to_owned(),
+        };
         format!(
-            "homogeneous flow, {} particles × {} dumbbells ({}D), {:.1} MiB of ensembles here",
+            "homogeneous flow, {} particles × {} dumbbells ({}D), {:.1} MiB of {storage} here",
             self.e.total,
             self.e.n_d,
             D,
@@ -551,7 +615,7 @@ impl<const D: usize> Scene for FlowScene<'_, D> {
                 },
             );
         }
-        let warnings: Vec<String> = observables
+        let mut warnings: Vec<String> = observables
             .get(MEAN_SQUARE_LENGTH)
             .filter(|e| e.mean.is_nan() && averages.samples > 0)
             .map(|_| {
@@ -562,6 +626,7 @@ impl<const D: usize> Scene for FlowScene<'_, D> {
             })
             .into_iter()
             .collect();
+        warnings.extend(histogram_warnings(e, self.comm));
         let validation = if completed {
             case.reference
                 .iter()
