@@ -170,7 +170,7 @@ pub fn check_lines(grid: &QGrid, n_d: usize, dim: usize, dt: f64, lambda: f64) -
     let cells = grid.total_cells(dim);
     let mut out = vec![
         format!(
-            "BDDFS grid: n_c = {} cells per axis over [−{q}, {q}]^{dim} (n_c^D = {cells}), ΔQ = {dq:.4}",
+            "BDDFS grid: n_c = {} cells per axis over [−{q:.4}, {q:.4}]^{dim} (n_c^D = {cells}), ΔQ = {dq:.3e}",
             grid.cells,
             q = grid.q_max,
         ),
