@@ -18,6 +18,7 @@
 //! extensional_viscosity             η_E = (τ_xx − τ_yy) / ε̇ (elongation)
 //! mean_square_connector_length      ⟨|Q|²⟩ in k_BT/H         (Hookean at rest: D; shear: D + 2Wi²)
 //! max_connector_length              max |Q| over all dumbbells (FENE: < √b)
+//! occupied_histogram_cells          BDDFS: occupied cells per particle (memory 8 B each)
 //! ```
 
 use crate::comm::Comm;
@@ -38,6 +39,9 @@ use std::time::Instant;
 /// ⟨|Q|²⟩'s name (the average older checkpoints do not hold).
 const MEAN_SQUARE_LENGTH: &str = "mean_square_connector_length";
 
+/// BDDFS: the occupied histogram cells per particle.
+const OCCUPIED_CELLS: &str = "occupied_histogram_cells";
+
 /// Suffix of the per-sample standard errors (particle-to-particle spread) in the series.
 const STDERR: &str = "_stderr";
 
@@ -46,6 +50,19 @@ fn fresh<'c, const D: usize>(
     comm: &'c dyn Comm,
     threads: usize,
 ) -> Result<HomogeneousEnsembles<'c, D>, String> {
+    if let Some(grid) = case.polymer.histogram_grid() {
+        // BDDFS: validation refused single precision and control variates.
+        return HomogeneousEnsembles::<D>::new_with_histograms(
+            comm,
+            threads,
+            case.flow.particles,
+            case.polymer.per_particle,
+            case.dumbbell_params(),
+            case.flow_model(),
+            case.seed,
+            grid,
+        );
+    }
     let mut e = HomogeneousEnsembles::<D>::new(
         comm,
         threads,
@@ -60,9 +77,6 @@ fn fresh<'c, const D: usize>(
     }
     if case.polymer.precision == Precision::Single {
         e = e.with_single_precision();
-    }
-    if let Some(grid) = case.polymer.histogram_grid() {
-        e = e.with_histograms(grid);
     }
     Ok(e)
 }
@@ -120,12 +134,21 @@ enum Quantity {
     Extensional,
     /// ⟨|Q|²⟩ in units of k_BT/H.
     MeanSquareLength,
+    /// BDDFS: occupied histogram cells.
+    OccupiedCells,
 }
 
 impl Quantity {
-    /// The value for one particle's τ/G `s` (D × D row-major) and ⟨|Q|²⟩ `q2`, modulus `g`,
-    /// gradient `kappa`.
-    fn of<const D: usize>(self, s: &[f64; 9], q2: f64, g: f64, kappa: &[[f64; D]; D]) -> f64 {
+    /// The value for one particle's τ/G `s` (D × D row-major), ⟨|Q|²⟩ `q2` and occupied
+    /// histogram cells `cells`, modulus `g`, gradient `kappa`.
+    fn of<const D: usize>(
+        self,
+        s: &[f64; 9],
+        q2: f64,
+        cells: f64,
+        g: f64,
+        kappa: &[[f64; D]; D],
+    ) -> f64 {
         let n1 = s[0] - s[D + 1];
         let n2 = if D == 3 { s[4] - s[8] } else { 0.0 };
         let shear = kappa[0][1];
@@ -138,6 +161,7 @@ impl Quantity {
             Quantity::Psi2 => g * n2 / (shear * shear),
             Quantity::Extensional => g * n1 / kappa[0][0],
             Quantity::MeanSquareLength => q2,
+            Quantity::OccupiedCells => cells,
         }
     }
 }
@@ -156,6 +180,7 @@ fn quantities(case: &FlowCase) -> Vec<(String, Quantity)> {
                 "second_normal_stress_coefficient" => Quantity::Psi2,
                 "extensional_viscosity" => Quantity::Extensional,
                 MEAN_SQUARE_LENGTH => Quantity::MeanSquareLength,
+                OCCUPIED_CELLS => Quantity::OccupiedCells,
                 other => {
                     let c = other.strip_prefix("polymer_stress_")?.as_bytes();
                     let axis = |x: u8| (x - b'x') as usize;
@@ -229,12 +254,18 @@ fn sample<const D: usize>(
     let q2 = e.particle_mean_square_lengths();
     let (mean, stderr) = e.particle_mean(&q2);
     put(MEAN_SQUARE_LENGTH, mean, stderr);
+    let cells = e.particle_occupied_cells();
+    if let Some(cells) = &cells {
+        let (mean, stderr) = e.particle_mean(cells);
+        put(OCCUPIED_CELLS, mean, stderr);
+    }
     series.push("max_connector_length", e.max_q2().sqrt());
     if e.step > case.run.equilibration {
         let q = quantities(case);
-        for ((row, s), &q2) in averages.sums.iter_mut().zip(&per).zip(&q2) {
+        for (k, ((row, s), &q2)) in averages.sums.iter_mut().zip(&per).zip(&q2).enumerate() {
+            let occupied = cells.as_ref().map_or(0.0, |c| c[k]);
             for (x, (_, quantity)) in row.iter_mut().zip(&q) {
-                *x += quantity.of::<D>(s, q2, g, &kappa);
+                *x += quantity.of::<D>(s, q2, occupied, g, &kappa);
             }
         }
         averages.samples += 1;

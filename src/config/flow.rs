@@ -340,6 +340,9 @@ impl FlowCase {
         }
         names.push("mean_square_connector_length".into());
         names.push("max_connector_length".into());
+        if self.polymer.kind == PolymerKind::Bddfs {
+            names.push("occupied_histogram_cells".into());
+        }
         names.sort();
         names
     }

@@ -20,7 +20,7 @@
 //! BDDFS storage (optional; [`super::bddfs`]): a particle keeps a sparse histogram of its
 //! connectors on a Q-grid instead of the connectors; every step regenerates them within their
 //! cells, advances them with the same scheme and noise keys, measures their stress and
-//! histograms them again ([`HomogeneousEnsembles::with_histograms`]).
+//! histograms them again ([`HomogeneousEnsembles::new_with_histograms`]).
 
 use super::bddfs::{QGrid, StepMoments, Workspace, histogram_of, step_histogram};
 use super::dumbbells::{
@@ -133,7 +133,7 @@ pub struct HomogeneousEnsembles<'c, const D: usize> {
     pub total: u64,
     /// Equilibrium copies driven by the same noise (variance reduction), if enabled.
     pub control: Option<Vec<Vec<f64>>>,
-    /// BDDFS: histograms instead of connectors (`Some` after [`Self::with_histograms`]; `q`
+    /// BDDFS: histograms instead of connectors (`Some` from [`Self::new_with_histograms`]; `q`
     /// then holds empty vectors).
     pub histograms: Option<Histograms>,
     pool: rayon::ThreadPool,
@@ -375,45 +375,50 @@ impl<'c, const D: usize> HomogeneousEnsembles<'c, D> {
         })
     }
 
-    /// Keeps histograms on `grid` instead of the connectors from now on (BDDFS; before the
-    /// first step, double precision, no control variates): each particle's initial connectors
-    /// are histogrammed, and their moments are the step-0 sample.
-    pub fn with_histograms(mut self, grid: QGrid) -> Self {
-        assert_eq!(self.step, 0, "the storage is chosen at the start");
-        assert!(
-            self.q_single.is_none() && self.control.is_none(),
-            "BDDFS keeps histograms: no single-precision connectors, no control copies"
-        );
-        let spring = self.params.spring;
-        let q = std::mem::take(&mut self.q);
-        let (rows, moments, clipped): (Vec<Vec<u64>>, Vec<StepMoments>, Vec<u64>) =
-            self.pool.install(|| {
-                q.par_iter()
-                    .map(|q| {
-                        let (row, clipped) = histogram_of::<D>(q, &grid);
-                        (row, StepMoments::of::<D>(q, spring), clipped)
-                    })
-                    .collect::<Vec<_>>()
-                    .into_iter()
-                    .fold(
-                        (Vec::new(), Vec::new(), Vec::new()),
-                        |mut acc, (r, m, c)| {
-                            acc.0.push(r);
-                            acc.1.push(m);
-                            acc.2.push(c);
-                            acc
-                        },
-                    )
-            });
-        self.q = vec![Vec::new(); rows.len()];
-        self.histograms = Some(Histograms {
-            grid,
-            rows,
-            moments,
-            clipped: clipped.iter().sum(),
-            fallbacks: 0,
+    /// `total` particles at equilibrium that keep, instead of their `n_d` connectors, the
+    /// histogram of them on `grid` (BDDFS): each particle draws the plain ensembles' initial
+    /// connectors (the same stream), histograms them and keeps their moments as the step-0
+    /// sample; only one thread's buffer of connectors exists at a time, never a whole rank's.
+    #[allow(clippy::too_many_arguments)]
+    pub fn new_with_histograms(
+        comm: &'c dyn Comm,
+        threads: usize,
+        total: u64,
+        n_d: usize,
+        params: DumbbellParams,
+        flow: Flow,
+        seed: u64,
+        grid: QGrid,
+    ) -> Result<Self, String> {
+        let mut e = Self::new(comm, threads, total, 0, params, flow, seed)?;
+        e.n_d = n_d;
+        let spring = params.spring;
+        let per: Vec<(Vec<u64>, StepMoments, u64)> = e.pool.install(|| {
+            e.gids
+                .par_iter()
+                .map_init(Vec::new, |q: &mut Vec<f64>, &g| {
+                    q.clear();
+                    q.resize(n_d * D, 0.0);
+                    sample_equilibrium::<D>(q, spring, &mut init_stream(seed, g));
+                    let (row, clipped) = histogram_of::<D>(q, &grid);
+                    (row, StepMoments::of::<D>(q, spring), clipped)
+                })
+                .collect()
         });
-        self
+        let mut h = Histograms {
+            grid,
+            rows: Vec::with_capacity(per.len()),
+            moments: Vec::with_capacity(per.len()),
+            clipped: 0,
+            fallbacks: 0,
+        };
+        for (row, moments, clipped) in per {
+            h.rows.push(row);
+            h.moments.push(moments);
+            h.clipped += clipped;
+        }
+        e.histograms = Some(h);
+        Ok(e)
     }
 
     /// Stores the connectors in single precision from now on (before the first step).
@@ -656,6 +661,14 @@ impl<'c, const D: usize> HomogeneousEnsembles<'c, D> {
             }
         }
         per
+    }
+
+    /// BDDFS: the occupied histogram cells of each particle of this rank (None without
+    /// histograms).
+    pub fn particle_occupied_cells(&self) -> Option<Vec<f64>> {
+        self.histograms
+            .as_ref()
+            .map(|h| h.rows.iter().map(|r| r.len() as f64).collect())
     }
 
     /// The mean over all particles of all ranks of a per-particle value of this rank's particles,
