@@ -89,9 +89,10 @@ progress_seconds = 0
 /// ≤ 10⁻³ of the excess for the step's noise width a = 0.31 (no other tolerance is needed).
 /// The guess ΔQ²/12 (the reconstruction alone) is 30–140 standard errors away and refused.
 ///
-/// Mutations that fail it (run): reconstruction at the cell centre (`lower + ½ΔQ`, no jitter:
-/// only the binning's ΔQ²/12 remains, the excess halves); offsets on [0, 1] + ½ (the text's
-/// "unit square" misread, the mean drifts by ΔQ/2 a step).
+/// Mutations that fail it: reconstruction at the cell centre (`lower + ½ΔQ`, no jitter: only
+/// the binning's ΔQ²/12 remains; run through the CLI on this case: ⟨Q²⟩ = 2.0959 ± 0.0023 at
+/// n_c = 64, Δt = 0.1, −43σ); offsets on [0, 1] + ½ (the text's "unit square" misread, the mean
+/// drifts by ΔQ/2 a step; not run on this test).
 #[test]
 fn hookean_grid_diffusion_is_dq2_over_6_per_step_and_grows_as_dq2_over_dt() {
     let mut excesses = Vec::new();
@@ -147,8 +148,8 @@ fn hookean_grid_diffusion_is_dq2_over_6_per_step_and_grows_as_dq2_over_dt() {
 /// semi-implicit scheme's O(Δt²) bias is below 0.1 % (tests/engine_suite/dumbbell_rheology.rs).
 /// Tolerance: 5 standard errors of the run, plus 0.2 % for those two biases.
 ///
-/// Mutation that fails it (run): offsets on [0, 1] + ½ instead of [−½, ½] (every connector
-/// moves by ΔQ/2 per axis and step; η_p off by more than 10 %).
+/// Mutation that fails it (run through the CLI on this case): offsets on [0, 1] + ½ instead of
+/// [−½, ½] (every connector moves by ΔQ/2 per axis and step): η_p = 1.861 ± 0.006, +111 %.
 #[test]
 fn fene_shear_on_a_fine_grid_matches_the_fokker_planck_solution() {
     let case = case_of(
@@ -232,8 +233,8 @@ fn observable_bits(s: &Summary) -> Vec<(String, u64, u64)> {
 }
 
 /// The histograms (digest) and every averaged observable are bitwise the same on 1–3 ranks ×
-/// 1–2 threads. Mutation that fails it (run): the reconstruction keyed by the rank-local index
-/// instead of the global id.
+/// 1–2 threads. Mutation that fails it (run): the reconstruction stream keyed by the worker
+/// thread's index as well as the global id (the digest differs at 3 ranks × 2 threads).
 #[test]
 fn bddfs_is_bitwise_identical_on_any_rank_and_thread_count() {
     let case = small(60);
@@ -251,8 +252,8 @@ fn bddfs_is_bitwise_identical_on_any_rank_and_thread_count() {
 
 /// 80 steps ≡ 40 + checkpoint + restart on another rank count + 40, bitwise (digest and
 /// averages): the histograms are checkpointed (`/ensembles/histograms`) and nothing else is
-/// needed to continue. Mutation that fails it (run): the reader keeps the rows' zero padding
-/// (the digest then differs).
+/// needed to continue. Mutation that should fail it (not run): the reader keeps the rows' zero
+/// padding (the digest hashes the rows, so it would differ).
 #[test]
 fn bddfs_restart_is_bitwise_on_other_rank_counts() {
     let case = small(80);
