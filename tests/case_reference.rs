@@ -94,6 +94,14 @@ dt = 0.01
 steps = 100
 equilibration = 10
 sample_every = 5
+[[reference]]
+kind = "value"
+name = "occupancy"
+observable = "occupied_histogram_cells"
+value = 10.0
+metric = "relative_error"
+tolerance = 0.5
+source = "s"
 "#;
 
 const EVERY_FLOW_KEY: &str = r#"
