@@ -1245,11 +1245,12 @@ def coupled_configuration_fields():
     """The coupled CONNFFESSIT shear with `fluid.polymer.noise = "configuration_fields"` against
     Oldroyd-B (tools/coupled_bias.py's points; docs/validation.md, "The cause, and its removal"):
     N_d = 1 000 at Wi = 1, 2 (p_b = 5) and 4 (p_b = 20 > τ_xx, below which the tensile instability
-    grows), seeds 1–4, and N_d = 10 000 at Wi = 2, seed 1. Checks: every setting's mean flux
+    grows), seeds 1–4, and N_d = 10 000 at Wi = 2 (p_b = 5) and 4 (p_b = 20), seed 1. Checks: every setting's mean flux
     bias of η and N₁ within 4 of its error bars (seed scatter/√4; the run's block error for one
     seed): unbiased, where independent noise is +3.6 % (η) at Wi = 2; and the N_d = 10 000 run
-    within 1 % (the issue's target), which its ±0.12 % (η) and ±0.6 % (N₁) can resolve.
-    About 40 core-minutes."""
+    within 1 % at Wi = 2 (the issue's target), which its ±0.12 % (η) and ±0.6 % (N₁) can
+    resolve; at Wi = 4 one seed's ±0.4 % and ±0.7 % cannot (measured −0.83 %, −1.07 %: no 1 %
+    check there, the 4σ one only). About 65 core-minutes."""
     import importlib.util
     spec = importlib.util.spec_from_file_location(
         "coupled_bias", os.path.join(ROOT, "tools", "coupled_bias.py"))
@@ -1259,7 +1260,7 @@ def coupled_configuration_fields():
     os.makedirs(out, exist_ok=True)
     noise = "configuration_fields"
     points = [(wi, 1000, 5.0 if wi < 4 else 20.0, seed) for wi in (1.0, 2.0, 4.0)
-              for seed in (1, 2, 3, 4)] + [(2.0, 10000, 5.0, 1)]
+              for seed in (1, 2, 3, 4)] + [(2.0, 10000, 5.0, 1), (4.0, 10000, 20.0, 1)]
     for wi, nd, pb, seed in points:
         cb.run_point(BIN, out, wi, nd, pb, 400.0, seed, 2, noise)
     groups = cb.aggregate(cb.read_points(out))
@@ -1273,7 +1274,7 @@ def coupled_configuration_fields():
             detail = f"({100 * g[k]:+.2f} ± {100 * g[k + '_err']:.2f} %)"
             verdict(f"configuration fields Wi = {g['wi']:g}, N_d = {g['nd']:g}: {name} unbiased "
                     "within 4σ", abs(g[k]) <= 4 * g[k + "_err"], detail)
-            if g["nd"] >= 10000:
+            if g["nd"] >= 10000 and g["wi"] <= 2:
                 verdict(f"configuration fields Wi = {g['wi']:g}, N_d = {g['nd']:g}: {name} "
                         "within 1 %", abs(g[k]) < 0.01, detail)
 
