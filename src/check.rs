@@ -136,13 +136,19 @@ pub fn flow_report(case: &crate::config::FlowCase, ranks: usize) -> (String, Res
     for w in crate::config::flow::accuracy_warnings(case) {
         line(format!("accuracy: {w} [warning]"));
     }
+    if let Some(grid) = p.histogram_grid() {
+        for l in crate::models::bddfs::check_lines(&grid, p.per_particle, dim, params.dt, lambda) {
+            line(l);
+        }
+    }
     line(format!(
         "memory: {:.3} MiB on the largest of {ranks} rank(s), {:.3} MiB in all ({}{})",
         per_rank / (1024.0 * 1024.0),
         total / (1024.0 * 1024.0),
-        match p.precision {
-            Precision::Double => "double precision",
-            Precision::Single => "single precision",
+        match (p.histogram_grid(), p.precision) {
+            (Some(_), _) => "BDDFS histograms, at most",
+            (None, Precision::Double) => "double precision",
+            (None, Precision::Single) => "single precision",
         },
         if p.variance_reduction {
             ", × 2 for the control copies"

@@ -1,4 +1,4 @@
-//! The homogeneous-flow scene (`[flow]` + `[polymer] kind = "dumbbells"`): set-up or restart
+//! The homogeneous-flow scene (`[flow]` + `[polymer] kind = "dumbbells" | "bddfs"`): set-up or restart
 //! of the ensembles, their step and the sampling of the polymer stress, its checkpoint, the
 //! stress time series and its part of the summary. The step loop, signals and checkpoint
 //! schedule are the one driver's ([`crate::scene::drive`]).
@@ -18,6 +18,7 @@
 //! extensional_viscosity             η_E = (τ_xx − τ_yy) / ε̇ (elongation)
 //! mean_square_connector_length      ⟨|Q|²⟩ in k_BT/H         (Hookean at rest: D; shear: D + 2Wi²)
 //! max_connector_length              max |Q| over all dumbbells (FENE: < √b)
+//! occupied_histogram_cells          BDDFS: occupied cells per particle (memory 8 B each)
 //! ```
 
 use crate::comm::Comm;
@@ -38,6 +39,9 @@ use std::time::Instant;
 /// ⟨|Q|²⟩'s name (the average older checkpoints do not hold).
 const MEAN_SQUARE_LENGTH: &str = "mean_square_connector_length";
 
+/// BDDFS: the occupied histogram cells per particle.
+const OCCUPIED_CELLS: &str = "occupied_histogram_cells";
+
 /// The observables that lead a row of `observables.csv` (and the progress line), in order.
 const HEADLINE: [&str; 5] = [
     "polymer_viscosity",
@@ -55,6 +59,19 @@ fn fresh<'c, const D: usize>(
     comm: &'c dyn Comm,
     threads: usize,
 ) -> Result<HomogeneousEnsembles<'c, D>, String> {
+    if let Some(grid) = case.polymer.histogram_grid() {
+        // BDDFS: validation refused single precision and control variates.
+        return HomogeneousEnsembles::<D>::new_with_histograms(
+            comm,
+            threads,
+            case.flow.particles,
+            case.polymer.per_particle,
+            case.dumbbell_params(),
+            case.flow_model(),
+            case.seed,
+            grid,
+        );
+    }
     let mut e = HomogeneousEnsembles::<D>::new(
         comm,
         threads,
@@ -126,12 +143,21 @@ enum Quantity {
     Extensional,
     /// ⟨|Q|²⟩ in units of k_BT/H.
     MeanSquareLength,
+    /// BDDFS: occupied histogram cells.
+    OccupiedCells,
 }
 
 impl Quantity {
-    /// The value for one particle's τ/G `s` (D × D row-major) and ⟨|Q|²⟩ `q2`, modulus `g`,
-    /// gradient `kappa`.
-    fn of<const D: usize>(self, s: &[f64; 9], q2: f64, g: f64, kappa: &[[f64; D]; D]) -> f64 {
+    /// The value for one particle's τ/G `s` (D × D row-major), ⟨|Q|²⟩ `q2` and occupied
+    /// histogram cells `cells`, modulus `g`, gradient `kappa`.
+    fn of<const D: usize>(
+        self,
+        s: &[f64; 9],
+        q2: f64,
+        cells: f64,
+        g: f64,
+        kappa: &[[f64; D]; D],
+    ) -> f64 {
         let n1 = s[0] - s[D + 1];
         let n2 = if D == 3 { s[4] - s[8] } else { 0.0 };
         let shear = kappa[0][1];
@@ -144,6 +170,7 @@ impl Quantity {
             Quantity::Psi2 => g * n2 / (shear * shear),
             Quantity::Extensional => g * n1 / kappa[0][0],
             Quantity::MeanSquareLength => q2,
+            Quantity::OccupiedCells => cells,
         }
     }
 }
@@ -162,6 +189,7 @@ fn quantities(case: &FlowCase) -> Vec<(String, Quantity)> {
                 "second_normal_stress_coefficient" => Quantity::Psi2,
                 "extensional_viscosity" => Quantity::Extensional,
                 MEAN_SQUARE_LENGTH => Quantity::MeanSquareLength,
+                OCCUPIED_CELLS => Quantity::OccupiedCells,
                 other => {
                     let c = other.strip_prefix("polymer_stress_")?.as_bytes();
                     let axis = |x: u8| (x - b'x') as usize;
@@ -235,12 +263,18 @@ fn sample<const D: usize>(
     let q2 = e.particle_mean_square_lengths();
     let (mean, stderr) = e.particle_mean(&q2);
     put(MEAN_SQUARE_LENGTH, mean, stderr);
+    let cells = e.particle_occupied_cells();
+    if let Some(cells) = &cells {
+        let (mean, stderr) = e.particle_mean(cells);
+        put(OCCUPIED_CELLS, mean, stderr);
+    }
     series.push("max_connector_length", e.max_q2().sqrt());
     if e.step > case.run.equilibration {
         let q = quantities(case);
-        for ((row, s), &q2) in averages.sums.iter_mut().zip(&per).zip(&q2) {
+        for (k, ((row, s), &q2)) in averages.sums.iter_mut().zip(&per).zip(&q2).enumerate() {
+            let occupied = cells.as_ref().map_or(0.0, |c| c[k]);
             for (x, (_, quantity)) in row.iter_mut().zip(&q) {
-                *x += quantity.of::<D>(s, q2, g, &kappa);
+                *x += quantity.of::<D>(s, q2, occupied, g, &kappa);
             }
         }
         averages.samples += 1;
@@ -278,6 +312,36 @@ fn write_series_csv(series: &Series, dt: f64, out: &Path) -> std::io::Result<()>
     let tmp = out.join("polymer_stress.csv.tmp");
     std::fs::write(&tmp, text)?;
     std::fs::rename(tmp, out.join("polymer_stress.csv"))
+}
+
+/// BDDFS: the connectors the grid clipped and the FENE reconstructions that fell back, summed
+/// over the ranks (collective; nothing without histograms).
+fn histogram_warnings<const D: usize>(
+    e: &HomogeneousEnsembles<'_, D>,
+    comm: &dyn Comm,
+) -> Vec<String> {
+    let Some(h) = &e.histograms else {
+        return Vec::new();
+    };
+    let mut counts = [h.clipped, h.fallbacks];
+    comm.allreduce_u64(&mut counts, crate::comm::U64Op::Sum);
+    let mut out = Vec::new();
+    if counts[0] > 0 {
+        out.push(format!(
+            "BDDFS: {} connector-steps left the grid [−{q}, {q}]^{D} and were counted in a \
+             boundary cell (this process's steps); a larger polymer.q_max removes the clipping",
+            counts[0],
+            q = h.grid.q_max
+        ));
+    }
+    if counts[1] > 0 {
+        out.push(format!(
+            "BDDFS: {} FENE reconstructions found no point of their cell inside |Q| < √b in 64 \
+             draws and took the cell's point nearest the origin",
+            counts[1]
+        ));
+    }
+    out
 }
 
 /// A homogeneous-flow scene: the ensembles, the case, the sampled series and the
@@ -323,6 +387,29 @@ impl<'c, const D: usize> FlowScene<'c, D> {
         check_memory(&case, comm).map_err(Restart::Failed)?;
         let r = crate::output::checkpoint::ensembles::read::<D>(path, comm)
             .map_err(Restart::Refused)?;
+        let histograms = matches!(
+            r.connectors,
+            crate::models::homogeneous_flow::Connectors::Histograms { .. }
+        );
+        if histograms != case.polymer.histogram_grid().is_some() {
+            return Err(Restart::Failed(
+                format!(
+                    "{}: the checkpoint holds {} but the case asks for {}",
+                    path.display(),
+                    if histograms {
+                        "BDDFS histograms"
+                    } else {
+                        "connectors"
+                    },
+                    if histograms {
+                        "connectors"
+                    } else {
+                        "BDDFS histograms"
+                    }
+                )
+                .into(),
+            ));
+        }
         let e = HomogeneousEnsembles::<D>::from_state(
             comm,
             threads,
@@ -424,8 +511,16 @@ impl<const D: usize> Scene for FlowScene<'_, D> {
     }
 
     fn describe(&self) -> String {
+        let storage = match &self.e.histograms {
+            Some(h) => format!(
+                "BDDFS histograms ({} cells per axis, {:.0} occupied per particle on average)",
+                h.grid.cells,
+                h.rows.iter().map(Vec::len).sum::<usize>() as f64 / h.rows.len().max(1) as f64
+            ),
+            None => "ensembles".to_owned(),
+        };
         format!(
-            "homogeneous flow, {} particles × {} dumbbells ({}D), {:.1} MiB of ensembles here",
+            "homogeneous flow, {} particles × {} dumbbells ({}D), {:.1} MiB of {storage} here",
             self.e.total,
             self.e.n_d,
             D,
@@ -582,7 +677,7 @@ impl<const D: usize> Scene for FlowScene<'_, D> {
                 },
             );
         }
-        let warnings: Vec<String> = observables
+        let mut warnings: Vec<String> = observables
             .get(MEAN_SQUARE_LENGTH)
             .filter(|e| e.mean.is_nan() && averages.samples > 0)
             .map(|_| {
@@ -593,6 +688,7 @@ impl<const D: usize> Scene for FlowScene<'_, D> {
             })
             .into_iter()
             .collect();
+        warnings.extend(histogram_warnings(e, self.comm));
         let validation = if completed {
             case.reference
                 .iter()

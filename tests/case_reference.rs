@@ -73,6 +73,37 @@ name = "p"
 tolerance = 0.1
 "#;
 
+/// The BDDFS keys of a homogeneous-flow scene (`[polymer] kind = "bddfs"`).
+const EVERY_BDDFS_KEY: &str = r#"
+dimension = 2
+[flow]
+kind = "simple_shear"
+rate = 1.0
+particles = 10
+[polymer]
+kind = "bddfs"
+spring = "hookean"
+relaxation_time = 1.0
+per_particle = 10
+cells = 20
+q_max = 6.0
+[integrator]
+kind = "brownian_dynamics"
+dt = 0.01
+[run]
+steps = 100
+equilibration = 10
+sample_every = 5
+[[reference]]
+kind = "value"
+name = "occupancy"
+observable = "occupied_histogram_cells"
+value = 10.0
+metric = "relative_error"
+tolerance = 0.5
+source = "s"
+"#;
+
 const EVERY_FLOW_KEY: &str = r#"
 title = "every flow key"
 dimension = 3
@@ -228,6 +259,7 @@ spring = "fene"
 b = 50.0
 scheme = "semi_implicit"
 precision = "single"
+noise = "configuration_fields"
 [integrator]
 kind = "kick_drift_kick"
 dt = 1e-3
@@ -355,6 +387,13 @@ fn documented_keys_are_exactly_the_parsed_keys() {
     };
     let text = toml::to_string(&flow).expect("serialise");
     paths("", &toml::from_str(&text).expect("re-parse"), &mut found);
+    let bddfs = mesorheo::config::parse_scene(EVERY_BDDFS_KEY, std::path::Path::new("bddfs.toml"))
+        .unwrap_or_else(|e| panic!("{e}"));
+    let mesorheo::config::CaseScene::HomogeneousFlow(bddfs) = bddfs else {
+        panic!("a [flow] table makes a homogeneous-flow scene");
+    };
+    let text = toml::to_string(&bddfs).expect("serialise");
+    paths("", &toml::from_str(&text).expect("re-parse"), &mut found);
     let every_gas_key = common::small_gas(2, 8.0, 0.0, "cubic", 100, "");
     let gas = case_from_str(&every_gas_key, "gas.toml");
     let text = toml::to_string(&gas.case.fluid).expect("serialise");
@@ -390,6 +429,7 @@ fn documented_keys_are_exactly_the_parsed_keys() {
     for text in [
         EVERY_KEY,
         EVERY_FLOW_KEY,
+        EVERY_BDDFS_KEY,
         &every_gas_key,
         EVERY_SPH_KEY,
         EVERY_DUMBBELL_KEY,
@@ -428,4 +468,28 @@ fn every_stock_case_is_valid() {
         }
     }
     assert!(n >= 6);
+}
+
+/// The README's minimal case (the first ```toml block under "## A minimal case") parses, runs
+/// and reports the observables it asks for: the newcomer's first file cannot rot.
+#[test]
+fn the_readme_minimal_case_runs() {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("README.md");
+    let readme = std::fs::read_to_string(&path).expect("README.md");
+    let section = &readme[readme
+        .find("## A minimal case")
+        .expect("README has a \"## A minimal case\" section")..];
+    let start = section.find("```toml\n").expect("a ```toml block") + "```toml\n".len();
+    let text = &section[start..start + section[start..].find("```").expect("closed block")];
+    let loaded = case_from_str(text, "README minimal case");
+    let s = mesorheo::driver::run_in_process(&loaded, 1, 1, None)
+        .unwrap_or_else(|e| panic!("the README's minimal case: {e}"));
+    assert!(s.completed, "the README's minimal case did not complete");
+    for name in ["temperature", "viscosity"] {
+        let v = s
+            .observables
+            .get(name)
+            .unwrap_or_else(|| panic!("the README's minimal case reports no {name}"));
+        assert!(v.mean.is_finite() && v.mean > 0.0, "{name} = {}", v.mean);
+    }
 }

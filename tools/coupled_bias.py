@@ -163,32 +163,43 @@ def report(out, png):
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
 
-        fig, axes = plt.subplots(1, 2, figsize=(11, 4.2), sharex=True)
-        settings = sorted({(g["cf"], g["nd"], g["pb"], g["rho"]) for g in groups})
-        for ax, quantity, title in [
-            (axes[0], "eta", "shear viscosity η"),
-            (axes[1], "n1", "first normal stress difference N₁"),
-        ]:
-            for cf, nd, pb, rho in settings:
-                sel = [g for g in groups if (g["cf"], g["nd"], g["pb"], g["rho"]) == (cf, nd, pb, rho)]
-                wi = [g["wi"] for g in sel]
-                for kind, style in (("flux", "-o"), ("constitutive", "--s")):
-                    k = f"{quantity}_{kind}"
-                    ax.errorbar(
-                        wi,
-                        [100 * g[k] for g in sel],
-                        yerr=[100 * g[k + "_err"] for g in sel],
-                        fmt=style,
-                        capsize=3,
-                        label=f"{kind}, {'conf. fields, ' if cf else ''}N_d = {nd:g}, p_b = {pb:g}, N = {rho:g}",
-                    )
-            ax.axhline(0.0, color="k", lw=0.8)
-            ax.set_xscale("log", base=2)
-            ax.set_xlabel("Wi = λγ̇")
-            ax.set_ylabel("bias against Oldroyd-B (%)")
-            ax.set_title(title)
-        axes[1].legend(fontsize=7)
-        fig.suptitle("CONNFFESSIT shear (2D, Hookean dumbbells): measured − exact")
+        kinds = sorted({g["cf"] for g in groups})
+        fig, axes = plt.subplots(
+            len(kinds), 2, figsize=(13, 4.2 * len(kinds)), sharex=True, squeeze=False
+        )
+        colours = plt.get_cmap("tab10")
+        for row, cf in zip(axes, kinds):
+            settings = sorted({(g["nd"], g["pb"], g["rho"]) for g in groups if g["cf"] == cf})
+            noise = "configuration fields" if cf else "independent noise"
+            for ax, quantity, title in [
+                (row[0], "eta", "shear viscosity η"),
+                (row[1], "n1", "first normal stress difference N₁"),
+            ]:
+                for c, (nd, pb, rho) in enumerate(settings):
+                    sel = [
+                        g
+                        for g in groups
+                        if (g["cf"], g["nd"], g["pb"], g["rho"]) == (cf, nd, pb, rho)
+                    ]
+                    wi = [g["wi"] for g in sel]
+                    for kind, style in (("flux", "-o"), ("constitutive", "--s")):
+                        k = f"{quantity}_{kind}"
+                        ax.errorbar(
+                            wi,
+                            [100 * g[k] for g in sel],
+                            yerr=[100 * g[k + "_err"] for g in sel],
+                            fmt=style,
+                            color=colours(c % 10),
+                            capsize=3,
+                            label=f"{kind}, N_d = {nd:g}, p_b = {pb:g}, N = {rho:g}",
+                        )
+                ax.axhline(0.0, color="k", lw=0.8)
+                ax.set_xscale("log", base=2)
+                ax.set_xlabel("Wi = λγ̇")
+                ax.set_ylabel("measured / Oldroyd-B − 1 (%)")
+                ax.set_title(f"{title}, {noise}")
+            row[1].legend(fontsize=7, loc="center left", bbox_to_anchor=(1.02, 0.5))
+        fig.suptitle("CONNFFESSIT shear (2D, Hookean dumbbells): bias against Oldroyd-B")
         fig.tight_layout()
         fig.savefig(png, dpi=110)
         print(f"wrote {png}")

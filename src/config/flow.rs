@@ -20,9 +20,13 @@
 //! [run]
 //! steps = 2000
 //! ```
+//!
+//! `kind = "bddfs"` keeps, instead of each particle's connectors, their histogram on a grid of
+//! `cells` per axis over [−q_max, q_max]^D (BDDFS, [`crate::models::bddfs`]).
 
 use super::spans::{Segment, SpanIndex};
 use super::{CaseError, OutputCfg, ReferenceCfg, RunCfg};
+use crate::models::bddfs::QGrid;
 pub use crate::models::dumbbell_settings::{
     Precision, SchemeKind, SpringKind, scheme_or_default, spring_law, validate_ensemble,
 };
@@ -99,6 +103,8 @@ pub struct FlowCfg {
 pub enum PolymerKind {
     /// Brownian dumbbells (CONNFFESSIT).
     Dumbbells,
+    /// Brownian dumbbells regenerated every step from a stored histogram (BDDFS).
+    Bddfs,
 }
 
 /// `[polymer]`
@@ -128,6 +134,12 @@ pub struct PolymerCfg {
     /// Storage precision of Q.
     #[serde(default)]
     pub precision: Precision,
+    /// BDDFS: cells per axis n_c of the histogram grid.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub cells: Option<usize>,
+    /// BDDFS: half-edge Q_max of the grid [−Q_max, Q_max]^D (FENE: default √b).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub q_max: Option<f64>,
 }
 
 /// Integrators of a homogeneous-flow scene.
@@ -247,8 +259,21 @@ impl PolymerCfg {
         scheme_or_default(self.scheme, self.spring)
     }
 
-    /// Bytes per particle for the connector vectors (and the control copy).
+    /// The BDDFS histogram grid (`kind = "bddfs"`; Q_max defaults to √b for FENE), None for
+    /// explicit dumbbells.
+    pub fn histogram_grid(&self) -> Option<QGrid> {
+        (self.kind == PolymerKind::Bddfs).then(|| QGrid {
+            cells: self.cells.unwrap_or(0),
+            q_max: self.q_max.or(self.b.map(f64::sqrt)).unwrap_or(f64::NAN),
+        })
+    }
+
+    /// Bytes per particle for the connector vectors (and the control copy); BDDFS: the bound
+    /// 8 × min(N_d, n_c^D) of its sparse histogram.
     pub fn bytes_per_particle(&self, dimension: usize) -> f64 {
+        if let Some(grid) = self.histogram_grid() {
+            return 8.0 * (self.per_particle as f64).min(grid.total_cells(dimension) as f64);
+        }
         let word = match self.precision {
             Precision::Double => 8.0,
             Precision::Single => 4.0,
@@ -315,6 +340,9 @@ impl FlowCase {
         }
         names.push("mean_square_connector_length".into());
         names.push("max_connector_length".into());
+        if self.polymer.kind == PolymerKind::Bddfs {
+            names.push("occupied_histogram_cells".into());
+        }
         names.sort();
         names
     }
@@ -425,6 +453,7 @@ pub fn validate(case: &FlowCase, ix: &SpanIndex) -> Result<(), CaseError> {
         ));
     }
     validate_ensemble(&[k("polymer")], p.per_particle, p.spring, p.b, p.scheme, ix)?;
+    validate_histogram_grid(p, dim, ix)?;
     if p.variance_reduction && p.precision == Precision::Single {
         return Err(ix.error(
             &pk("variance_reduction"),
@@ -491,6 +520,66 @@ pub fn validate(case: &FlowCase, ix: &SpanIndex) -> Result<(), CaseError> {
                 ));
             }
         }
+    }
+    Ok(())
+}
+
+/// The BDDFS keys of `[polymer]`: `cells` and `q_max` only with `kind = "bddfs"`, where `cells`
+/// is required, `q_max` is required for Hookean springs (the grid clips their unbounded
+/// connectors) and defaults to √b for FENE, and the storage options of explicit connectors
+/// (`precision`, `variance_reduction`) do not apply.
+fn validate_histogram_grid(p: &PolymerCfg, dim: usize, ix: &SpanIndex) -> Result<(), CaseError> {
+    let pk = |key: &str| vec![k("polymer"), k(key)];
+    let Some(grid) = p.histogram_grid() else {
+        for (key, given) in [("cells", p.cells.is_some()), ("q_max", p.q_max.is_some())] {
+            if given {
+                return Err(ix.error(
+                    &pk(key),
+                    format!(
+                        "only kind = \"bddfs\" has a histogram grid; remove {key} or use \
+                         kind = \"bddfs\""
+                    ),
+                ));
+            }
+        }
+        return Ok(());
+    };
+    if p.cells.is_none() {
+        return Err(ix.error(
+            &pk("cells"),
+            "missing: BDDFS needs the cells per axis n_c of its histogram grid (≥ 2; `check` \
+             suggests one for the time step)",
+        ));
+    }
+    if p.spring == SpringKind::Hookean && p.q_max.is_none() {
+        return Err(ix.error(
+            &pk("q_max"),
+            "missing: a Hookean connector is unbounded, so BDDFS needs the grid's half-edge \
+             Q_max (> 0, in units of √(k_BT/H); connectors beyond it are clipped into the \
+             boundary cells and counted — e.g. 6 + 3 Wi keeps them rare)",
+        ));
+    }
+    if let Err(e) = grid.check(dim, p.spring_law()) {
+        let key = if e.starts_with("n_c") {
+            "cells"
+        } else {
+            "q_max"
+        };
+        return Err(ix.error(&pk(key), e));
+    }
+    if p.precision == Precision::Single {
+        return Err(ix.error(
+            &pk("precision"),
+            "BDDFS stores histograms, not connectors: remove precision (it applies to \
+             kind = \"dumbbells\")",
+        ));
+    }
+    if p.variance_reduction {
+        return Err(ix.error(
+            &pk("variance_reduction"),
+            "BDDFS regenerates its dumbbells every step, so no equilibrium copy can share their \
+             noise: remove variance_reduction (it applies to kind = \"dumbbells\")",
+        ));
     }
     Ok(())
 }

@@ -330,9 +330,9 @@ const LATER_KEYS: &[KeyDoc] = &[
     ),
     key(
         "polymer.kind",
-        "\"dumbbells\"",
+        "\"dumbbells\" | \"bddfs\"",
         "required (flow scene)",
-        "Ensembles of Brownian dumbbells carried by every particle (CONNFFESSIT).",
+        "Ensembles of Brownian dumbbells carried by every particle (CONNFFESSIT). \"bddfs\": each particle stores only a histogram of its N_d connectors on a Q-grid (polymer.cells, polymer.q_max) and every step regenerates them uniformly within their cells, advances them with polymer.scheme and histograms them again (Brownian Dynamics with Distribution Function Storing, Ellero ch. 5; docs/theory/polymer_particle_and_bddfs.md §2.4): memory 8 B per occupied cell instead of N_d × D × 8 B, at the price of a grid diffusion ΔQ²/6 per step that `check` compares with Δt/λ.",
     ),
     key(
         "polymer.spring",
@@ -374,13 +374,25 @@ const LATER_KEYS: &[KeyDoc] = &[
         "polymer.variance_reduction",
         "bool",
         "false",
-        "Control variates: an equilibrium copy of each ensemble driven by the same noise (×2 memory and work; ×10 smaller error bar at Wi = 0.1, none at Wi = 10).",
+        "Control variates: an equilibrium copy of each ensemble driven by the same noise (×2 memory and work; ×10 smaller error bar at Wi = 0.1, none at Wi = 10). Not with bddfs.",
     ),
     key(
         "polymer.precision",
         "\"double\" | \"single\"",
         "\"double\"",
-        "Storage of the connector vectors; \"single\" halves the memory (arithmetic stays double). Not with variance_reduction.",
+        "Storage of the connector vectors; \"single\" halves the memory (arithmetic stays double). Not with variance_reduction, not with bddfs.",
+    ),
+    key(
+        "polymer.cells",
+        "integer ≥ 2 (n_c^D < 2³²)",
+        "required (bddfs)",
+        "BDDFS: cells per axis n_c of the histogram grid [−q_max, q_max]^D, ΔQ = 2 q_max/n_c. The grid adds the variance ΔQ²/6 per component and step (binning and uniform reconstruction, ΔQ²/12 each) to the physical Δt/λ: the stresses and ⟨Q²⟩ come out too large by about r = λΔQ²/(6Δt), which grows as Δt falls; `check` prints r and, beyond 1 %, the n_c that brings it to 1 %. Storage is sparse, so a fine grid costs only its occupied cells.",
+    ),
+    key(
+        "polymer.q_max",
+        "float > 0 (fene: ≤ √b)",
+        "√b (fene); required (hookean)",
+        "BDDFS: half-edge of the histogram grid, in units of √(k_BT/H). A connector beyond it (Hookean, or FENE with q_max < √b) is counted in the nearest boundary cell; the summary warns with the count.",
     ),
     key(
         "reference[].kind",

@@ -16,7 +16,13 @@
 //! is known: 0 in the continuum, for Hookean springs the exact discrete value is used) and, while
 //! the two ensembles stay correlated, a much smaller variance — most of all at small Wi, where the
 //! polymer stress is a small signal on large thermal noise. It doubles memory and work.
+//!
+//! BDDFS storage (optional; [`super::bddfs`]): a particle keeps a sparse histogram of its
+//! connectors on a Q-grid instead of the connectors; every step regenerates them within their
+//! cells, advances them with the same scheme and noise keys, measures their stress and
+//! histograms them again ([`HomogeneousEnsembles::new_with_histograms`]).
 
+use super::bddfs::{QGrid, StepMoments, Workspace, histogram_of, step_histogram};
 use super::dumbbells::{
     DumbbellParams, Spring, hookean_discrete_moment, init_stream, kramers_stress, noise_stream,
     outside_domain, sample_equilibrium, step_ensemble,
@@ -127,7 +133,29 @@ pub struct HomogeneousEnsembles<'c, const D: usize> {
     pub total: u64,
     /// Equilibrium copies driven by the same noise (variance reduction), if enabled.
     pub control: Option<Vec<Vec<f64>>>,
+    /// BDDFS: histograms instead of connectors (`Some` from [`Self::new_with_histograms`]; `q`
+    /// then holds empty vectors).
+    pub histograms: Option<Histograms>,
     pool: rayon::ThreadPool,
+}
+
+/// The BDDFS storage of one rank ([`super::bddfs`]): each particle's sparse histogram, and what
+/// its last step measured on the advanced connectors (the stress is sampled from those, not
+/// from the histogram).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Histograms {
+    /// The Q-grid.
+    pub grid: QGrid,
+    /// Per particle: the occupied cells, packed (cell << 32 | count), by increasing cell.
+    pub rows: Vec<Vec<u64>>,
+    /// Per particle: the moments of the connectors its last step produced (unknown after a
+    /// restart until the next step).
+    pub moments: Vec<StepMoments>,
+    /// Connectors this rank found outside the grid (clipped into a boundary cell) since the
+    /// process started.
+    pub clipped: u64,
+    /// FENE reconstructions that fell back to the cell's point nearest the origin.
+    pub fallbacks: u64,
 }
 
 /// Means over all particles of all ranks of `width` per-particle values (`value(k, i)`: value i
@@ -203,6 +231,13 @@ pub enum Connectors {
     Double(Vec<Vec<f64>>),
     /// f32 storage.
     Single(Vec<Vec<f32>>),
+    /// BDDFS histograms on `grid`, one sparse row per particle.
+    Histograms {
+        /// The Q-grid.
+        grid: QGrid,
+        /// Packed occupied cells per particle.
+        rows: Vec<Vec<u64>>,
+    },
 }
 
 /// A view of the connector storage.
@@ -211,6 +246,8 @@ pub enum ConnectorsRef<'a> {
     Double(&'a [Vec<f64>]),
     /// f32 storage.
     Single(&'a [Vec<f32>]),
+    /// BDDFS histograms.
+    Histograms(&'a [Vec<u64>]),
 }
 
 /// Ensemble-averaged stress with its error bar.
@@ -262,6 +299,7 @@ impl<'c, const D: usize> HomogeneousEnsembles<'c, D> {
             total,
             control: None,
             q_single: None,
+            histograms: None,
             pool,
         })
     }
@@ -286,6 +324,7 @@ impl<'c, const D: usize> HomogeneousEnsembles<'c, D> {
         let rows = match &q {
             Connectors::Double(q) => q.len(),
             Connectors::Single(q) => q.len(),
+            Connectors::Histograms { rows, .. } => rows.len(),
         };
         let mismatch =
             rows != gids.len() || control.as_ref().is_some_and(|c| c.len() != gids.len());
@@ -304,9 +343,20 @@ impl<'c, const D: usize> HomogeneousEnsembles<'c, D> {
             });
         }
         let pool = crate::workers::worker_pool(comm, threads)?;
+        let mut histograms = None;
         let (q, q_single) = match q {
             Connectors::Double(q) => (q, None),
             Connectors::Single(q) => (vec![Vec::new(); gids.len()], Some(q)),
+            Connectors::Histograms { grid, rows } => {
+                histograms = Some(Histograms {
+                    grid,
+                    moments: vec![StepMoments::unknown(); rows.len()],
+                    rows,
+                    clipped: 0,
+                    fallbacks: 0,
+                });
+                (vec![Vec::new(); gids.len()], None)
+            }
         };
         Ok(Self {
             comm,
@@ -320,8 +370,55 @@ impl<'c, const D: usize> HomogeneousEnsembles<'c, D> {
             total,
             control,
             q_single,
+            histograms,
             pool,
         })
+    }
+
+    /// `total` particles at equilibrium that keep, instead of their `n_d` connectors, the
+    /// histogram of them on `grid` (BDDFS): each particle draws the plain ensembles' initial
+    /// connectors (the same stream), histograms them and keeps their moments as the step-0
+    /// sample; only one thread's buffer of connectors exists at a time, never a whole rank's.
+    #[allow(clippy::too_many_arguments)]
+    pub fn new_with_histograms(
+        comm: &'c dyn Comm,
+        threads: usize,
+        total: u64,
+        n_d: usize,
+        params: DumbbellParams,
+        flow: Flow,
+        seed: u64,
+        grid: QGrid,
+    ) -> Result<Self, String> {
+        let mut e = Self::new(comm, threads, total, 0, params, flow, seed)?;
+        e.n_d = n_d;
+        let spring = params.spring;
+        let per: Vec<(Vec<u64>, StepMoments, u64)> = e.pool.install(|| {
+            e.gids
+                .par_iter()
+                .map_init(Vec::new, |q: &mut Vec<f64>, &g| {
+                    q.clear();
+                    q.resize(n_d * D, 0.0);
+                    sample_equilibrium::<D>(q, spring, &mut init_stream(seed, g));
+                    let (row, clipped) = histogram_of::<D>(q, &grid);
+                    (row, StepMoments::of::<D>(q, spring), clipped)
+                })
+                .collect()
+        });
+        let mut h = Histograms {
+            grid,
+            rows: Vec::with_capacity(per.len()),
+            moments: Vec::with_capacity(per.len()),
+            clipped: 0,
+            fallbacks: 0,
+        };
+        for (row, moments, clipped) in per {
+            h.rows.push(row);
+            h.moments.push(moments);
+            h.clipped += clipped;
+        }
+        e.histograms = Some(h);
+        Ok(e)
     }
 
     /// Stores the connectors in single precision from now on (before the first step).
@@ -338,19 +435,27 @@ impl<'c, const D: usize> HomogeneousEnsembles<'c, D> {
 
     /// The connectors of this rank's particles, in their storage precision.
     pub fn connectors(&self) -> ConnectorsRef<'_> {
+        if let Some(h) = &self.histograms {
+            return ConnectorsRef::Histograms(&h.rows);
+        }
         match &self.q_single {
             Some(q) => ConnectorsRef::Single(q),
             None => ConnectorsRef::Double(&self.q),
         }
     }
 
-    /// Particle `i`'s connectors in double precision (widened from single storage).
+    /// Particle `i`'s connectors in double precision (widened from single storage; empty with
+    /// BDDFS histograms, which hold no connectors between steps).
     pub fn ensemble(&self, i: usize) -> std::borrow::Cow<'_, [f64]> {
         widened(&self.q, self.q_single.as_deref(), i)
     }
 
-    /// Bytes of connector storage on this rank (incl. the control copy).
+    /// Bytes of connector storage on this rank (incl. the control copy; BDDFS: 8 per occupied
+    /// cell).
     pub fn memory_bytes(&self) -> usize {
+        if let Some(h) = &self.histograms {
+            return h.rows.iter().map(|r| r.len() * 8).sum();
+        }
         let words: usize = match &self.q_single {
             Some(q) => q.iter().map(|v| v.len() * 4).sum(),
             None => self.q.iter().map(|v| v.len() * 8).sum(),
@@ -391,7 +496,27 @@ impl<'c, const D: usize> HomogeneousEnsembles<'c, D> {
             Spring::Hookean => self.flow.hookean_runaway_q2(D, p.lambda),
         };
         let (q, gids) = (&mut self.q, &self.gids);
-        let outside = if let Some(single) = &mut self.q_single {
+        let outside = if let Some(h) = &mut self.histograms {
+            let grid = h.grid;
+            let moments: Vec<StepMoments> = self.pool.install(|| {
+                h.rows
+                    .par_iter_mut()
+                    .zip(gids.par_iter())
+                    .map_init(Workspace::default, |ws, (row, &g)| {
+                        step_histogram::<D>(row, &grid, &kappa, &p, limit, seed, g, step, ws)
+                    })
+                    .collect()
+            });
+            h.clipped += moments.iter().map(|m| m.clipped).sum::<u64>();
+            h.fallbacks += moments.iter().map(|m| m.fallbacks).sum::<u64>();
+            let outside = moments
+                .iter()
+                .zip(gids)
+                .filter_map(|(m, &g)| m.outside.map(|(k, q2)| (g, k, q2)))
+                .min_by_key(|v| (v.0, v.1));
+            h.moments = moments;
+            outside
+        } else if let Some(single) = &mut self.q_single {
             self.pool.install(|| {
                 single
                     .par_iter_mut()
@@ -463,6 +588,9 @@ impl<'c, const D: usize> HomogeneousEnsembles<'c, D> {
     /// τ/G of each particle of this rank: its ensemble average, with control variates the
     /// corrected estimator τ(Q) − τ(Q_eq) + E[τ_eq]; D × D row-major in the first D² entries.
     pub fn particle_stresses(&self) -> Vec<[f64; 9]> {
+        if let Some(h) = &self.histograms {
+            return h.moments.iter().map(|m| m.stress).collect();
+        }
         let spring = self.params.spring;
         let n = self.gids.len();
         let (q, single) = (&self.q, self.q_single.as_deref());
@@ -502,6 +630,9 @@ impl<'c, const D: usize> HomogeneousEnsembles<'c, D> {
     /// Hookean springs and the continuum equilibrium D b/(b + D + 2) for FENE (Bird et al., DPL
     /// vol. 2: the FENE equilibrium density ∝ (1 − Q²/b)^(b/2)).
     pub fn particle_mean_square_lengths(&self) -> Vec<f64> {
+        if let Some(h) = &self.histograms {
+            return h.moments.iter().map(|m| m.mean_q2).collect();
+        }
         let n = self.gids.len();
         let (q, single) = (&self.q, self.q_single.as_deref());
         let mean_square = |c: &[f64]| -> f64 {
@@ -530,6 +661,14 @@ impl<'c, const D: usize> HomogeneousEnsembles<'c, D> {
             }
         }
         per
+    }
+
+    /// BDDFS: the occupied histogram cells of each particle of this rank (None without
+    /// histograms).
+    pub fn particle_occupied_cells(&self) -> Option<Vec<f64>> {
+        self.histograms
+            .as_ref()
+            .map(|h| h.rows.iter().map(|r| r.len() as f64).collect())
     }
 
     /// The mean over all particles of all ranks of a per-particle value of this rank's particles,
@@ -576,17 +715,26 @@ impl<'c, const D: usize> HomogeneousEnsembles<'c, D> {
 
     /// Largest |Q|² of any dumbbell (collective).
     pub fn max_q2(&self) -> f64 {
-        let local = (0..self.gids.len())
+        let local = if let Some(h) = &self.histograms {
+            h.moments.iter().map(|m| m.max_q2).fold(0.0, f64::max)
+        } else {
+            self.max_q2_of_connectors()
+        };
+        let mut v = [local];
+        self.comm.allreduce_max(&mut v);
+        v[0]
+    }
+
+    /// Largest |Q|² of this rank's stored connectors.
+    fn max_q2_of_connectors(&self) -> f64 {
+        (0..self.gids.len())
             .map(|i| {
                 self.ensemble(i)
                     .chunks_exact(D)
                     .map(|c| c.iter().map(|v| v * v).sum::<f64>())
                     .fold(0.0, f64::max)
             })
-            .fold(0.0, f64::max);
-        let mut v = [local];
-        self.comm.allreduce_max(&mut v);
-        v[0]
+            .fold(0.0, f64::max)
     }
 
     /// A digest of every connector vector (collective, order-independent).
@@ -597,6 +745,9 @@ impl<'c, const D: usize> HomogeneousEnsembles<'c, D> {
             words.extend(self.ensemble(i).iter().map(|x| x.to_bits()));
             if let Some(c) = &self.control {
                 words.extend(c[i].iter().map(|x| x.to_bits()));
+            }
+            if let Some(h) = &self.histograms {
+                words.extend_from_slice(&h.rows[i]);
             }
             acc[0] = acc[0].wrapping_add(crate::workers::hash_words(&words));
         }

@@ -1,5 +1,6 @@
 //! Physical models. Each file opens with its equations as implemented and their source.
 
+pub mod bddfs;
 pub mod dpd;
 pub mod dumbbell_ensemble;
 pub mod dumbbell_settings;

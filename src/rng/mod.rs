@@ -26,6 +26,9 @@ pub enum Purpose {
     DumbbellNoise = 4,
     /// Equilibrium initial state of dumbbell ensembles.
     DumbbellInit = 5,
+    /// Uniform positions of the dumbbells BDDFS regenerates within their histogram cells (keyed
+    /// by particle id and step).
+    BddfsReconstruction = 6,
     /// Test-only uses.
     Test = 255,
 }

@@ -47,6 +47,39 @@ fn done(p: &PointResult) -> Option<(&[(f64, f64)], f64)> {
     }
 }
 
+/// The knobs along which point `i` is the cheapest completed point of its line (the points
+/// that differ from it in that knob alone) while its value is the first or last one the sweep
+/// lists: the recommendation may be limited by the sweep, not by the tolerance. Knobs with one
+/// value are not edges.
+fn cheap_edges(
+    sweep: &Sweep,
+    results: &[PointResult],
+    core_seconds: &[f64],
+    i: usize,
+) -> Vec<(String, String)> {
+    let mut out = Vec::new();
+    for (k, knob) in sweep.knobs.iter().enumerate() {
+        let value = &results[i].knob_values[k];
+        let at_end = knob.values.len() > 1
+            && (knob.values.first() == Some(value) || knob.values.last() == Some(value));
+        if !at_end {
+            continue;
+        }
+        let line: Vec<usize> = (0..results.len())
+            .filter(|&j| {
+                j != i
+                    && core_seconds[j].is_finite()
+                    && (0..sweep.knobs.len())
+                        .all(|m| m == k || results[j].knob_values[m] == results[i].knob_values[m])
+            })
+            .collect();
+        if !line.is_empty() && line.iter().all(|&j| core_seconds[j] > core_seconds[i]) {
+            out.push((knob.key.clone(), value.clone()));
+        }
+    }
+    out
+}
+
 /// Errors, Pareto front and recommendation from the points' results.
 pub fn analyse(
     sweep: &Sweep,
@@ -199,6 +232,16 @@ pub fn analyse(
                     combined[b],
                     core_seconds[b]
                 ))
+            );
+        }
+    }
+    if let Some(i) = recommended {
+        for (key, value) in cheap_edges(sweep, results, &core_seconds, i) {
+            let _ = writeln!(
+                text,
+                "warning: the recommendation sits at the edge of the sweep in {key} ({key}={value}, \
+                 the cheapest value swept): a cheaper setting beyond it may meet the tolerance \
+                 too; extend the sweep past {value} to find out"
             );
         }
     }

@@ -563,6 +563,35 @@ mod tests {
         assert!(csv.lines().nth(3).unwrap().ends_with(",1,0,1"), "{csv}");
     }
 
+    /// A recommendation at the cheap end of a knob's sweep says so; one inside it does not.
+    #[test]
+    fn a_recommendation_at_the_cheap_edge_of_the_sweep_is_flagged() {
+        let s = one_knob("value = 1.0");
+        // Every point meets 0.05: the cheapest, Δt = 0.04, is the first value listed.
+        let r = vec![
+            result(0.04, 1.001, 0.0, 1.0),
+            result(0.02, 1.001, 0.0, 2.0),
+            result(0.01, 1.0, 0.0, 4.0),
+        ];
+        let a = analyse(&s, &r, Some(0.05)).unwrap();
+        assert_eq!(a.recommended, Some(0));
+        assert!(
+            a.recommendation
+                .contains("edge of the sweep in integrator.dt (integrator.dt=0.04"),
+            "{}",
+            a.recommendation
+        );
+        // Δt = 0.04 too inaccurate: Δt = 0.02 is recommended, inside the sweep: no warning.
+        let r = vec![
+            result(0.04, 1.2, 0.0, 1.0),
+            result(0.02, 1.001, 0.0, 2.0),
+            result(0.01, 1.0, 0.0, 4.0),
+        ];
+        let a = analyse(&s, &r, Some(0.05)).unwrap();
+        assert_eq!(a.recommended, Some(1));
+        assert!(!a.recommendation.contains("edge"), "{}", a.recommendation);
+    }
+
     #[test]
     fn the_converged_reference_is_the_most_expensive_point_and_never_the_recommendation() {
         let s = one_knob("reference = \"converged\"");

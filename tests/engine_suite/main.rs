@@ -5,6 +5,7 @@
 #[path = "../common/mod.rs"]
 mod common;
 
+mod bddfs;
 mod determinism;
 mod dpd_physics;
 mod dumbbell_particles;

@@ -52,6 +52,12 @@ fn coupled_run_is_bitwise_on_1_to_4_ranks_and_1_2_threads() {
         assert!(s.observables.contains_key("stress_polymer_yx"));
     });
     assert_all_equal("connffessit shear", &d);
+    // Configuration fields (every particle draws particle 0's streams): the same invariance,
+    // and a different trajectory (the key reaches the ensembles).
+    let shared = with_overrides(&text, &["fluid.polymer.noise=\"configuration_fields\""]);
+    let c = digests_on_1_to_4_ranks(&shared, "connffessit shear, configuration fields", |_| {});
+    assert_all_equal("connffessit shear, configuration fields", &c);
+    assert_ne!(c[0].2, d[0].2, "configuration fields changed nothing");
 }
 
 /// Ensembles and their stress migrate with their particle: the coupled run to step 1000, in

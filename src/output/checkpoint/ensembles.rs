@@ -4,7 +4,12 @@
 //!
 //! ```text
 //! /                        attributes (beside the common ones): per_particle, precision
-//! /ensembles/connectors    [N, N_d·D]  f64 (or f32 with precision = "single")
+//!                          ("double", "single", or "histogram" for BDDFS)
+//! /ensembles/connectors    [N, N_d·D]  f64 (or f32 with precision = "single"; not with BDDFS)
+//! /ensembles/histograms    [N, L]      u64   BDDFS: each particle's occupied cells, packed
+//!                                            (cell << 32 | count) by increasing cell, padded
+//!                                            with 0 (never an entry: counts are ≥ 1) to the
+//!                                            longest row L
 //! /ensembles/control       [N, N_d·D]  f64   equilibrium copies (variance reduction only)
 //! /ensembles/averages      [N, K]      f64   per-particle sums of the K averaged observables
 //!                                            (attribute `samples`: how many samples they hold)
@@ -57,6 +62,7 @@ fn push_words(
     match q {
         ConnectorsRef::Double(q) => out.extend(q[i].iter().map(|x| x.to_bits())),
         ConnectorsRef::Single(q) => out.extend(q[i].iter().map(|x| u64::from(x.to_bits()))),
+        ConnectorsRef::Histograms(h) => out.extend_from_slice(&h[i]),
     }
     if let Some(c) = control {
         out.extend(c[i].iter().map(|x| x.to_bits()));
@@ -105,6 +111,11 @@ pub fn write<const D: usize>(
     let case_toml = toml::to_string(case).map_err(|err| format!("cannot echo the case: {err}"))?;
     let q = e.connectors();
     let single = matches!(q, ConnectorsRef::Single(_));
+    let precision = match q {
+        ConnectorsRef::Double(_) => "double",
+        ConnectorsRef::Single(_) => "single",
+        ConnectorsRef::Histograms(_) => "histogram",
+    };
     let control = e.control.as_deref();
     let sc = scalars(
         super::FORMAT_VERSION,
@@ -141,7 +152,7 @@ pub fn write<const D: usize>(
     };
     common.write(&mut f)?;
     f.attr("/", "per_particle", &(e.n_d as u64))?;
-    f.attr_str("/", "precision", if single { "single" } else { "double" })?;
+    f.attr_str("/", "precision", precision)?;
     f.attr_str("/", "case", &case_toml)?;
     f.attr_str("/", "checksum", &format!("{sum:016x}"))?;
     f.group("ensembles")?;
@@ -162,6 +173,25 @@ pub fn write<const D: usize>(
                 &[start, 0],
                 &[rows, width],
                 &q.concat(),
+            )?;
+        }
+        ConnectorsRef::Histograms(h) => {
+            let longest = {
+                let mut v = [h.iter().map(Vec::len).max().unwrap_or(0) as f64];
+                comm.allreduce_max(&mut v);
+                v[0] as usize
+            };
+            let mut padded = Vec::with_capacity(rows * longest);
+            for row in h {
+                padded.extend_from_slice(row);
+                padded.resize(padded.len() + longest - row.len(), 0);
+            }
+            f.dataset::<u64>("ensembles/histograms", &[n, longest], false)?;
+            f.write(
+                "ensembles/histograms",
+                &[start, 0],
+                &[rows, longest],
+                &padded,
             )?;
         }
     }
@@ -247,6 +277,7 @@ pub fn read<const D: usize>(path: &Path, comm: &dyn Comm) -> Result<RestoredFlow
     let q = match &r.connectors {
         Connectors::Double(q) => ConnectorsRef::Double(q),
         Connectors::Single(q) => ConnectorsRef::Single(q),
+        Connectors::Histograms { rows, .. } => ConnectorsRef::Histograms(rows),
     };
     let control = r.control.as_deref();
     let av = &r.averages.sums;
@@ -300,12 +331,46 @@ fn read_ensembles<const D: usize>(
     let block = id_block(total, comm.size(), comm.rank());
     let (start, rows) = (block.start as usize, (block.end - block.start) as usize);
     let width = n_d as usize * D;
-    let single = match precision.as_str() {
-        "double" => false,
-        "single" => true,
+    let (single, histograms) = match precision.as_str() {
+        "double" => (false, false),
+        "single" => (true, false),
+        "histogram" => (false, true),
         other => return Err(corrupt(format!("unknown precision {other:?}"))),
     };
-    let connectors = if single {
+    let connectors = if histograms {
+        let grid = case
+            .polymer
+            .histogram_grid()
+            .ok_or_else(|| corrupt("BDDFS histograms, but the case echo is not BDDFS".into()))?;
+        let longest = f
+            .dataset("ensembles/histograms")
+            .map(|d| d.shape().get(1).copied().unwrap_or(0))
+            .map_err(|e| corrupt(format!("ensembles/histograms: {e}")))?;
+        let mut rows_read = rows_of(
+            read_block::<u64>(f, "ensembles/histograms", &[start, 0], &[rows, longest])?,
+            longest,
+        );
+        if longest == 0 {
+            rows_read = vec![Vec::new(); rows];
+        }
+        for row in &mut rows_read {
+            while row.last() == Some(&0) {
+                row.pop();
+            }
+        }
+        let count_ok = rows_read
+            .iter()
+            .all(|row| crate::models::bddfs::dumbbell_count(row) == n_d);
+        if rows_read.len() != rows || !count_ok {
+            return Err(corrupt(format!(
+                "ensembles/histograms: a row does not hold {n_d} dumbbells"
+            )));
+        }
+        Connectors::Histograms {
+            grid,
+            rows: rows_read,
+        }
+    } else if single {
         Connectors::Single(rows_of(
             read_block::<f32>(f, "ensembles/connectors", &[start, 0], &[rows, width])?,
             width,
