@@ -251,3 +251,40 @@ pub fn mean_se(v: &[f64]) -> (f64, f64) {
     let var = v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (n - 1.0);
     (m, (var / n).sqrt())
 }
+
+/// Run options of an in-process flow-scene run: `threads`, an output folder, a stop step.
+pub fn flow_options(
+    threads: usize,
+    out: Option<&Path>,
+    until: Option<u64>,
+) -> mesorheo::driver::RunOptions {
+    mesorheo::driver::RunOptions {
+        threads,
+        steps: None,
+        until_step: until,
+        out: out.map(Path::to_path_buf),
+        max_hours: None,
+    }
+}
+
+/// Runs a homogeneous-flow case on `ranks` in-process ranks (panics with the run's error).
+pub fn run_flow(
+    case: &mesorheo::config::FlowCase,
+    ranks: usize,
+    o: mesorheo::driver::RunOptions,
+) -> mesorheo::summary::Summary {
+    let case = case.clone();
+    mesorheo::driver::in_process(ranks, move |c| {
+        mesorheo::driver::run_flow_case(&case, Path::new("flow.toml"), c, &o)
+    })
+    .unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// The instantaneous scalar `name` of a measurement (panics when the case does not record it).
+pub fn scalar(m: &mesorheo::sim::Measurement, name: &str) -> f64 {
+    m.scalars
+        .iter()
+        .find(|(n, _)| n == name)
+        .map(|(_, v)| *v)
+        .unwrap_or_else(|| panic!("no {name} in the measurement"))
+}

@@ -13,7 +13,7 @@
 #![cfg(feature = "hdf5")]
 
 use mesorheo::config::{CaseScene, FlowCase, parse_scene};
-use mesorheo::driver::{RunOptions, in_process, restart_case, run_flow_case};
+use mesorheo::driver::{in_process, restart_case};
 use mesorheo::summary::Summary;
 use std::path::{Path, PathBuf};
 
@@ -24,23 +24,7 @@ fn case_of(text: &str) -> FlowCase {
     }
 }
 
-fn options(threads: usize, out: Option<&Path>, until: Option<u64>) -> RunOptions {
-    RunOptions {
-        threads,
-        steps: None,
-        until_step: until,
-        out: out.map(Path::to_path_buf),
-        max_hours: None,
-    }
-}
-
-fn run(case: &FlowCase, ranks: usize, o: RunOptions) -> Summary {
-    let case = case.clone();
-    in_process(ranks, move |c| {
-        run_flow_case(&case, Path::new("bddfs.toml"), c, &o)
-    })
-    .unwrap_or_else(|e| panic!("{e}"))
-}
+use crate::common::{flow_options as options, run_flow as run};
 
 /// The observable's mean and standard error (spread of the particles' time averages).
 fn observed(s: &Summary, name: &str) -> (f64, f64) {

@@ -7,7 +7,7 @@
 
 use mesorheo::config::{CaseScene, FlowCase, parse_scene};
 use mesorheo::driver::run_flow_case;
-use mesorheo::driver::{RunOptions, in_process, restart_case};
+use mesorheo::driver::{in_process, restart_case};
 use mesorheo::summary::Summary;
 use std::path::{Path, PathBuf};
 
@@ -45,23 +45,7 @@ blocks = 4
     }
 }
 
-fn options(threads: usize, out: Option<&Path>, until: Option<u64>) -> RunOptions {
-    RunOptions {
-        threads,
-        steps: None,
-        until_step: until,
-        out: out.map(Path::to_path_buf),
-        max_hours: None,
-    }
-}
-
-fn run(case: &FlowCase, ranks: usize, o: RunOptions) -> Summary {
-    let case = case.clone();
-    in_process(ranks, move |c| {
-        run_flow_case(&case, Path::new("flow.toml"), c, &o)
-    })
-    .unwrap_or_else(|e| panic!("{e}"))
-}
+use crate::common::{flow_options as options, run_flow as run};
 
 /// The observables' bit patterns (what a restart or another decomposition must reproduce).
 fn observable_bits(s: &Summary) -> Vec<(String, u64, u64)> {

@@ -296,15 +296,8 @@ fn configuration_fields_carry_the_homogeneous_twin_ensemble() {
             }
             if sim.is_sample_step() {
                 let m = sim.measure();
-                let get = |name: &str| {
-                    m.scalars
-                        .iter()
-                        .find(|(n, _)| n == name)
-                        .map(|(_, v)| *v)
-                        .unwrap_or_else(|| panic!("no {name}"))
-                };
-                sums[0] += get("viscosity");
-                sums[1] += get("first_normal_stress_difference");
+                sums[0] += common::scalar(&m, "viscosity");
+                sums[1] += common::scalar(&m, "first_normal_stress_difference");
                 sums[2] += eta_s + tau[1] / wi;
                 sums[3] += tau[0] - tau[2];
                 samples += 1;

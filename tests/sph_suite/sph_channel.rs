@@ -53,16 +53,9 @@ fn set_velocity(sim: &mut Simulation<'_, 2>, u: impl Fn(f64) -> f64) {
 /// The instantaneous `wall_shear_stress` of the lower and upper walls.
 fn wall_shear_stresses(sim: &mut Simulation<'_, 2>) -> (f64, f64) {
     let m = sim.measure();
-    let get = |name: &str| {
-        m.scalars
-            .iter()
-            .find(|(n, _)| n == name)
-            .map(|(_, v)| *v)
-            .expect(name)
-    };
     (
-        get("wall_shear_stress_lower"),
-        get("wall_shear_stress_upper"),
+        common::scalar(&m, "wall_shear_stress_lower"),
+        common::scalar(&m, "wall_shear_stress_upper"),
     )
 }
 
