@@ -172,6 +172,7 @@ body_force = [0.0, 0.0]
 morris_regularisation = 0.0
 xsph = 0.5
 background_pressure = 1.0
+transport_pressure = 0.0
 [fluid.polymer]
 model = "corotational_maxwell"
 viscosity = 1.0

@@ -52,6 +52,15 @@ pub struct SphCfg {
     /// instability otherwise feeds on.
     #[serde(default)]
     pub background_pressure: f64,
+    /// Transport-velocity background pressure p_t (Adami, Hu & Adams 2013; default 0, off):
+    /// a uniform pressure that acts on the particles' *positions* only. Particles drift with
+    /// v̂_i = v_i + ½Δt a^t_i, a^t_i = −m p_t Σ_j (1/ρ_i² + 1/ρ_j²) ∇_i W_ij, which pushes
+    /// them towards a uniform arrangement as `background_pressure` does, but never enters
+    /// the momentum equation: it exchanges no momentum, so it adds none of the lattice's
+    /// anisotropic pressure virial to the measured stress. Needs `kick_drift_kick` and the
+    /// summation density (docs/theory/sph_maxwell.md §1.14).
+    #[serde(default)]
+    pub transport_pressure: f64,
     /// The velocity-gradient estimate: `sph` (default, the thesis's Eq. 3.7) or `corrected`
     /// (first-order kernel-gradient correction, exact for a linear velocity field on any
     /// particle arrangement).

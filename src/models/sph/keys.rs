@@ -72,6 +72,12 @@ pub const KEYS: &[KeyDoc] = &[
         "Constant p_b added to the equation of state (sph). No continuum pressure gradient changes; it keeps the total stress compressive where a polymer stress pulls (τ_xx > 0 in shear), which the SPH tensile instability feeds on.",
     ),
     key(
+        "fluid.transport_pressure",
+        "float ≥ 0",
+        "0.0",
+        "Transport-velocity background pressure p_t (sph; Adami, Hu & Adams, J. Comput. Phys. 241 (2013) 292): particles drift with v + ½Δt a_t, a_t = −m p_t Σ_j (1/ρ_i² + 1/ρ_j²) ∇W_ij, which keeps their arrangement uniform like fluid.background_pressure but exchanges no momentum, so the measured stress carries none of the lattice's pressure virial (in sheared CONNFFESSIT flows: N₁ +2.6 % with background_pressure = 5, see docs/theory/sph_maxwell.md §1.14). Their A = ρv(v̂ − v) term is omitted (order Δt p_t). Needs kick_drift_kick and density = \"summation\".",
+    ),
+    key(
         "fluid.velocity_gradient",
         "\"sph\" | \"corrected\"",
         "\"sph\"",

@@ -63,7 +63,7 @@ impl<K: Kernel, const D: usize> MomentumKernel<'_, K, D> {
         !(self.boundaries.any()
             || self.polymer.is_some()
             || p.species.is_some()
-            || self.xsph_eps_mass != 0.0
+            || self.drift_corrected()
             || !self.pairwise_stress)
             && stress
             && self.scales.len() == D + usize::from(self.continuity)

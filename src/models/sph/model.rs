@@ -31,7 +31,10 @@ pub struct SphModel<const D: usize> {
     pub(super) density: usize,
     pub(super) rate: Option<usize>,
     pub(super) stress: Option<usize>,
+    /// The drift correction v̂ − v (XSPH and/or the transport velocity).
     pub(super) xsph: Option<usize>,
+    /// Δt, for the transport velocity's ½Δt a_t (0 until [`Self::with_transport_step`]).
+    pub(super) transport_step: f64,
     /// The traction moments of the inclusion particles ([`INCLUSION_TRACTION_MOMENT`]).
     pub(super) traction_moment: Option<usize>,
     /// The constitutive polymer model (none for a Newtonian fluid or dumbbell ensembles).
@@ -146,6 +149,7 @@ impl<const D: usize> SphModel<D> {
             rate: None,
             stress: None,
             xsph: None,
+            transport_step: 0.0,
             traction_moment: None,
             polymer: cfg.polymer.as_ref().and_then(ConstitutiveLaw::of),
             polymer_stress: None,
@@ -189,6 +193,17 @@ impl<const D: usize> SphModel<D> {
             out.push(POLYMER_STRESS);
         }
         out
+    }
+
+    /// Whether the particles drift with v̂ = v + c (XSPH, the transport velocity or both).
+    pub(super) fn moves_with_drift_correction(&self) -> bool {
+        self.cfg.xsph != 0.0 || self.cfg.transport_pressure != 0.0
+    }
+
+    /// The time step Δt of the run, which the transport velocity's ½Δt a_t needs.
+    pub fn with_transport_step(mut self, dt: f64) -> Self {
+        self.transport_step = dt;
+        self
     }
 
     pub(super) fn measures_traction(&self) -> bool {
@@ -681,9 +696,15 @@ impl<const D: usize> SphModel<D> {
                     scales[D] = Scale::covering(HEADROOM * gradient_scale * rho0);
                     parities[D] = Parity::Even;
                 }
-                // XSPH terms: at most ε (m/ρ) W(0) |v|, |v| bounded by c₀ in any sane run.
+                // XSPH terms: at most ε (m/ρ) W(0) |v|, |v| bounded by c₀ in any sane run;
+                // transport terms: ½Δt m p_t (2/ρ²) |∇W| (a pressure term's m² (p/ρ²) |∇W|
+                // times ½Δt/m, with p_t for p), ρ ≥ ρ₀/2 in any sane run.
+                let transport = 0.5 * self.transport_step * self.cfg.transport_pressure;
+                let transport_scale = momentum_scale / self.mass * transport * 8.0 / (c2 * rho0);
                 for scale in &mut scales[xsph_first..moment_first] {
-                    *scale = Scale::covering(HEADROOM * density_scale / rho0 * c0_velocity);
+                    *scale = Scale::covering(
+                        HEADROOM * (density_scale / rho0 * c0_velocity + transport_scale),
+                    );
                 }
                 // Traction moments: a pair force times a radius.
                 let radius = self.inclusions.as_ref().map_or(0.0, |inc| inc.radius);
@@ -715,6 +736,7 @@ impl<const D: usize> SphModel<D> {
                         * self.cfg.smoothing_length,
                     continuity,
                     xsph_eps_mass: self.cfg.xsph * self.mass,
+                    transport: -transport * self.mass,
                     pairwise_stress: self.cfg.derivatives == Derivatives::Sph,
                     boundaries: self.boundaries,
                     scales,
@@ -864,7 +886,7 @@ impl<const D: usize> ParticleModel<D> for SphModel<D> {
                 flags: FieldFlags::DERIVED,
             });
         }
-        if self.cfg.xsph != 0.0 {
+        if self.moves_with_drift_correction() {
             // Like the forces: of the last evaluation, used by the next drift, so kept across a
             // restart.
             f.push(FieldSpec {
@@ -877,7 +899,8 @@ impl<const D: usize> ParticleModel<D> for SphModel<D> {
     }
 
     fn drift_correction(&self) -> Option<&'static str> {
-        (self.cfg.xsph != 0.0).then_some(XSPH_CORRECTION)
+        self.moves_with_drift_correction()
+            .then_some(XSPH_CORRECTION)
     }
 
     fn passes(&self) -> Vec<PassSpec> {

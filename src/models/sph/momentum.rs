@@ -28,6 +28,8 @@ pub(super) struct MomentumKernel<'a, K, const D: usize> {
     pub(super) continuity: bool,
     /// ε m (XSPH), or 0.
     pub(super) xsph_eps_mass: f64,
+    /// −½Δt m p_t (the transport velocity's ½Δt a_t per (1/ρ_i² + 1/ρ_j²) ∇W_ij), or 0.
+    pub(super) transport: f64,
     /// Whether the pressure and the stresses enter in pair form (not with MSPH derivatives,
     /// whose divergence pass adds them).
     pub(super) pairwise_stress: bool,
@@ -72,8 +74,14 @@ impl<K: Kernel, const D: usize> MomentumKernel<'_, K, D> {
             || self.stress.is_some()
             || self.polymer.is_some()
             || p.species.is_some()
-            || self.xsph_eps_mass != 0.0
+            || self.drift_corrected()
             || !self.pairwise_stress)
+    }
+
+    /// Whether the pass accumulates the drift correction v̂ − v (XSPH, transport velocity).
+    #[inline(always)]
+    pub(super) fn drift_corrected(&self) -> bool {
+        self.xsph_eps_mass != 0.0 || self.transport != 0.0
     }
 
     /// [`GatherKernel::pair`] for a batch of fluid–fluid pairs without a stress field, in
@@ -344,13 +352,28 @@ impl<K: Kernel, const D: usize> GatherKernel<D> for MomentumKernel<'_, K, D> {
             }
             out[D] = self.mass * gw * vdotx;
         }
-        if self.xsph_eps_mass != 0.0 {
-            // −ε m W_ij v_ij / ρ̄_ij: odd under i ↔ j to the bit (ρ_i + ρ_j commutes).
+        if self.drift_corrected() {
             let first = D + usize::from(self.continuity);
-            let rho_bar = 0.5 * (self.density[i] + self.density[j]);
-            let s = self.xsph_eps_mass * self.kernel.w(r) / rho_bar;
-            for a in 0..D {
-                out[first + a] = -s * vij[a];
+            let c = &mut out[first..first + D];
+            c.fill(0.0);
+            if self.xsph_eps_mass != 0.0 {
+                // −ε m W_ij v_ij / ρ̄_ij: odd under i ↔ j to the bit (ρ_i + ρ_j commutes).
+                let rho_bar = 0.5 * (self.density[i] + self.density[j]);
+                let s = self.xsph_eps_mass * self.kernel.w(r) / rho_bar;
+                for a in 0..D {
+                    c[a] = -s * vij[a];
+                }
+            }
+            if self.transport != 0.0 {
+                // −½Δt m p_t (1/ρ_i² + 1/ρ_j²) ∇_i W_ij: odd under i ↔ j to the bit (x_ji =
+                // −x_ij, and the sum of the two 1/ρ² commutes).
+                let s = self.transport
+                    * (self.inv_density[i] * self.inv_density[i]
+                        + self.inv_density[j] * self.inv_density[j])
+                    * gw;
+                for a in 0..D {
+                    c[a] += s * x[a];
+                }
             }
         }
         if let Some(inc) = self.boundaries.inclusions.filter(|g| g.traction_moments) {
@@ -359,7 +382,7 @@ impl<K: Kernel, const D: usize> GatherKernel<D> for MomentumKernel<'_, K, D> {
             // the inclusion end receives F_j ⊗ s whichever end i is (n is the same bits from
             // both ends: x_ji = −x_ij exactly).
             let first =
-                D + usize::from(self.continuity) + if self.xsph_eps_mass != 0.0 { D } else { 0 };
+                D + usize::from(self.continuity) + if self.drift_corrected() { D } else { 0 };
             let moment = &mut out[first..first + D * D];
             if inclusion_pair {
                 let (incl, x_fi): (usize, [f64; D]) = if si == FLUID {

@@ -252,7 +252,25 @@ impl FluidModel for SphCfg {
                     sph.background_pressure,
                     sph.background_pressure / tension
                 ));
-                if sph.background_pressure < 4.0 * tension {
+                if sph.transport_pressure > 0.0 {
+                    line(format!(
+                        "  transport velocity: p_t = {} = {:.1} τ_xx moves the particles only; \
+                         unlike a background pressure it adds no lattice virial to the measured \
+                         N₁ (docs/theory/sph_maxwell.md §1.14)",
+                        sph.transport_pressure,
+                        sph.transport_pressure / tension
+                    ));
+                } else if sph.background_pressure > 0.0 {
+                    line(format!(
+                        "  note: the background pressure's pair forces carry momentum, and on a \
+                         sheared lattice their virial adds about 0.005 p_b = {:.3} to the \
+                         measured N₁ (docs/theory/sph_maxwell.md §1.14); \
+                         fluid.transport_pressure in its place keeps the particles ordered \
+                         without it",
+                        0.005 * sph.background_pressure
+                    ));
+                }
+                if sph.background_pressure < 4.0 * tension && sph.transport_pressure == 0.0 {
                     line(
                         "  note: below 4 τ_xx the tension feeds the SPH tensile instability \
                          (measured: Oldroyd-B and dumbbells at Wi = 3 with p_b = 1.7 τ_xx drift \
@@ -465,7 +483,8 @@ impl<const D: usize> BuildModels<D> for SphCfg {
                 case.walls(),
                 case.inclusions(),
             )
-            .with_traction_moments(composite),
+            .with_traction_moments(composite)
+            .with_transport_step(case.dt()),
         )
     }
 

@@ -143,6 +143,38 @@ pub(super) fn validate_sph(
             ),
         ));
     }
+    if !(s.transport_pressure.is_finite() && s.transport_pressure >= 0.0) {
+        return Err(ix.error(
+            &fl("transport_pressure"),
+            format!(
+                "found {}; the transport-velocity background pressure must be ≥ 0 (0: off; \
+                 a few times the largest polymer tension, like background_pressure)",
+                s.transport_pressure
+            ),
+        ));
+    }
+    if s.transport_pressure != 0.0 {
+        if !matches!(case.integrator(), IntegratorCfg::KickDriftKick(_)) {
+            return Err(ix.error(
+                &[k("integrator"), k("kind")],
+                format!(
+                    "the transport velocity (fluid.transport_pressure = {}) moves the particles \
+                     in the kick–drift–kick drift only; use kind = \"kick_drift_kick\" or set \
+                     fluid.transport_pressure = 0",
+                    s.transport_pressure
+                ),
+            ));
+        }
+        if s.density != crate::models::sph::DensityMethod::Summation {
+            return Err(ix.error(
+                &fl("density"),
+                "the transport velocity moves the particles with v̂ ≠ v, which a continuity \
+                 density (dρ/dt from v) does not follow; use density = \"summation\" or set \
+                 fluid.transport_pressure = 0"
+                    .to_string(),
+            ));
+        }
+    }
     if !(s.morris_share.is_finite() && (0.0..1.0).contains(&s.morris_share)) {
         return Err(ix.error(
             &fl("morris_share"),
