@@ -6,6 +6,7 @@ pub mod dumbbell_ensemble;
 pub mod dumbbell_settings;
 pub mod dumbbells;
 pub mod fluid_model;
+pub mod generic_polymer;
 pub mod gather;
 pub mod homogeneous_flow;
 pub mod interface;
