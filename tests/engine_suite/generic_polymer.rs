@@ -49,7 +49,7 @@ steps = {steps}
 equilibration = {equilibration}
 sample_every = 5
 [diagnostics]
-observables = ["temperature", "momentum", "constitutive_stress"]
+observables = ["temperature", "momentum", "conformation"]
 blocks = 10
 "#,
         h = 1.0 / KT_OVER_H,

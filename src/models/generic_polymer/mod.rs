@@ -533,10 +533,10 @@ impl<const D: usize> ParticleModel<D> for GenericPolymer<D> {
     }
 
     fn measures(&self, o: Observable) -> bool {
-        o == Observable::ConstitutiveStress
+        matches!(o, Observable::ConstitutiveStress | Observable::Conformation)
     }
 
-    /// Sums: the fluid particle count, then Σ Q_a Q_b (D×D).
+    /// Sums (both observables): the fluid particle count, then Σ Q_a Q_b (D×D).
     fn observable_sums(
         &self,
         _o: Observable,
@@ -560,46 +560,44 @@ impl<const D: usize> ParticleModel<D> for GenericPolymer<D> {
         sums
     }
 
-    /// ⟨Q_aQ_b⟩ (`conformation_xx`, …), ⟨Q²⟩ (`conformation_q2`) and, under shear, the
-    /// viscometric functions of the particle-averaged polymer stress (Eq. 4.68):
-    /// τ^p = −Π^p = −k_BTn^d 1 + Hn^d ⟨QQ⟩, η_p = τ^p_xy/γ̇, N₁ = τ^p_xx − τ^p_yy, Ψ₁ = N₁/γ̇².
+    /// `conformation`: ⟨Q_aQ_b⟩ (upper triangle) and ⟨Q²⟩. `constitutive_stress` (under
+    /// shear): the viscometric functions of the particle-averaged polymer stress (Eq. 4.68),
+    /// τ^p = −Π^p = −k_BTn^d 1 + Hn^d ⟨QQ⟩: η_p = τ^p_xy/γ̇, N₁ = τ^p_xx − τ^p_yy (and N₂ in 3D).
     fn observable_values(
         &self,
-        _o: Observable,
+        o: Observable,
         sums: &[f64],
         ctx: &MeasureContext<'_, D>,
     ) -> Vec<(String, f64)> {
-        const AXES: [char; 3] = ['x', 'y', 'z'];
         let n = sums[0];
         let qq = |a: usize, b: usize| sums[1 + a * D + b] / n;
-        let mut out = Vec::new();
-        for a in 0..D {
-            for b in a..D {
-                out.push((format!("conformation_{}{}", AXES[a], AXES[b]), qq(a, b)));
+        if o == Observable::Conformation {
+            let mut values = Vec::new();
+            for a in 0..D {
+                for b in a..D {
+                    values.push(qq(a, b));
+                }
             }
+            values.push((0..D).map(|a| qq(a, a)).sum());
+            return crate::observable::conformation_names(D)
+                .iter()
+                .zip(values)
+                .map(|(name, v)| ((*name).to_string(), v))
+                .collect();
         }
-        out.push((
-            "conformation_q2".to_string(),
-            (0..D).map(|a| qq(a, a)).sum(),
-        ));
         let hn = self.params.spring_constant * self.params.dumbbell_density;
-        let rate = ctx.shear_rate;
-        if rate != 0.0 {
-            let n1 = hn * (qq(0, 0) - qq(1, 1));
-            let names = crate::observable::constitutive_names(D);
-            let mut values = vec![hn * qq(0, 1) / rate, n1];
-            if D == 3 {
-                values.push(hn * (qq(1, 1) - qq(2, 2)));
-            }
-            for (name, v) in names.iter().zip(values) {
-                out.push(((*name).to_string(), v));
-            }
-            out.push((
-                "first_normal_stress_coefficient_constitutive".to_string(),
-                n1 / (rate * rate),
-            ));
+        let mut values = vec![
+            hn * qq(0, 1) / ctx.shear_rate,
+            hn * (qq(0, 0) - qq(1, 1)),
+        ];
+        if D == 3 {
+            values.push(hn * (qq(1, 1) - qq(2, 2)));
         }
-        out
+        crate::observable::constitutive_names(D)
+            .iter()
+            .zip(values)
+            .map(|(name, v)| ((*name).to_string(), v))
+            .collect()
     }
 }
 

@@ -199,23 +199,27 @@ impl FluidModel for GenericPolymerCfg {
         limits
     }
 
-    fn default_observables(&self, _case: &dyn CaseView) -> Vec<Observable> {
-        vec![
+    fn default_observables(&self, case: &dyn CaseView) -> Vec<Observable> {
+        let mut out = vec![
             Observable::Temperature,
             Observable::Momentum,
-            Observable::ConstitutiveStress,
-        ]
+            Observable::Conformation,
+        ];
+        if case.shear_rate() != 0.0 {
+            out.push(Observable::ConstitutiveStress);
+        }
+        out
     }
 
     fn supports(&self, _case: &dyn CaseView, o: Observable) -> Result<(), String> {
-        if o == Observable::ConstitutiveStress {
+        if matches!(o, Observable::ConstitutiveStress | Observable::Conformation) {
             return Ok(());
         }
         if o.needs_pair_virial() {
             return Err(format!(
                 "\"{}\" needs the pair virial, which the GENERIC polymer fluid does not compute \
-                 yet; its particle-averaged polymer stress, conformation and viscometric \
-                 functions are \"constitutive_stress\"",
+                 yet; the particle-averaged polymer stress's viscometric functions are \
+                 \"constitutive_stress\", the conformation moments \"conformation\"",
                 o.name()
             ));
         }
