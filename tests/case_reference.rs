@@ -235,6 +235,10 @@ conformation_drift = "printed_generic"
 [integrator]
 kind = "kick_drift_kick"
 dt = 0.01
+[run]
+steps = 10
+equilibration = 0
+sample_every = 5
 "#;
 
 /// The GENERIC polymer fluid in physical units (`[fluid.si]`, exclusive with the reduced keys).
@@ -264,6 +268,10 @@ specific_gas_constant = 462.0
 [integrator]
 kind = "kick_drift_kick"
 dt = 5e-4
+[run]
+steps = 10
+equilibration = 0
+sample_every = 5
 "#;
 
 fn paths(prefix: &str, v: &toml::Value, out: &mut BTreeSet<String>) {

@@ -96,7 +96,10 @@ fn at_rest_conformation_and_temperature_obey_the_fdt_at_two_time_steps() {
         let (t, se) = estimate(&s, "temperature");
         eprintln!("Δt = {dt}: k_BT = {t:.5} ± {se:.5}");
         assert!((t - 1.0).abs() < 4.5 * se, "Δt = {dt}: k_BT = {t} ± {se}");
-        assert!(se < 0.02, "temperature error bar {se} too wide to test anything");
+        assert!(
+            se < 0.02,
+            "temperature error bar {se} too wide to test anything"
+        );
         for p in ["momentum_x", "momentum_y"] {
             let (m, _) = estimate(&s, p);
             assert!(m.abs() < 1e-9, "Δt = {dt}: {p} = {m}");
@@ -115,7 +118,9 @@ fn the_printed_eq_4_48_drift_fails_the_fdt_test() {
     let (m, se) = estimate(&s, "conformation_xx");
     let printed = KT_OVER_H / 4.0 / (1.0 + 4.0 * 0.01 / (4.0 * LAMBDA));
     let fdt = KT_OVER_H / (1.0 + 0.01 / (4.0 * LAMBDA));
-    eprintln!("printed drift: ⟨Q_x²⟩ = {m:.5} ± {se:.5}, FDT {fdt:.5}, printed theory {printed:.5}");
+    eprintln!(
+        "printed drift: ⟨Q_x²⟩ = {m:.5} ± {se:.5}, FDT {fdt:.5}, printed theory {printed:.5}"
+    );
     assert!(
         (m - fdt).abs() > 50.0 * se,
         "the printed drift passes the FDT test? {m} ± {se}"

@@ -328,7 +328,13 @@ pub struct GenericPolymer<const D: usize> {
 impl<const D: usize> GenericPolymer<D> {
     /// The model of particles of mass `mass` at number density `number_density`, for time step
     /// `dt` and the case's seed.
-    pub fn new(cfg: &GenericPolymerCfg, mass: f64, number_density: f64, dt: f64, seed: u64) -> Self {
+    pub fn new(
+        cfg: &GenericPolymerCfg,
+        mass: f64,
+        number_density: f64,
+        dt: f64,
+        seed: u64,
+    ) -> Self {
         let params = cfg.parameters();
         Self {
             params,
@@ -515,7 +521,11 @@ impl<const D: usize> ParticleModel<D> for GenericPolymer<D> {
         if let Err(e) = result {
             self.sums = sums;
             return Err(e
-                .at_step(crate::error::Quantity::PairForce, step, "GENERIC polymer pass")
+                .at_step(
+                    crate::error::Quantity::PairForce,
+                    step,
+                    "GENERIC polymer pass",
+                )
                 .into());
         }
         let width = 1 + D * D + D;
@@ -586,10 +596,7 @@ impl<const D: usize> ParticleModel<D> for GenericPolymer<D> {
                 .collect();
         }
         let hn = self.params.spring_constant * self.params.dumbbell_density;
-        let mut values = vec![
-            hn * qq(0, 1) / ctx.shear_rate,
-            hn * (qq(0, 0) - qq(1, 1)),
-        ];
+        let mut values = vec![hn * qq(0, 1) / ctx.shear_rate, hn * (qq(0, 0) - qq(1, 1))];
         if D == 3 {
             values.push(hn * (qq(1, 1) - qq(2, 2)));
         }
@@ -676,6 +683,9 @@ mod tests {
             let grad_div = b / (d + 2.0);
             assert!((grad_div - 0.7 * (d - 2.0) / d).abs() < 1e-14, "D = {dim}");
         }
-        assert_eq!(p.friction_coefficients(3), (0.7 * 5.0 / 3.0, 0.7 * 5.0 / 3.0));
+        assert_eq!(
+            p.friction_coefficients(3),
+            (0.7 * 5.0 / 3.0, 0.7 * 5.0 / 3.0)
+        );
     }
 }

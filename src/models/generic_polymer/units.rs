@@ -162,18 +162,39 @@ mod tests {
         assert!(close(c5, 1386.0, 1e-6), "C5 = {c5}");
         assert!(close(c5.sqrt(), 37.23, 1e-3), "c̄_s = {}", c5.sqrt());
         // The conversion reproduces them to round-off.
-        assert!(close(r.solvent_viscosity, 0.01, 1e-12), "η̄_s = {}", r.solvent_viscosity);
+        assert!(
+            close(r.solvent_viscosity, 0.01, 1e-12),
+            "η̄_s = {}",
+            r.solvent_viscosity
+        );
         assert!(close(5.0 * r.solvent_viscosity / 3.0, c1, 1e-12));
         assert!(close(r.kt / r.spring_constant, c2_sq, 1e-12), "C2²");
         assert!(close(r.dumbbell_density * r.kt, c3, 1e-12), "η̄_p = C3");
-        assert!(close(2.0 * r.dumbbell_density * r.kt, 8.284e-3, 1e-4), "Ψ̄₁ = 2C3");
-        assert!(close(r.dumbbell_density * r.spring_constant, c4, 1e-12), "C4");
+        assert!(
+            close(2.0 * r.dumbbell_density * r.kt, 8.284e-3, 1e-4),
+            "Ψ̄₁ = 2C3"
+        );
+        assert!(
+            close(r.dumbbell_density * r.spring_constant, c4, 1e-12),
+            "C4"
+        );
         assert!(close(r.sound_speed * r.sound_speed, c5, 1e-12), "C5");
-        assert!(close(2.0 * r.kt / r.spring_constant, 4.395e-5, 1e-3), "⟨Q̄²⟩_eq");
+        assert!(
+            close(2.0 * r.kt / r.spring_constant, 4.395e-5, 1e-3),
+            "⟨Q̄²⟩_eq"
+        );
         assert_eq!(r.relaxation_time, 1.0);
         let p = si.physical();
         assert!(close(p.friction, 7.540e-12, 1e-3), "ζ = {}", p.friction);
-        assert!(close(p.spring_constant, 1.88496e-6, 1e-5), "H = {}", p.spring_constant);
-        assert!(close(p.polymer_viscosity, 4.142e-4, 1e-4), "η_p = {}", p.polymer_viscosity);
+        assert!(
+            close(p.spring_constant, 1.88496e-6, 1e-5),
+            "H = {}",
+            p.spring_constant
+        );
+        assert!(
+            close(p.polymer_viscosity, 4.142e-4, 1e-4),
+            "η_p = {}",
+            p.polymer_viscosity
+        );
     }
 }
