@@ -184,11 +184,11 @@ impl FluidModel for GenericPolymerCfg {
     fn time_step_limits(&self, case: &dyn CaseView) -> Vec<(String, f64)> {
         let p = self.parameters();
         let rho0 = case.mass() * case.number_density();
-        // Measured (docs/theory/generic_polymer_particle.md §3): the thesis's T1 case
-        // (Lucy r_c = 4Δ, c_s = 37.2, η_s = 0.01, kick–drift–kick) heats from round-off to
-        // velocity fluctuations of 3 (wall speed 0.6) within 20 steps at Δt = 0.47 r_c/c_s,
-        // while at 0.23 r_c/c_s the fluctuations saturate near 0.5 % of c_s: the continuity
-        // density's two-stage update amplifies sound waves of ωΔt ≳ 1.
+        // Measured (docs/validation.md, GENERIC polymer T1): the thesis's T1 case (Lucy
+        // r_c = 4Δ, c_s = 37.2, η_s = 0.01, kick–drift–kick) heats from round-off to velocity
+        // fluctuations of 3 (wall speed 0.6) within 20 steps at Δt = 0.47 r_c/c_s, while at
+        // 0.23 r_c/c_s they settle near 0.15 (0.4 % of c_s): the continuity density's
+        // two-stage update amplifies sound waves of ωΔt ≳ 1.
         let mut limits = vec![(
             "acoustic (CFL) 0.25 r_c/c_s".to_string(),
             0.25 * p.smoothing_length / p.sound_speed,
