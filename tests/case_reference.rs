@@ -236,9 +236,17 @@ conformation_drift = "printed_generic"
 kind = "kick_drift_kick"
 dt = 0.01
 [run]
-steps = 10
+steps = 100
 equilibration = 0
 sample_every = 5
+[[reference]]
+kind = "value"
+name = "k_BT"
+observable = "temperature"
+value = 1.0
+metric = "relative_error"
+tolerance = 0.1
+source = "the case"
 "#;
 
 /// The GENERIC polymer fluid in physical units (`[fluid.si]`, exclusive with the reduced keys).
@@ -269,9 +277,17 @@ specific_gas_constant = 462.0
 kind = "kick_drift_kick"
 dt = 5e-4
 [run]
-steps = 10
+steps = 100
 equilibration = 0
 sample_every = 5
+[[reference]]
+kind = "value"
+name = "k_BT"
+observable = "temperature"
+value = 1.0
+metric = "relative_error"
+tolerance = 0.1
+source = "the case"
 "#;
 
 fn paths(prefix: &str, v: &toml::Value, out: &mut BTreeSet<String>) {
