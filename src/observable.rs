@@ -64,6 +64,11 @@ pub enum Observable {
     /// ℓ_b/|r_y| (ℓ_b: the length of the pair's segment inside the bin), over the bin's
     /// volume. The summary lists it as `shear_stress_profile`.
     ShearStressProfile,
+    /// The particle mean of the conformation vectors' second moments of a fluid whose particles
+    /// carry one (needs `[fluid] kind = "generic_polymer"`): `conformation_xx`,
+    /// `conformation_xy`, `conformation_yy` (and the z components in 3D), ⟨Q_aQ_b⟩, and
+    /// `conformation_q2`, ⟨Q²⟩.
+    Conformation,
 }
 
 impl Observable {
@@ -103,6 +108,7 @@ impl Observable {
             Observable::GreenKuboViscosity => "green_kubo_viscosity",
             Observable::TransverseCurrentViscosity => "transverse_current_viscosity",
             Observable::ShearStressProfile => "shear_stress_profile",
+            Observable::Conformation => "conformation",
         }
     }
 }
@@ -113,6 +119,29 @@ pub const DENSITY_PROFILE_PREFIX: &str = "density_profile_";
 
 /// The scalars of the `constitutive_stress` observable in `dimension` dimensions: η, N₁ (and
 /// N₂ in 3D) of the particles' own mean stress.
+/// The names of the conformation moments ([`Observable::Conformation`]) in `dimension`
+/// dimensions: the upper triangle of ⟨Q_aQ_b⟩, row by row, then ⟨Q²⟩.
+pub fn conformation_names(dimension: usize) -> &'static [&'static str] {
+    const NAMES_2D: [&str; 4] = [
+        "conformation_xx",
+        "conformation_xy",
+        "conformation_yy",
+        "conformation_q2",
+    ];
+    const NAMES_3D: [&str; 7] = [
+        "conformation_xx",
+        "conformation_xy",
+        "conformation_xz",
+        "conformation_yy",
+        "conformation_yz",
+        "conformation_zz",
+        "conformation_q2",
+    ];
+    if dimension == 3 { &NAMES_3D } else { &NAMES_2D }
+}
+
+/// The names of the constitutive viscometric functions ([`Observable::ConstitutiveStress`]) in
+/// `dimension` dimensions.
 pub fn constitutive_names(dimension: usize) -> &'static [&'static str] {
     const NAMES: [&str; 3] = [
         "viscosity_constitutive",

@@ -211,6 +211,86 @@ tolerance = 0.01
 source = "s"
 "#;
 
+/// The GENERIC polymer fluid's reduced keys (`kind = "generic_polymer"`).
+const EVERY_GENERIC_POLYMER_KEY: &str = r#"
+title = "every generic_polymer key"
+dimension = 2
+[box]
+lengths = [8.0, 8.0]
+[particles]
+lattice = "cubic"
+density = 4.0
+mass = 100.0
+temperature = 1.0
+[fluid]
+kind = "generic_polymer"
+smoothing_length = 1.5
+sound_speed = 1.0
+solvent_viscosity = 40.0
+kt = 1.0
+spring_constant = 1.0
+relaxation_time = 0.1
+dumbbell_density = 16.0
+velocity_noise = false
+conformation_drift = "printed_generic"
+[integrator]
+kind = "kick_drift_kick"
+dt = 0.01
+[run]
+steps = 100
+equilibration = 0
+sample_every = 5
+[[reference]]
+kind = "value"
+name = "k_BT"
+observable = "temperature"
+value = 1.0
+metric = "relative_error"
+tolerance = 0.1
+source = "the case"
+"#;
+
+/// The GENERIC polymer fluid in physical units (`[fluid.si]`, exclusive with the reduced keys).
+const EVERY_GENERIC_POLYMER_SI_KEY: &str = r#"
+title = "every generic_polymer [fluid.si] key"
+dimension = 2
+[box]
+lengths = [1.0, 1.0]
+shear_rate = 1.0
+[particles]
+lattice = "cubic"
+density = 2500.0
+mass = 0.0004
+temperature = 0.0
+[fluid]
+kind = "generic_polymer"
+smoothing_length = 0.08
+[fluid.si]
+box_length = 1e-5
+relaxation_time = 1e-6
+temperature = 300.0
+solvent_viscosity = 1e-3
+density = 1e3
+dumbbells = 1e8
+bead_radius = 4e-10
+specific_gas_constant = 462.0
+[integrator]
+kind = "kick_drift_kick"
+dt = 5e-4
+[run]
+steps = 100
+equilibration = 0
+sample_every = 5
+[[reference]]
+kind = "value"
+name = "k_BT"
+observable = "temperature"
+value = 1.0
+metric = "relative_error"
+tolerance = 0.1
+source = "the case"
+"#;
+
 fn paths(prefix: &str, v: &toml::Value, out: &mut BTreeSet<String>) {
     match v {
         toml::Value::Table(t) => {
@@ -409,6 +489,8 @@ fn documented_keys_are_exactly_the_parsed_keys() {
         (EVERY_MSPH_KEY, "msph.toml"),
         (EVERY_PHYSICAL_KEY_SC, "physical_sc.toml"),
         (physical_tau.as_str(), "physical_tau.toml"),
+        (EVERY_GENERIC_POLYMER_KEY, "generic_polymer.toml"),
+        (EVERY_GENERIC_POLYMER_SI_KEY, "generic_polymer_si.toml"),
     ] {
         let sph = case_from_str(text, name);
         let text = toml::to_string(&sph.case).expect("serialise");
@@ -437,6 +519,8 @@ fn documented_keys_are_exactly_the_parsed_keys() {
         EVERY_MSPH_KEY,
         EVERY_PHYSICAL_KEY_SC,
         physical_tau.as_str(),
+        EVERY_GENERIC_POLYMER_KEY,
+        EVERY_GENERIC_POLYMER_SI_KEY,
     ] {
         paths(
             "",

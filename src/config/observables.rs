@@ -63,6 +63,13 @@ pub fn scalar_names(case: &Case) -> Vec<String> {
             Observable::ConstitutiveStress => {
                 out.extend(constitutive_names(dim).iter().map(|s| s.to_string()));
             }
+            Observable::Conformation => {
+                out.extend(
+                    crate::observable::conformation_names(dim)
+                        .iter()
+                        .map(|s| s.to_string()),
+                );
+            }
             Observable::WallShearStress => {
                 out.push("wall_shear_stress_lower".to_owned());
                 out.push("wall_shear_stress_upper".to_owned());

@@ -74,4 +74,7 @@ fluid_registry! {
     /// Weakly compressible SPH: Newtonian, corotational Maxwell, Oldroyd-B, CONNFFESSIT
     /// dumbbells; walls and inclusions; MSPH derivatives.
     Sph(crate::models::sph::SphCfg) = "sph",
+    /// The GENERIC (thermodynamically consistent) polymer fluid particle, Model B: SDPD with a
+    /// conformation vector and thermal noise.
+    GenericPolymer(crate::models::generic_polymer::GenericPolymerCfg) = "generic_polymer",
 }

@@ -342,6 +342,10 @@ pub fn generic_support(o: Observable) -> Result<(), String> {
             "\"green_kubo_viscosity\" correlates the pair virial of a DPD fluid; it needs \
              [fluid] kind = \"dpd\""
         }
+        Observable::Conformation => {
+            "\"conformation\" is the mean of the particles' conformation vectors; it needs a \
+             fluid whose particles carry one ([fluid] kind = \"generic_polymer\")"
+        }
         Observable::TransverseCurrentViscosity => {
             "\"transverse_current_viscosity\" needs a thermal fluid, [fluid] kind = \"dpd\""
         }

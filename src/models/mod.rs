@@ -7,6 +7,7 @@ pub mod dumbbell_settings;
 pub mod dumbbells;
 pub mod fluid_model;
 pub mod gather;
+pub mod generic_polymer;
 pub mod homogeneous_flow;
 pub mod interface;
 pub mod pair_loop;

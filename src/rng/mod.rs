@@ -29,6 +29,14 @@ pub enum Purpose {
     /// Uniform positions of the dumbbells BDDFS regenerates within their histogram cells (keyed
     /// by particle id and step).
     BddfsReconstruction = 6,
+    /// The GENERIC polymer fluid's pair noise on the velocities (keyed by step and the pair's
+    /// sorted ids).
+    GenericPolymerPair = 7,
+    /// The GENERIC polymer fluid's Brownian noise on the conformation vectors (keyed by step
+    /// and particle id).
+    GenericPolymerConformation = 8,
+    /// The GENERIC polymer fluid's equilibrium initial conformations (keyed by particle id).
+    GenericPolymerInit = 9,
     /// Test-only uses.
     Test = 255,
 }

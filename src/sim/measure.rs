@@ -39,6 +39,7 @@ pub(super) fn virial_scope(observables: &[Observable]) -> VirialScope {
         | Observable::DensityProfile
         | Observable::PolymerStressTrace
         | Observable::ConstitutiveStress
+        | Observable::Conformation
         | Observable::CompositeViscosity
         | Observable::TransverseCurrentViscosity => VirialScope::Off,
     };
@@ -519,6 +520,7 @@ impl<'c, const D: usize> Simulation<'c, D> {
                 // Measured by the model whose fields they are (above); `check` refuses
                 // them for a fluid without those fields.
                 Observable::ConstitutiveStress
+                | Observable::Conformation
                 | Observable::PolymerStressTrace
                 | Observable::DensityProfile
                 | Observable::WallShearStress

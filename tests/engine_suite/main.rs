@@ -12,6 +12,7 @@ mod dumbbell_particles;
 mod dumbbell_rheology;
 mod dumbbells;
 mod flow_scenes;
+mod generic_polymer;
 mod model_layer;
 mod neighbours;
 mod restart;

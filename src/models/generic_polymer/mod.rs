@@ -1,0 +1,691 @@
+//! The thermodynamically consistent (GENERIC) polymer fluid particle, Model B (`[fluid] kind =
+//! "generic_polymer"`): smoothed-dissipative-particle-dynamics particles that each carry one
+//! representative dumbbell conformation Q_i (Ellero, Español & Del Río, PRE 2003; Ellero 2004
+//! ch. 4, Eqs. 4.60–4.62, isothermal, Hookean). Theory, errata and departures:
+//! docs/theory/generic_polymer_particle.md.
+//!
+//! With r_ij = r_i − r_j, e_ij = r_ij/r_ij, v_ij = v_i − v_j, the Lucy kernel W of support r_c,
+//! F(r) = −W′(r)/r ≥ 0, ω_ij = F_ij r_ij, d_i = ρ_i/m (the continuity density; spec §5.14).
+//! The continuity equation is the rate of the summation density the GENERIC derivation uses,
+//! which the reversible part needs to conserve energy exactly; the printed Eq. 4.60 has
+//! −ρ_i Σ_j (m/ρ_j) ω_ij·v_ij, which differs at second order in the density fluctuations and
+//! does not (docs/theory/generic_polymer_particle.md §2):
+//!
+//! ```text
+//! dρ_i/dt = −m Σ_j ω_ij·v_ij      (= m dd_i/dt of the summation density d_i = Σ_j W_ij)
+//! (∇v)_i,ab = (1/d_i) Σ_j (ω_ij)_a (v_ij)_b
+//! m dv_i = Σ_j [Π_i/d_i² + Π_j/d_j²]·ω_ij dt
+//!          − Σ_j F_ij/(d_i d_j) [a v_ij + b e_ij (e_ij·v_ij)] dt + Σ_j X_ij
+//! Π_i    = (c_s² ρ_i + k_BT n^d) 1 − H n^d Q_i Q_i
+//! dQ_i   = Q_i·(∇v)_i dt − ν_i Q_i/(2λ_H) dt + (k_BT/(Hλ_H))^{1/2} dU_i
+//! ```
+//!
+//! Viscous coefficients for shear viscosity η_s and no bulk viscosity in D dimensions:
+//! a = (D + 2)η_s/D, b = (D + 2)(D − 2)η_s/D (3D: 5η_s/3 twice, the printed values; 2D: a = 2η_s,
+//! b = 0 — the printed 3D values in 2D give 25η_s/24 and a spurious bulk viscosity).
+//! Pair noise, momentum conserving and antisymmetric (X_ji = −X_ij):
+//!
+//! ```text
+//! X_ij = [A_ij dW̄_ij^S + B_ij (tr dW_ij/D) 1]·e_ij
+//! A_ij = [4k_BT a F_ij/(d_i d_j)]^{1/2},  B_ij = [2Dk_BT (b − a(D−2)/D) F_ij/(d_i d_j)]^{1/2}
+//! ```
+//!
+//! dW_ij = dW_ji a D×D matrix of independent Wiener increments keyed by (seed, step, min id,
+//! max id), dW̄^S its symmetric traceless part: ⟨X X^T⟩ = 2k_BT F/(d_i d_j) (a 1 + b ee) dt, the
+//! fluctuation–dissipation theorem for the friction above. The conformation noise dU_i is
+//! keyed by (seed, step, id). ν_i = 1 is Eq. 4.60 (one statistical dumbbell, FDT consistent);
+//! `conformation_drift = "printed_generic"` takes ν_i = N_i^d = n^d/d_i, the GENERIC drift of
+//! the printed Eq. 4.48 with the entropy of Eq. 4.47 and the printed M_QQ = 2T/ζ, which breaks
+//! the fluctuation–dissipation theorem (⟨Q_aQ_b⟩ = k_BT/(HN^d) δ_ab instead of k_BT/H δ_ab).
+//!
+//! The noise enters the rates as increments over Δt (an impulse/Δt). The two-stage Heun and
+//! the kick–drift–kick schemes then apply each step's increments once in total, half in each of
+//! the two steps that share the evaluation keyed by that step (the DPD velocity-Verlet
+//! construction). For the Ornstein–Uhlenbeck part dx = −kx dt + c dW this is weakly first
+//! order: the stationary variance is c²/(2k)·(1 − kΔt/2 + O(Δt²)) (Heun; the theory document
+//! derives it and the tests measure it).
+
+pub mod keys;
+pub mod spec;
+pub mod units;
+
+use crate::error::Error;
+use crate::fixed_sum::{FixedSum, Scale};
+use crate::models::gather::{FullList, GatherKernel, gather};
+use crate::models::interface::{
+    FieldKind, FieldSpec, Integrated, MeasureContext, ParticleModel, PassContext, PassOutput,
+    PassSpec,
+};
+use crate::models::sph::kernels::{Kernel, Lucy};
+use crate::observable::Observable;
+use crate::particles::{FieldFlags, Particles};
+use crate::rng::{HashStream, Purpose};
+use serde::{Deserialize, Serialize};
+pub use units::SiUnitsCfg;
+
+/// The continuity density ρ_i.
+pub const DENSITY: &str = "generic_density";
+/// Its rate dρ_i/dt.
+pub const DENSITY_RATE: &str = "generic_density_rate";
+/// The conformation vector Q_i (D numbers).
+pub const CONFORMATION: &str = "conformation";
+/// Its rate dQ_i/dt (drift and the step's noise increment over Δt).
+pub const CONFORMATION_RATE: &str = "conformation_rate";
+
+/// The drift of the conformation vector.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum ConformationDrift {
+    /// −Q/(2λ_H): one statistical dumbbell (Eq. 4.60), FDT consistent.
+    #[default]
+    SingleDumbbell,
+    /// −N_i^d Q/(2λ_H): the GENERIC drift of the printed Eq. 4.48 with the entropy 4.47 and the
+    /// printed noise; breaks the FDT (kept to show it).
+    PrintedGeneric,
+}
+
+/// `[fluid] kind = "generic_polymer"`. The reduced parameters are given directly, or all
+/// together by a `[fluid.si]` table (then none of them may be given).
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct GenericPolymerCfg {
+    /// Lucy kernel support r_c (the interaction cutoff).
+    pub smoothing_length: f64,
+    /// Isothermal sound speed c_s: P^s = c_s² ρ.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sound_speed: Option<f64>,
+    /// Solvent shear viscosity η_s.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub solvent_viscosity: Option<f64>,
+    /// k_BT₀.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub kt: Option<f64>,
+    /// Dumbbell spring constant H.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub spring_constant: Option<f64>,
+    /// Dumbbell relaxation time λ_H = ζ/(4H).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub relaxation_time: Option<f64>,
+    /// Dumbbell number density n^d.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub dumbbell_density: Option<f64>,
+    /// Thermal noise on the velocities (SDPD); the thesis drops it (false).
+    #[serde(default = "yes")]
+    pub velocity_noise: bool,
+    /// The drift of Q.
+    #[serde(default)]
+    pub conformation_drift: ConformationDrift,
+    /// The physical inputs the reduced parameters are converted from.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub si: Option<SiUnitsCfg>,
+}
+
+fn yes() -> bool {
+    true
+}
+
+/// The reduced parameters of a validated `[fluid]` table.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Parameters {
+    /// r_c.
+    pub smoothing_length: f64,
+    /// c_s.
+    pub sound_speed: f64,
+    /// η_s.
+    pub solvent_viscosity: f64,
+    /// k_BT.
+    pub kt: f64,
+    /// H.
+    pub spring_constant: f64,
+    /// λ_H.
+    pub relaxation_time: f64,
+    /// n^d.
+    pub dumbbell_density: f64,
+}
+
+impl Parameters {
+    /// Polymer viscosity η_p = n^d k_BT λ_H.
+    pub fn polymer_viscosity(&self) -> f64 {
+        self.dumbbell_density * self.kt * self.relaxation_time
+    }
+
+    /// Equilibrium ⟨Q_a Q_a⟩ = k_BT/H per component.
+    pub fn equilibrium_component(&self) -> f64 {
+        self.kt / self.spring_constant
+    }
+
+    /// The viscous coefficients (a, b) of shear viscosity η_s, no bulk viscosity, in
+    /// `dimension` dimensions (module documentation).
+    pub fn friction_coefficients(&self, dimension: usize) -> (f64, f64) {
+        let d = dimension as f64;
+        let eta = self.solvent_viscosity;
+        ((d + 2.0) * eta / d, (d + 2.0) * (d - 2.0) * eta / d)
+    }
+}
+
+impl GenericPolymerCfg {
+    /// The reduced parameters: converted from `[fluid.si]`, or the keys given (a missing key
+    /// reads as NaN, which validation refuses first).
+    pub fn parameters(&self) -> Parameters {
+        if let Some(si) = &self.si {
+            let r = si.reduced();
+            return Parameters {
+                smoothing_length: self.smoothing_length,
+                sound_speed: r.sound_speed,
+                solvent_viscosity: r.solvent_viscosity,
+                kt: r.kt,
+                spring_constant: r.spring_constant,
+                relaxation_time: r.relaxation_time,
+                dumbbell_density: r.dumbbell_density,
+            };
+        }
+        let v = |x: Option<f64>| x.unwrap_or(f64::NAN);
+        Parameters {
+            smoothing_length: self.smoothing_length,
+            sound_speed: v(self.sound_speed),
+            solvent_viscosity: v(self.solvent_viscosity),
+            kt: v(self.kt),
+            spring_constant: v(self.spring_constant),
+            relaxation_time: v(self.relaxation_time),
+            dumbbell_density: v(self.dumbbell_density),
+        }
+    }
+
+    /// The reduced keys with their values, in the order of the reference.
+    pub fn reduced_keys(&self) -> [(&'static str, Option<f64>); 6] {
+        [
+            ("sound_speed", self.sound_speed),
+            ("solvent_viscosity", self.solvent_viscosity),
+            ("kt", self.kt),
+            ("spring_constant", self.spring_constant),
+            ("relaxation_time", self.relaxation_time),
+            ("dumbbell_density", self.dumbbell_density),
+        ]
+    }
+}
+
+/// The one pair pass: continuity rate, velocity-gradient sum and momentum, per neighbour.
+/// Quantities: [0] dρ_i/dt, [1, 1 + D²) Σ_j ω_a v_b, [1 + D², 1 + D² + D) the force.
+struct PairKernel<const D: usize> {
+    lucy: Lucy,
+    mass: f64,
+    c2: f64,
+    /// k_BT n^d (the dumbbells' osmotic pressure).
+    osmotic: f64,
+    /// H n^d.
+    spring_n: f64,
+    friction_a: f64,
+    friction_b: f64,
+    /// √(4k_BT a/Δt) and √(2Dk_BT(b − a(D−2)/D)/Δt), or zero without velocity noise.
+    noise_traceless: f64,
+    noise_trace: f64,
+    step_key: u64,
+    density: usize,
+    conformation: usize,
+    scales: Vec<Scale>,
+}
+
+impl<const D: usize> PairKernel<D> {
+    /// Π_i/d_i² (row-major D×D).
+    #[inline]
+    fn pressure_over_d2(&self, p: &Particles<D>, i: usize) -> [[f64; D]; D] {
+        let rho = p.extra[self.density].data[i];
+        let q = &p.extra[self.conformation].data[i * D..(i + 1) * D];
+        let d = rho / self.mass;
+        let inv_d2 = 1.0 / (d * d);
+        let pressure = self.c2 * rho + self.osmotic;
+        std::array::from_fn(|a| {
+            std::array::from_fn(|b| {
+                let iso = if a == b { pressure } else { 0.0 };
+                (iso - self.spring_n * q[a] * q[b]) * inv_d2
+            })
+        })
+    }
+}
+
+impl<const D: usize> GatherKernel<D> for PairKernel<D> {
+    fn scales(&self) -> &[Scale] {
+        &self.scales
+    }
+
+    fn cutoff(&self) -> f64 {
+        self.lucy.support()
+    }
+
+    #[inline]
+    fn pair(&self, p: &Particles<D>, i: usize, j: usize, r_ij: &[f64; D], r: f64, out: &mut [f64]) {
+        let rho = &p.extra[self.density].data;
+        let (d_i, d_j) = (rho[i] / self.mass, rho[j] / self.mass);
+        let f = -self.lucy.dw_over_r(r);
+        let v_ij: [f64; D] = std::array::from_fn(|a| p.vel[i][a] - p.vel[j][a]);
+        let omega: [f64; D] = std::array::from_fn(|a| f * r_ij[a]);
+        let omega_v: f64 = (0..D).map(|a| omega[a] * v_ij[a]).sum();
+        out[0] = -self.mass * omega_v;
+        for a in 0..D {
+            for b in 0..D {
+                out[1 + a * D + b] = omega[a] * v_ij[b];
+            }
+        }
+        let (pi, pj) = (self.pressure_over_d2(p, i), self.pressure_over_d2(p, j));
+        let c = f / (d_i * d_j);
+        let inv_r = 1.0 / r;
+        let e: [f64; D] = std::array::from_fn(|a| r_ij[a] * inv_r);
+        let ev: f64 = (0..D).map(|a| e[a] * v_ij[a]).sum();
+        // The pair's noise matrix, the same for (i, j) and (j, i).
+        let mut traceless_e = [0.0; D];
+        let mut trace_e = [0.0; D];
+        if self.noise_traceless > 0.0 || self.noise_trace > 0.0 {
+            let (lo, hi) = if p.gid[i] < p.gid[j] {
+                (p.gid[i], p.gid[j])
+            } else {
+                (p.gid[j], p.gid[i])
+            };
+            let mut stream = HashStream::from_prefix(self.step_key, lo, hi);
+            let mut w = [[0.0; D]; D];
+            for row in &mut w {
+                stream.fill_normals(row);
+            }
+            let trace: f64 = (0..D).map(|a| w[a][a]).sum::<f64>() / D as f64;
+            let sqrt_c = c.sqrt();
+            for a in 0..D {
+                let mut s = 0.0;
+                for b in 0..D {
+                    let mut sym = 0.5 * (w[a][b] + w[b][a]);
+                    if a == b {
+                        sym -= trace;
+                    }
+                    s += sym * e[b];
+                }
+                traceless_e[a] = self.noise_traceless * sqrt_c * s;
+                trace_e[a] = self.noise_trace * sqrt_c * trace * e[a];
+            }
+        }
+        for a in 0..D {
+            let conservative: f64 = (0..D).map(|b| (pi[a][b] + pj[a][b]) * omega[b]).sum();
+            let viscous = -c * (self.friction_a * v_ij[a] + self.friction_b * e[a] * ev);
+            out[1 + D * D + a] = conservative + viscous + traceless_e[a] + trace_e[a];
+        }
+    }
+}
+
+/// The model of a run (module documentation).
+pub struct GenericPolymer<const D: usize> {
+    params: Parameters,
+    drift: ConformationDrift,
+    velocity_noise: bool,
+    lucy: Lucy,
+    mass: f64,
+    rest_density: f64,
+    dt: f64,
+    seed: u64,
+    density: usize,
+    density_rate: usize,
+    conformation: usize,
+    conformation_rate: usize,
+    sums: Vec<f64>,
+}
+
+impl<const D: usize> GenericPolymer<D> {
+    /// The model of particles of mass `mass` at number density `number_density`, for time step
+    /// `dt` and the case's seed.
+    pub fn new(
+        cfg: &GenericPolymerCfg,
+        mass: f64,
+        number_density: f64,
+        dt: f64,
+        seed: u64,
+    ) -> Self {
+        let params = cfg.parameters();
+        Self {
+            params,
+            drift: cfg.conformation_drift,
+            velocity_noise: cfg.velocity_noise,
+            lucy: Lucy::new(params.smoothing_length, D),
+            mass,
+            rest_density: mass * number_density,
+            dt,
+            seed,
+            density: usize::MAX,
+            density_rate: usize::MAX,
+            conformation: usize::MAX,
+            conformation_rate: usize::MAX,
+            sums: Vec::new(),
+        }
+    }
+
+    fn kernel(&self, step: u64) -> PairKernel<D> {
+        let p = &self.params;
+        let (a, b) = p.friction_coefficients(D);
+        let d = D as f64;
+        let (noise_traceless, noise_trace) = if self.velocity_noise {
+            (
+                (4.0 * p.kt * a / self.dt).sqrt(),
+                (2.0 * d * p.kt * (b - a * (d - 2.0) / d).max(0.0) / self.dt).sqrt(),
+            )
+        } else {
+            (0.0, 0.0)
+        };
+        // Scales: the largest plausible term of each quantity with a wide margin (a term
+        // beyond 2^25 of its scale stops the run as unstable, never wraps).
+        const HEADROOM: f64 = 1e8;
+        let dw = self.lucy.max_abs_dw();
+        let c = p.sound_speed;
+        let rho0 = self.rest_density;
+        let velocity = c.max(1e-300);
+        let gradient = dw * velocity;
+        let d0 = rho0 / self.mass;
+        let elastic = p.dumbbell_density * p.kt;
+        let momentum = (c * c * rho0 + elastic) / (d0 * d0) * dw
+            + (a + b) * dw / self.lucy.support() * velocity / (d0 * d0)
+            + noise_traceless.max(noise_trace) * (dw / self.lucy.support()).sqrt() / d0;
+        let mut scales = vec![Scale::covering(HEADROOM * rho0 / d0 * gradient)];
+        scales.extend(vec![Scale::covering(HEADROOM * gradient); D * D]);
+        scales.extend(vec![Scale::covering(HEADROOM * momentum); D]);
+        PairKernel {
+            lucy: self.lucy,
+            mass: self.mass,
+            c2: c * c,
+            osmotic: elastic,
+            spring_n: p.dumbbell_density * p.spring_constant,
+            friction_a: a,
+            friction_b: b,
+            noise_traceless,
+            noise_trace,
+            step_key: HashStream::prefix(self.seed, Purpose::GenericPolymerPair, step),
+            density: self.density,
+            conformation: self.conformation,
+            scales,
+        }
+    }
+
+    /// The conformation rate from the velocity-gradient sums `g` (Σ_j ω_a v_b) of particle `i`:
+    /// Q·∇v − νQ/(2λ_H) + the step's noise increment over Δt.
+    fn conformation_rate(&self, p: &Particles<D>, i: usize, g: &[f64], step_key: u64) -> [f64; D] {
+        let prm = &self.params;
+        let q = &p.extra[self.conformation].data[i * D..(i + 1) * D];
+        let d_i = p.extra[self.density].data[i] / self.mass;
+        let nu = match self.drift {
+            ConformationDrift::SingleDumbbell => 1.0,
+            ConformationDrift::PrintedGeneric => prm.dumbbell_density / d_i,
+        };
+        let relax = nu / (2.0 * prm.relaxation_time);
+        let amplitude = (prm.kt / (prm.spring_constant * prm.relaxation_time) / self.dt).sqrt();
+        let mut noise = [0.0; D];
+        HashStream::from_prefix(step_key, p.gid[i], 0).fill_normals(&mut noise);
+        std::array::from_fn(|b| {
+            let advection: f64 = (0..D).map(|a| q[a] * g[a * D + b]).sum::<f64>() / d_i;
+            advection - relax * q[b] + amplitude * noise[b]
+        })
+    }
+}
+
+impl<const D: usize> ParticleModel<D> for GenericPolymer<D> {
+    fn name(&self) -> &'static str {
+        "generic_polymer"
+    }
+
+    fn cutoff(&self) -> f64 {
+        self.lucy.support()
+    }
+
+    fn fields(&self) -> Vec<FieldSpec> {
+        let field = |name, kind| FieldSpec {
+            name,
+            kind,
+            flags: FieldFlags::STATE,
+        };
+        vec![
+            field(DENSITY, FieldKind::Scalar),
+            field(DENSITY_RATE, FieldKind::Scalar),
+            field(CONFORMATION, FieldKind::Vector),
+            field(CONFORMATION_RATE, FieldKind::Vector),
+        ]
+    }
+
+    fn passes(&self) -> Vec<PassSpec> {
+        vec![PassSpec {
+            name: "continuity, conformation and momentum",
+            ghost_fields: vec![DENSITY, CONFORMATION],
+        }]
+    }
+
+    fn uses_full_list(&self) -> bool {
+        true
+    }
+
+    fn integrated_fields(&self) -> Vec<Integrated> {
+        vec![
+            Integrated {
+                state: DENSITY,
+                rate: DENSITY_RATE,
+                boundary_particles: false,
+            },
+            Integrated {
+                state: CONFORMATION,
+                rate: CONFORMATION_RATE,
+                boundary_particles: false,
+            },
+        ]
+    }
+
+    fn attach(&mut self, p: &mut Particles<D>, restarted: bool) -> Result<(), Error> {
+        let index = |p: &Particles<D>, name: &str| {
+            p.extra_index(name)
+                .ok_or_else(|| format!("the field {name} is not registered"))
+        };
+        self.density = index(p, DENSITY)?;
+        self.density_rate = index(p, DENSITY_RATE)?;
+        self.conformation = index(p, CONFORMATION)?;
+        self.conformation_rate = index(p, CONFORMATION_RATE)?;
+        if !restarted {
+            let n = p.n_owned;
+            p.extra[self.density].data[..n].fill(self.rest_density);
+            // Equilibrium conformations: Q_a ~ N(0, k_BT/H), keyed by particle id.
+            let sd = self.params.equilibrium_component().sqrt();
+            for i in 0..n {
+                let mut q = [0.0; D];
+                HashStream::new(self.seed, Purpose::GenericPolymerInit, 0, p.gid[i], 0)
+                    .fill_normals(&mut q);
+                for a in 0..D {
+                    p.extra[self.conformation].data[i * D + a] = sd * q[a];
+                }
+            }
+        }
+        Ok(())
+    }
+
+    fn pass(&mut self, _pass: usize, ctx: PassContext<'_, D>) -> Result<PassOutput, Error> {
+        let p = ctx.particles;
+        let full: &FullList = ctx.full;
+        let step = ctx.step;
+        let n = p.n_owned;
+        for i in 0..n {
+            let rho = p.extra[self.density].data[i];
+            if !(rho.is_finite() && rho > 0.0) {
+                return Err(crate::error::Unstable::new(
+                    crate::error::Quantity::PairForce,
+                    Some(p.gid[i]),
+                    step,
+                    format!(
+                        "particle {}'s continuity density is {rho} at step {step}: {}",
+                        p.gid[i],
+                        crate::error::UNSTABLE
+                    ),
+                )
+                .into());
+            }
+        }
+        let kernel = self.kernel(step);
+        let mut sums = std::mem::take(&mut self.sums);
+        let result = gather(&kernel, p, full, &mut sums);
+        if let Err(e) = result {
+            self.sums = sums;
+            return Err(e
+                .at_step(
+                    crate::error::Quantity::PairForce,
+                    step,
+                    "GENERIC polymer pass",
+                )
+                .into());
+        }
+        let width = 1 + D * D + D;
+        let q_key = HashStream::prefix(self.seed, Purpose::GenericPolymerConformation, step);
+        for (i, s) in sums.chunks_exact(width).enumerate() {
+            p.extra[self.density_rate].data[i] = s[0];
+            let rate = self.conformation_rate(p, i, &s[1..1 + D * D], q_key);
+            p.extra[self.conformation_rate].data[i * D..(i + 1) * D].copy_from_slice(&rate);
+            for a in 0..D {
+                p.force[i][a] += s[1 + D * D + a];
+            }
+        }
+        self.sums = sums;
+        Ok(PassOutput::default())
+    }
+
+    fn measures(&self, o: Observable) -> bool {
+        matches!(o, Observable::ConstitutiveStress | Observable::Conformation)
+    }
+
+    /// Sums (both observables): the fluid particle count, then Σ Q_a Q_b (D×D).
+    fn observable_sums(
+        &self,
+        _o: Observable,
+        p: &Particles<D>,
+        _ctx: &MeasureContext<'_, D>,
+    ) -> Vec<FixedSum> {
+        let mut sums = vec![FixedSum::ZERO; 1 + D * D];
+        let q = &p.extra[self.conformation].data;
+        for i in 0..p.n_owned {
+            sums[0].add(1.0);
+            for a in 0..D {
+                for b in 0..D {
+                    sums[1 + a * D + b].add(q[i * D + a] * q[i * D + b]);
+                }
+            }
+            if i % 2048 == 2047 {
+                sums.iter_mut().for_each(FixedSum::normalize);
+            }
+        }
+        sums.iter_mut().for_each(FixedSum::normalize);
+        sums
+    }
+
+    /// `conformation`: ⟨Q_aQ_b⟩ (upper triangle) and ⟨Q²⟩. `constitutive_stress` (under
+    /// shear): the viscometric functions of the particle-averaged polymer stress (Eq. 4.68),
+    /// τ^p = −Π^p = −k_BTn^d 1 + Hn^d ⟨QQ⟩: η_p = τ^p_xy/γ̇, N₁ = τ^p_xx − τ^p_yy (and N₂ in 3D).
+    fn observable_values(
+        &self,
+        o: Observable,
+        sums: &[f64],
+        ctx: &MeasureContext<'_, D>,
+    ) -> Vec<(String, f64)> {
+        let n = sums[0];
+        let qq = |a: usize, b: usize| sums[1 + a * D + b] / n;
+        if o == Observable::Conformation {
+            let mut values = Vec::new();
+            for a in 0..D {
+                for b in a..D {
+                    values.push(qq(a, b));
+                }
+            }
+            values.push((0..D).map(|a| qq(a, a)).sum());
+            return crate::observable::conformation_names(D)
+                .iter()
+                .zip(values)
+                .map(|(name, v)| ((*name).to_string(), v))
+                .collect();
+        }
+        let hn = self.params.spring_constant * self.params.dumbbell_density;
+        let mut values = vec![hn * qq(0, 1) / ctx.shear_rate, hn * (qq(0, 0) - qq(1, 1))];
+        if D == 3 {
+            values.push(hn * (qq(1, 1) - qq(2, 2)));
+        }
+        crate::observable::constitutive_names(D)
+            .iter()
+            .zip(values)
+            .map(|(name, v)| ((*name).to_string(), v))
+            .collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::models::gather::{Parity, pair_symmetry};
+    use crate::neighbour::NeighbourList;
+    use crate::rng::StreamKey;
+
+    fn cfg() -> GenericPolymerCfg {
+        GenericPolymerCfg {
+            smoothing_length: 1.2,
+            sound_speed: Some(3.0),
+            solvent_viscosity: Some(0.7),
+            kt: Some(0.5),
+            spring_constant: Some(2.0),
+            relaxation_time: Some(1.0),
+            dumbbell_density: Some(1.5),
+            velocity_noise: true,
+            conformation_drift: ConformationDrift::SingleDumbbell,
+            si: None,
+        }
+    }
+
+    fn random_particles<const D: usize>(model: &mut GenericPolymer<D>) -> Particles<D> {
+        let key = StreamKey::new(3, Purpose::Test, 1);
+        let mut p = Particles::<D>::default();
+        for i in 0..300u32 {
+            let x = std::array::from_fn(|d| 4.0 * key.uniform2(0, i, d as u32).0);
+            let v = std::array::from_fn(|d| key.uniform2(2, i, d as u32).0 - 0.5);
+            p.push_owned(u64::from(i), x, v);
+        }
+        for f in model.fields() {
+            p.register_field(f.name, f.kind.width(D), f.flags)
+                .expect("new");
+        }
+        model.attach(&mut p, false).expect("attach");
+        for i in 0..p.n_owned {
+            p.extra[model.density].data[i] = 1.0 + key.uniform2(1, i as u32, 0).0;
+        }
+        p
+    }
+
+    /// The momentum terms (conservative, viscous and noise) are bitwise antisymmetric and the
+    /// continuity and velocity-gradient terms symmetric under i ↔ j, for random positions,
+    /// velocities, densities and conformations, in 2D and 3D.
+    #[test]
+    fn pair_terms_are_bitwise_antisymmetric() {
+        fn check<const D: usize>() {
+            let mut model = GenericPolymer::<D>::new(&cfg(), 0.7, 1.0, 1e-3, 5);
+            let p = random_particles(&mut model);
+            let list = NeighbourList::build(&p, 1.2, 1.2);
+            let kernel = model.kernel(17);
+            // The continuity rate and ω_a v_b are even, the force odd.
+            let mut parity = vec![Parity::Even; 1 + D * D];
+            parity.extend(vec![Parity::Odd; D]);
+            let checked = pair_symmetry(&kernel, &p, &list, &parity).expect("parities");
+            assert!(checked > 500, "{checked} pairs");
+        }
+        check::<2>();
+        check::<3>();
+    }
+
+    /// The dimension-correct viscous coefficients: the continuum limit of the pair friction
+    /// has shear viscosity a/2 + b/(2(D + 2)) and bulk-like coefficient b/(D + 2) of ∇∇·v,
+    /// which must be η_s and η_s(D − 2)/D (zero bulk viscosity; docs/theory §2).
+    #[test]
+    fn friction_coefficients_give_the_shear_viscosity_and_no_bulk_viscosity() {
+        let p = cfg().parameters();
+        for dim in [2usize, 3] {
+            let (a, b) = p.friction_coefficients(dim);
+            let d = dim as f64;
+            let shear = a / 2.0 + b / (2.0 * (d + 2.0));
+            assert!((shear - 0.7).abs() < 1e-14, "D = {dim}: η = {shear}");
+            let grad_div = b / (d + 2.0);
+            assert!((grad_div - 0.7 * (d - 2.0) / d).abs() < 1e-14, "D = {dim}");
+        }
+        assert_eq!(
+            p.friction_coefficients(3),
+            (0.7 * 5.0 / 3.0, 0.7 * 5.0 / 3.0)
+        );
+    }
+}
