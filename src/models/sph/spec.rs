@@ -293,6 +293,22 @@ impl FluidModel for SphCfg {
                         poly.per_particle.unwrap_or(0),
                         poly.per_particle.unwrap_or(0),
                     ));
+                } else if poly.is_ensemble() && sph.transport_pressure > 0.0 {
+                    // The default scene's seeds and the longer runs of docs/validation.md
+                    // ("The background pressure's virial, and the transport velocity").
+                    line(format!(
+                        "  expected bias of the measured η and N₁ (the momentum flux; 2D \
+                         CONNFFESSIT shear with the transport velocity, measured 2026-11-27, \
+                         docs/validation.md): Wi = 1, 1 000 dumbbells per particle, p_t = 50: \
+                         η −0.02 %, N₁ −0.2 % with a Lucy support of 4Δ, −0.9 % and −1.0 % \
+                         with 3Δ (the particles' own stress within 0.1 % in both); Wi = 2, 3Δ: \
+                         particles' η and N₁ within 0.5 %, flux −1.2 %, −0.9 %. This scene: \
+                         Wi = {de:.3}, {} dumbbells per particle, support {:.2}Δ, p_t = {:.1} \
+                         τ_xx",
+                        poly.per_particle.unwrap_or(0),
+                        sph.support() / case.lattice_spacing(),
+                        sph.transport_pressure / tension
+                    ));
                 } else if poly.is_ensemble() {
                     // The measured bias of the coupled shear (tools/coupled_bias.py, the
                     // table in docs/validation.md): what a user can expect at these settings.
