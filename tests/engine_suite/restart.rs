@@ -13,7 +13,7 @@ use mesorheo::driver::{CHECKPOINT_REFUSED, RunOptions, in_process, restart_case,
 use mesorheo::models::{FieldKind, FieldSpec, ParticleModel};
 use mesorheo::output::checkpoint;
 use mesorheo::particles::Particles;
-use mesorheo::particles::{FieldFlags, Precision};
+use mesorheo::particles::{FieldFlags, VarStorage};
 use mesorheo::sim::Simulation;
 use mesorheo::summary::Summary;
 use std::path::{Path, PathBuf};
@@ -155,9 +155,9 @@ impl<const D: usize> ParticleModel<D> for TensorAndArray {
         vec![
             spec("tensor", FieldKind::Tensor),
             spec("a_scalar", FieldKind::Scalar),
-            spec("history", FieldKind::Ensemble(Precision::Double)),
+            spec("history", FieldKind::Ensemble(VarStorage::Double)),
             // Single-precision storage, like a dumbbell ensemble with precision = "single".
-            spec("aa_log", FieldKind::Ensemble(Precision::Single)),
+            spec("aa_log", FieldKind::Ensemble(VarStorage::Single)),
         ]
     }
 
