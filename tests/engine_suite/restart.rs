@@ -727,6 +727,23 @@ fn connffessit_restart_is_bitwise() {
     assert_restart_at_60_is_bitwise(&text, "CONNFFESSIT shear");
 }
 
+/// CONNFFESSIT with BDDFS histograms per particle (variable-length word rows, and the stress
+/// measured on the last step's advanced connectors, which the histogram no longer holds: both
+/// checkpointed): N steps ≡ N/2 + checkpoint + restart on another rank count + N/2, bitwise.
+#[test]
+fn bddfs_connffessit_restart_is_bitwise() {
+    let text = stock_text_with(
+        "bddfs_connffessit_shear_2d.toml",
+        &[
+            "reference=[]",
+            "run.steps=120",
+            "run.equilibration=0",
+            "fluid.polymer.per_particle=8",
+        ],
+    );
+    assert_restart_at_60_is_bitwise(&text, "BDDFS CONNFFESSIT shear");
+}
+
 /// The CONNFFESSIT channel with MSPH derivatives and mirror walls (the moment systems and the
 /// mirror fits are re-formed at every evaluation; the connectors and the velocity gradient
 /// they step with are checkpointed): N steps ≡ N/2 + checkpoint + restart on another rank
