@@ -1052,7 +1052,10 @@ impl<'c, const D: usize> Simulation<'c, D> {
             .iter()
             .find(|f| f.name == CONNECTORS || f.name == HISTOGRAMS)?;
         let mine = match f.data.words() {
-            Some(rows) => rows.iter().map(|r| crate::models::bddfs::dumbbell_count(r)).sum(),
+            Some(rows) => (rows.iter())
+                .map(Vec::as_slice)
+                .map(crate::models::bddfs::dumbbell_count)
+                .sum(),
             None => ((0..p.n_owned).map(|i| f.data.row_len(i)).sum::<usize>() / D) as u64,
         };
         let mut total = [mine];

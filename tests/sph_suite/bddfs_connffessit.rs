@@ -72,7 +72,7 @@ fn coupled_bddfs_shear_matches_explicit_dumbbells_within_error_bars() {
     let (bd, bd_bytes) = shear_series("connffessit_shear_2d.toml", &[]);
     let (bddfs, bddfs_bytes) = shear_series("bddfs_connffessit_shear_2d.toml", &[]);
     let r = 1e-3; // λΔQ²/(6Δt), ΔQ = 24/8000, Δt = 1.5e-3
-    let (eta_s, g_lambda) = (0.5, 0.5);
+    let g_lambda = 0.5; // η_p = Gλ
     eprintln!("ensemble bytes per particle: BD {bd_bytes}, BDDFS {bddfs_bytes}");
     assert_eq!(bd_bytes, 1600.0);
     assert!(
@@ -95,7 +95,6 @@ fn coupled_bddfs_shear_matches_explicit_dumbbells_within_error_bars() {
             100.0 * (b - a) / if k == 1 { a } else { g_lambda }
         );
         assert!(z.abs() < 4.5, "{name}: BDDFS off BD by {z:+.2} σ");
-        let _ = eta_s;
     }
 }
 
@@ -123,7 +122,11 @@ fn coupled_bddfs_is_bitwise_on_1_to_4_ranks_and_1_2_threads() {
     let loaded = case_from_str(&other, "other seed");
     let s = mesorheo::driver::run_in_process(&loaded, 1, 1, None).expect("run");
     assert_ne!(
-        format!("{} {}", s.state_digest, serde_json::to_string(&s.observables).unwrap()),
+        format!(
+            "{} {}",
+            s.state_digest,
+            serde_json::to_string(&s.observables).unwrap()
+        ),
         d[0].2
     );
 }
@@ -155,7 +158,11 @@ fn coupled_bddfs_is_bitwise_on_1_and_2_ranks_across_migrations() {
     let k = (p.var.iter().position(|f| f.name == HISTOGRAMS)).expect("histograms");
     let rows = p.var[k].data.words().expect("words");
     for (i, row) in rows.iter().enumerate() {
-        assert_eq!(mesorheo::models::bddfs::dumbbell_count(row), 8, "particle {i}");
+        assert_eq!(
+            mesorheo::models::bddfs::dumbbell_count(row),
+            8,
+            "particle {i}"
+        );
     }
     assert_eq!(sim.dumbbell_count(), Some(8 * 400));
 }

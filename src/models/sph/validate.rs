@@ -248,11 +248,15 @@ pub(super) fn validate_sph(
                 "rotation" => "switching the rotation terms off is the linear variant of the \
                                corotational model"
                     .to_string(),
-                _ if owners == ["\"dumbbells\""] => {
-                    format!("`{key}` describes dumbbell ensembles")
-                }
                 _ if owners == ["\"bddfs\""] => {
                     format!("`{key}` describes a BDDFS histogram grid")
+                }
+                _ if owners.contains(&"\"dumbbells\"".to_string())
+                    && owners
+                        .iter()
+                        .all(|o| o == "\"dumbbells\"" || o == "\"bddfs\"") =>
+                {
+                    format!("`{key}` describes dumbbell ensembles")
                 }
                 _ => format!("`{key}` is not a key of model = \"{}\"", poly.model.name()),
             };
