@@ -8,7 +8,7 @@ use mesorheo::config;
 use mesorheo::models::{FieldKind, FieldSpec, ParticleModel};
 use mesorheo::output::checkpoint;
 use mesorheo::particles::Particles;
-use mesorheo::particles::{FieldFlags, Precision};
+use mesorheo::particles::{FieldFlags, VarStorage};
 use mesorheo::sim::Simulation;
 use std::path::PathBuf;
 use std::time::Instant;
@@ -22,7 +22,7 @@ impl<const D: usize> ParticleModel<D> for Ensembles {
     fn fields(&self) -> Vec<FieldSpec> {
         vec![FieldSpec {
             name: "dumbbells",
-            kind: FieldKind::Ensemble(Precision::Double),
+            kind: FieldKind::Ensemble(VarStorage::Double),
             flags: FieldFlags::STATE,
         }]
     }

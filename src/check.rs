@@ -136,10 +136,8 @@ pub fn flow_report(case: &crate::config::FlowCase, ranks: usize) -> (String, Res
     for w in crate::config::flow::accuracy_warnings(case) {
         line(format!("accuracy: {w} [warning]"));
     }
-    if let Some(grid) = p.histogram_grid() {
-        for l in crate::models::bddfs::check_lines(&grid, p.per_particle, dim, params.dt, lambda) {
-            line(l);
-        }
+    for l in p.storage_check_lines(dim, params.dt) {
+        line(l);
     }
     line(format!(
         "memory: {:.3} MiB on the largest of {ranks} rank(s), {:.3} MiB in all ({}{})",

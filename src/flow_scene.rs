@@ -708,6 +708,7 @@ impl<const D: usize> Scene for FlowScene<'_, D> {
             dimension: D,
             particles: e.total,
             dumbbells: Some(e.total * e.n_d as u64),
+            ensemble_bytes_per_particle: Some(e.memory_bytes_per_particle()),
             observables,
             velocity_profile: Vec::new(),
             density_profile: Vec::new(),

@@ -79,13 +79,36 @@ pub enum Precision {
     Single,
 }
 
-/// The rows of a variable-length field, one per owned particle, in its storage precision.
+/// How a variable-length field stores its rows: numbers in a [`Precision`], or 64-bit words
+/// that are no numbers (a BDDFS histogram's packed (cell, count) entries).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum VarStorage {
+    /// f64 numbers.
+    Double,
+    /// f32 numbers.
+    Single,
+    /// u64 words (copied, migrated, checkpointed and digested bit for bit).
+    Words,
+}
+
+impl From<Precision> for VarStorage {
+    fn from(p: Precision) -> Self {
+        match p {
+            Precision::Double => VarStorage::Double,
+            Precision::Single => VarStorage::Single,
+        }
+    }
+}
+
+/// The rows of a variable-length field, one per owned particle, in its storage.
 #[derive(Clone, Debug, PartialEq)]
 pub enum VarData {
     /// f64 rows.
     Double(Vec<Vec<f64>>),
     /// f32 rows.
     Single(Vec<Vec<f32>>),
+    /// u64 rows (words, not numbers).
+    Words(Vec<Vec<u64>>),
 }
 
 impl Default for VarData {
@@ -95,19 +118,21 @@ impl Default for VarData {
 }
 
 impl VarData {
-    /// No rows, in `precision`.
-    pub fn empty(precision: Precision) -> Self {
-        match precision {
-            Precision::Double => VarData::Double(Vec::new()),
-            Precision::Single => VarData::Single(Vec::new()),
+    /// No rows, in `storage`.
+    pub fn empty(storage: VarStorage) -> Self {
+        match storage {
+            VarStorage::Double => VarData::Double(Vec::new()),
+            VarStorage::Single => VarData::Single(Vec::new()),
+            VarStorage::Words => VarData::Words(Vec::new()),
         }
     }
 
-    /// The storage precision.
-    pub fn precision(&self) -> Precision {
+    /// The storage.
+    pub fn storage(&self) -> VarStorage {
         match self {
-            VarData::Double(_) => Precision::Double,
-            VarData::Single(_) => Precision::Single,
+            VarData::Double(_) => VarStorage::Double,
+            VarData::Single(_) => VarStorage::Single,
+            VarData::Words(_) => VarStorage::Words,
         }
     }
 
@@ -116,6 +141,7 @@ impl VarData {
         match self {
             VarData::Double(r) => r.len(),
             VarData::Single(r) => r.len(),
+            VarData::Words(r) => r.len(),
         }
     }
 
@@ -129,23 +155,27 @@ impl VarData {
         match self {
             VarData::Double(r) => r[i].len(),
             VarData::Single(r) => r[i].len(),
+            VarData::Words(r) => r[i].len(),
         }
     }
 
-    /// Row `i` widened to f64 (exact), appended to `out`.
+    /// Row `i` widened to f64 (exact), appended to `out`; words travel as their bit patterns
+    /// (`f64::from_bits`, the migration buffer's form of a particle id too).
     pub fn extend_f64(&self, i: usize, out: &mut Vec<f64>) {
         match self {
             VarData::Double(r) => out.extend_from_slice(&r[i]),
             VarData::Single(r) => out.extend(r[i].iter().map(|&x| f64::from(x))),
+            VarData::Words(r) => out.extend(r[i].iter().map(|&w| f64::from_bits(w))),
         }
     }
 
     /// Appends a row given in f64 (narrowed for single storage: exact for values that came
-    /// from f32 storage, as migrated rows do).
+    /// from f32 storage, as migrated rows do; words: the bit patterns of [`Self::extend_f64`]).
     pub fn push_f64(&mut self, row: &[f64]) {
         match self {
             VarData::Double(r) => r.push(row.to_vec()),
             VarData::Single(r) => r.push(row.iter().map(|&x| x as f32).collect()),
+            VarData::Words(r) => r.push(row.iter().map(|x| x.to_bits()).collect()),
         }
     }
 
@@ -154,6 +184,7 @@ impl VarData {
         match self {
             VarData::Double(r) => r.push(Vec::new()),
             VarData::Single(r) => r.push(Vec::new()),
+            VarData::Words(r) => r.push(Vec::new()),
         }
     }
 
@@ -162,6 +193,7 @@ impl VarData {
         match self {
             VarData::Double(r) => out.extend(r[i].iter().map(|x| x.to_bits())),
             VarData::Single(r) => out.extend(r[i].iter().map(|x| u64::from(x.to_bits()))),
+            VarData::Words(r) => out.extend_from_slice(&r[i]),
         }
     }
 
@@ -169,7 +201,7 @@ impl VarData {
     pub fn double(&self) -> Option<&Vec<Vec<f64>>> {
         match self {
             VarData::Double(r) => Some(r),
-            VarData::Single(_) => None,
+            _ => None,
         }
     }
 
@@ -177,7 +209,7 @@ impl VarData {
     pub fn double_mut(&mut self) -> Option<&mut Vec<Vec<f64>>> {
         match self {
             VarData::Double(r) => Some(r),
-            VarData::Single(_) => None,
+            _ => None,
         }
     }
 
@@ -185,7 +217,23 @@ impl VarData {
     pub fn single_mut(&mut self) -> Option<&mut Vec<Vec<f32>>> {
         match self {
             VarData::Single(r) => Some(r),
-            VarData::Double(_) => None,
+            _ => None,
+        }
+    }
+
+    /// The word rows, if stored as words.
+    pub fn words(&self) -> Option<&Vec<Vec<u64>>> {
+        match self {
+            VarData::Words(r) => Some(r),
+            _ => None,
+        }
+    }
+
+    /// The word rows, mutably, if stored as words.
+    pub fn words_mut(&mut self) -> Option<&mut Vec<Vec<u64>>> {
+        match self {
+            VarData::Words(r) => Some(r),
+            _ => None,
         }
     }
 
@@ -201,6 +249,7 @@ impl VarData {
         match self {
             VarData::Double(r) => moved(r, order),
             VarData::Single(r) => moved(r, order),
+            VarData::Words(r) => moved(r, order),
         }
     }
 
@@ -213,6 +262,7 @@ impl VarData {
         match self {
             VarData::Double(r) => kept(r, keep),
             VarData::Single(r) => kept(r, keep),
+            VarData::Words(r) => kept(r, keep),
         }
     }
 }
@@ -282,7 +332,7 @@ impl<const D: usize> Particles<D> {
                 .iter()
                 .map(|f| VarField {
                     name: f.name.clone(),
-                    data: VarData::empty(f.data.precision()),
+                    data: VarData::empty(f.data.storage()),
                 })
                 .collect(),
             species: self.species.as_ref().map(|_| Vec::new()),
@@ -384,13 +434,12 @@ impl<const D: usize> Particles<D> {
 
     /// Registers a variable-length f64 field (empty rows); returns its index.
     pub fn register_var(&mut self, name: &str) -> usize {
-        self.register_var_in(name, Precision::Double)
+        self.register_var_in(name, VarStorage::Double)
     }
 
-    /// Registers a variable-length field stored in `precision` (empty rows); returns its
-    /// index.
-    pub fn register_var_in(&mut self, name: &str, precision: Precision) -> usize {
-        let mut data = VarData::empty(precision);
+    /// Registers a variable-length field stored in `storage` (empty rows); returns its index.
+    pub fn register_var_in(&mut self, name: &str, storage: VarStorage) -> usize {
+        let mut data = VarData::empty(storage);
         for _ in 0..self.n_owned {
             data.push_empty();
         }

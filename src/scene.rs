@@ -125,6 +125,9 @@ pub struct SceneReport {
     pub particles: u64,
     /// Dumbbells per step (homogeneous-flow scenes), for the dumbbell-steps rate.
     pub dumbbells: Option<u64>,
+    /// Bytes of ensemble storage (connectors or BDDFS histograms) per particle that carries
+    /// one, at the end of the run (particle scenes with ensembles).
+    pub ensemble_bytes_per_particle: Option<f64>,
     /// Time averages with error bars.
     pub observables: BTreeMap<String, Estimate>,
     /// Binned velocity profile.
@@ -393,6 +396,7 @@ impl<const D: usize> Scene for ParticleScene<'_, D> {
             dimension: D,
             particles: sim.total_particles,
             dumbbells: sim.dumbbell_count(),
+            ensemble_bytes_per_particle: sim.ensemble_bytes_per_particle(),
             observables,
             velocity_profile,
             density_profile,
@@ -777,6 +781,7 @@ pub fn drive(
         loop_seconds,
         particle_steps_per_second: rate(report.particles as f64),
         dumbbell_steps_per_second: report.dumbbells.map(|n| rate(n as f64)),
+        ensemble_bytes_per_particle: report.ensemble_bytes_per_particle,
         peak_memory_mib: (peak[0] >= 0.0).then(|| peak[0] / (1024.0 * 1024.0)),
         observables: report.observables,
         velocity_profile: report.velocity_profile,

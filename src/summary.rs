@@ -146,6 +146,11 @@ pub struct Summary {
     /// dumbbells × (steps run in this session) / loop_seconds (scenes with ensembles).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub dumbbell_steps_per_second: Option<f64>,
+    /// Bytes of ensemble storage per particle that carries one, at the end of the run:
+    /// N_d × D × 8 for double-precision connectors, 8 per occupied cell for BDDFS histograms
+    /// (particle scenes with ensembles).
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub ensemble_bytes_per_particle: Option<f64>,
     /// Peak resident memory of the largest rank's process, MiB (VmHWM; absent where /proc is
     /// missing). In-process ranks (tests) share one process, so there it is the whole run's.
     #[serde(skip_serializing_if = "Option::is_none", default)]
@@ -450,6 +455,11 @@ pub fn render(summary: &Summary) -> String {
         s.push_str(&format!(
             "  {r:.3e} dumbbell-steps/s ({:.3e} per thread)\n",
             r / (summary.ranks * summary.threads).max(1) as f64
+        ));
+    }
+    if let Some(b) = summary.ensemble_bytes_per_particle {
+        s.push_str(&format!(
+            "  ensemble storage: {b:.1} B per carrying particle at the end of the run\n"
         ));
     }
     for (k, e) in &summary.observables {

@@ -359,6 +359,52 @@ tolerance = 0.1
 source = "s"
 "#;
 
+/// The BDDFS keys of `[fluid.polymer]` (histograms carried by every SPH particle).
+const EVERY_FLUID_BDDFS_KEY: &str = r#"
+dimension = 2
+[box]
+lengths = [1.0, 1.0]
+shear_rate = 1.0
+[particles]
+lattice = "cubic"
+density = 400.0
+mass = 0.0025
+temperature = 0.0
+[fluid]
+kind = "sph"
+kernel = "lucy"
+smoothing_length = 0.15
+sound_speed = 10.0
+viscosity = 0.5
+[fluid.polymer]
+model = "bddfs"
+viscosity = 0.5
+relaxation_time = 1.0
+per_particle = 10
+spring = "fene"
+b = 50.0
+scheme = "semi_implicit"
+cells = 200
+q_max = 7.0
+noise = "configuration_fields"
+[integrator]
+kind = "kick_drift_kick"
+dt = 1e-3
+[run]
+steps = 100
+sample_every = 10
+[diagnostics]
+observables = ["viscosity"]
+[[reference]]
+kind = "value"
+name = "v"
+observable = "viscosity"
+value = 1.0
+metric = "relative_error"
+tolerance = 0.1
+source = "s"
+"#;
+
 /// The MSPH keys: a shortened msph_channel_2d with a centre-line reference.
 const EVERY_MSPH_KEY: &str = r#"
 dimension = 2
@@ -486,6 +532,7 @@ fn documented_keys_are_exactly_the_parsed_keys() {
     for (text, name) in [
         (EVERY_SPH_KEY, "sph.toml"),
         (EVERY_DUMBBELL_KEY, "dumbbells.toml"),
+        (EVERY_FLUID_BDDFS_KEY, "fluid_bddfs.toml"),
         (EVERY_MSPH_KEY, "msph.toml"),
         (EVERY_PHYSICAL_KEY_SC, "physical_sc.toml"),
         (physical_tau.as_str(), "physical_tau.toml"),
@@ -516,6 +563,7 @@ fn documented_keys_are_exactly_the_parsed_keys() {
         &every_gas_key,
         EVERY_SPH_KEY,
         EVERY_DUMBBELL_KEY,
+        EVERY_FLUID_BDDFS_KEY,
         EVERY_MSPH_KEY,
         EVERY_PHYSICAL_KEY_SC,
         physical_tau.as_str(),

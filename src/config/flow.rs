@@ -268,11 +268,30 @@ impl PolymerCfg {
         })
     }
 
+    /// The `check` lines of the ensembles' storage at time step `dt`: for BDDFS its grid, the
+    /// grid's artificial diffusion and the memory per particle
+    /// ([`crate::models::bddfs::check_lines`]); none for explicit connectors.
+    pub fn storage_check_lines(&self, dimension: usize, dt: f64) -> Vec<String> {
+        self.histogram_grid().map_or_else(Vec::new, |grid| {
+            crate::models::bddfs::check_lines(
+                &grid,
+                self.per_particle,
+                dimension,
+                dt,
+                self.relaxation_time,
+            )
+        })
+    }
+
     /// Bytes per particle for the connector vectors (and the control copy); BDDFS: the bound
     /// 8 × min(N_d, n_c^D) of its sparse histogram.
     pub fn bytes_per_particle(&self, dimension: usize) -> f64 {
         if let Some(grid) = self.histogram_grid() {
-            return 8.0 * (self.per_particle as f64).min(grid.total_cells(dimension) as f64);
+            return crate::models::bddfs::histogram_bytes_bound(
+                &grid,
+                self.per_particle,
+                dimension,
+            );
         }
         let word = match self.precision {
             Precision::Double => 8.0,
@@ -544,29 +563,15 @@ fn validate_histogram_grid(p: &PolymerCfg, dim: usize, ix: &SpanIndex) -> Result
         }
         return Ok(());
     };
-    if p.cells.is_none() {
-        return Err(ix.error(
-            &pk("cells"),
-            "missing: BDDFS needs the cells per axis n_c of its histogram grid (≥ 2; `check` \
-             suggests one for the time step)",
-        ));
-    }
-    if p.spring == SpringKind::Hookean && p.q_max.is_none() {
-        return Err(ix.error(
-            &pk("q_max"),
-            "missing: a Hookean connector is unbounded, so BDDFS needs the grid's half-edge \
-             Q_max (> 0, in units of √(k_BT/H); connectors beyond it are clipped into the \
-             boundary cells and counted — e.g. 6 + 3 Wi keeps them rare)",
-        ));
-    }
-    if let Err(e) = grid.check(dim, p.spring_law()) {
-        let key = if e.starts_with("n_c") {
-            "cells"
-        } else {
-            "q_max"
-        };
-        return Err(ix.error(&pk(key), e));
-    }
+    crate::models::dumbbell_settings::validate_histogram_grid(
+        &[k("polymer")],
+        &grid,
+        (p.cells.is_some(), p.q_max.is_some()),
+        p.spring,
+        p.spring_law(),
+        dim,
+        ix,
+    )?;
     if p.precision == Precision::Single {
         return Err(ix.error(
             &pk("precision"),

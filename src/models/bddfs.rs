@@ -161,6 +161,12 @@ pub fn suggested_cells(q_max: f64, dt: f64, lambda: f64, ratio: f64) -> usize {
     (2.0 * q_max / dq).ceil() as usize
 }
 
+/// The bound 8 × min(N_d, n_c^D) on the bytes of one particle's sparse histogram (8 per
+/// occupied cell).
+pub fn histogram_bytes_bound(grid: &QGrid, n_d: usize, dim: usize) -> f64 {
+    8.0 * (n_d as f64).min(grid.total_cells(dim) as f64)
+}
+
 /// The `check` lines of a BDDFS scene: the grid, its artificial diffusion against the physical
 /// one (a warning with the suggested n_c beyond [`ARTIFICIAL_DIFFUSION_WARNING`]), and the
 /// memory per particle of BDDFS and of plain Brownian dynamics with the same N_d.
@@ -193,7 +199,7 @@ pub fn check_lines(grid: &QGrid, n_d: usize, dim: usize, dt: f64, lambda: f64) -
         ));
     }
     let bd = n_d as f64 * dim as f64 * 8.0;
-    let bddfs = 8.0 * (n_d as f64).min(cells as f64);
+    let bddfs = histogram_bytes_bound(grid, n_d, dim);
     out.push(format!(
         "memory per particle: BD {} B (N_d × D × 8), BDDFS ≤ {} B (8 B per occupied cell, at most \
          min(N_d, n_c^D); the run reports the occupancy): ≥ {:.1}× less; plus a working buffer \

@@ -26,6 +26,7 @@
 //! ([`EnsembleNoise`]: Brownian configuration fields), so a coupled scene in homogeneous
 //! flow carries homogeneous-flow particle 0's ensemble at every particle.
 
+use super::bddfs::{QGrid, Workspace, histogram_of, step_histogram};
 use super::dumbbell_settings::EnsembleNoise;
 use super::dumbbells::{
     DumbbellParams, Spring, init_stream, kramers_stress, noise_stream, outside_domain,
@@ -35,8 +36,9 @@ use super::homogeneous_flow::Flow;
 use super::interface::{FieldKind, FieldSpec, ParticleModel, StateBlowUp};
 use super::sph::polymer::{PolymerCfg, packed_index, packed_width};
 use crate::error::Error;
-use crate::particles::{FieldFlags, Particles, Precision, VarData, tensor_rows};
+use crate::particles::{FieldFlags, Particles, Precision, VarData, VarStorage, tensor_rows};
 use rayon::prelude::*;
+use std::sync::atomic::{AtomicU64, Ordering};
 
 /// Where each particle's velocity gradient comes from.
 #[derive(Clone, Debug, PartialEq)]
@@ -50,6 +52,9 @@ pub enum VelocityGradient {
 
 /// The connector field's name.
 pub const CONNECTORS: &str = "connectors";
+/// The histogram field's name (BDDFS storage): per particle its occupied cells, packed
+/// (cell << 32 | count) by increasing cell ([`super::bddfs`]).
+pub const HISTOGRAMS: &str = "histograms";
 /// The polymer stress field's name (τ_p, packed symmetric): derived from the connectors after
 /// every update, for the momentum equation of a coupled fluid.
 pub const POLYMER_STRESS: &str = crate::models::sph::POLYMER_STRESS;
@@ -68,7 +73,16 @@ pub struct DumbbellEnsemble<const D: usize> {
     deviatoric: bool,
     /// Whose streams each particle draws its connectors and increments from.
     noise: EnsembleNoise,
-    /// Field indices: connectors (var), stress, κ (extra, when a field is the source).
+    /// BDDFS storage ([`super::bddfs`]): each particle keeps the histogram of its connectors
+    /// on this grid, and every step regenerates them, advances them and histograms them again.
+    grid: Option<QGrid>,
+    /// BDDFS: connectors found outside the grid and counted in a boundary cell, and FENE
+    /// reconstructions that fell back to the cell's point nearest the origin (this rank,
+    /// since the process started).
+    clipped: AtomicU64,
+    fallbacks: AtomicU64,
+    /// Field indices: connectors or histograms (var), stress, κ (extra, when a field is the
+    /// source).
     connectors: usize,
     stress: usize,
     kappa_field: Option<usize>,
@@ -95,6 +109,9 @@ impl<const D: usize> DumbbellEnsemble<D> {
             carrier: None,
             deviatoric: false,
             noise: EnsembleNoise::Independent,
+            grid: None,
+            clipped: AtomicU64::new(0),
+            fallbacks: AtomicU64::new(0),
             connectors: usize::MAX,
             stress: usize::MAX,
             kappa_field: None,
@@ -129,12 +146,40 @@ impl<const D: usize> DumbbellEnsemble<D> {
         e.carrier = carrier;
         e.deviatoric = true;
         e.noise = cfg.ensemble_noise();
+        e.grid = cfg.histogram_grid();
         Ok(e)
+    }
+
+    /// The same ensembles stored as histograms on `grid` (BDDFS): the same initial connectors
+    /// (binned), the same scheme and noise keys, the Kramers stress of the regenerated and
+    /// advanced connectors.
+    pub fn with_histograms(mut self, grid: QGrid) -> Result<Self, String> {
+        grid.check(D, self.params.spring)?;
+        self.grid = Some(grid);
+        Ok(self)
+    }
+
+    /// The name of the field that holds the state.
+    fn state_field(&self) -> &'static str {
+        if self.grid.is_some() {
+            HISTOGRAMS
+        } else {
+            CONNECTORS
+        }
+    }
+
+    /// τ_p (packed) of the Kramers stress s = ⟨QF(Q)⟩ − I (D × D row-major) into `out`.
+    fn write_stress(&self, s: &[f64; 9], out: &mut [f64]) {
+        for a in 0..D {
+            for b in a..D {
+                out[packed_index::<D>(a, b)] = self.modulus * s[a * D + b];
+            }
+        }
     }
 
     /// τ_p of every owned particle from its connectors (0 for an empty ensemble).
     fn update_stress(&self, p: &mut Particles<D>) {
-        let (g, spring) = (self.modulus, self.params.spring);
+        let spring = self.params.spring;
         let Particles { var, extra, .. } = p;
         let rows = &var[self.connectors].data;
         let stress = &mut extra[self.stress].data;
@@ -150,12 +195,7 @@ impl<const D: usize> DumbbellEnsemble<D> {
                     out.fill(0.0);
                     return;
                 }
-                let s = kramers_stress::<D>(wide, spring);
-                for a in 0..D {
-                    for b in a..D {
-                        out[packed_index::<D>(a, b)] = g * s[a * D + b];
-                    }
-                }
+                self.write_stress(&kramers_stress::<D>(wide, spring), out);
             });
     }
 }
@@ -166,10 +206,26 @@ impl<const D: usize> ParticleModel<D> for DumbbellEnsemble<D> {
     }
 
     fn fields(&self) -> Vec<FieldSpec> {
+        if self.grid.is_some() {
+            return vec![
+                FieldSpec {
+                    name: HISTOGRAMS,
+                    kind: FieldKind::Ensemble(VarStorage::Words),
+                    flags: FieldFlags::STATE,
+                },
+                FieldSpec {
+                    name: POLYMER_STRESS,
+                    kind: FieldKind::Values(packed_width(D)),
+                    // Measured on the advanced connectors of the last step, which the histogram
+                    // no longer holds: state (migrated, checkpointed, digested).
+                    flags: FieldFlags::STATE,
+                },
+            ];
+        }
         vec![
             FieldSpec {
                 name: CONNECTORS,
-                kind: FieldKind::Ensemble(self.precision),
+                kind: FieldKind::Ensemble(self.precision.into()),
                 flags: FieldFlags::STATE,
             },
             FieldSpec {
@@ -189,8 +245,9 @@ impl<const D: usize> ParticleModel<D> for DumbbellEnsemble<D> {
     }
 
     fn attach(&mut self, p: &mut Particles<D>, restarted: bool) -> Result<(), Error> {
-        self.connectors = (p.var.iter().position(|f| f.name == CONNECTORS))
-            .ok_or("the connector field is not registered")?;
+        let state = self.state_field();
+        self.connectors = (p.var.iter().position(|f| f.name == state))
+            .ok_or_else(|| format!("the field `{state}` is not registered"))?;
         self.stress = p.extra_index(POLYMER_STRESS).ok_or("no stress field")?;
         self.kappa_field = match &self.kappa {
             VelocityGradient::Imposed(_) => None,
@@ -224,6 +281,31 @@ impl<const D: usize> ParticleModel<D> for DumbbellEnsemble<D> {
                 q
             };
             let n = var[self.connectors].data.len();
+            if let Some(grid) = self.grid {
+                // The histograms of the same initial connectors, and their stress.
+                let (rows, stress): (Vec<Vec<u64>>, Vec<Option<[f64; 9]>>) = (0..n)
+                    .into_par_iter()
+                    .map(|i| {
+                        let q = fresh(i);
+                        if q.is_empty() {
+                            return (Vec::new(), None);
+                        }
+                        let (row, clipped) = histogram_of::<D>(&q, &grid);
+                        self.clipped.fetch_add(clipped, Ordering::Relaxed);
+                        (row, Some(kramers_stress::<D>(&q, spring)))
+                    })
+                    .unzip();
+                var[self.connectors].data = VarData::Words(rows);
+                let out = &mut p.extra[self.stress].data;
+                let w = packed_width(D);
+                for (i, s) in stress.iter().enumerate() {
+                    match s {
+                        Some(s) => self.write_stress(s, &mut out[i * w..(i + 1) * w]),
+                        None => out[i * w..(i + 1) * w].fill(0.0),
+                    }
+                }
+                return Ok(());
+            }
             var[self.connectors].data = match self.precision {
                 Precision::Double => VarData::Double((0..n).into_par_iter().map(fresh).collect()),
                 Precision::Single => VarData::Single(
@@ -233,6 +315,11 @@ impl<const D: usize> ParticleModel<D> for DumbbellEnsemble<D> {
                         .collect(),
                 ),
             };
+        }
+        if self.grid.is_some() {
+            // Restarted: the stress of the last step came with the checkpoint (the histogram
+            // no longer holds the connectors it was measured on).
+            return Ok(());
         }
         self.update_stress(p);
         Ok(())
@@ -255,6 +342,11 @@ impl<const D: usize> ParticleModel<D> for DumbbellEnsemble<D> {
         let Particles {
             var, extra, gid, ..
         } = p;
+        // BDDFS writes the stress it measures during the step (the field is put back below).
+        let mut measured = match self.grid {
+            Some(_) => std::mem::take(&mut extra[self.stress].data),
+            None => Vec::new(),
+        };
         let kappa_of = |i: usize| -> [[f64; D]; D] {
             match (imposed, self.kappa_field) {
                 (Some(k), _) => k,
@@ -308,13 +400,66 @@ impl<const D: usize> ParticleModel<D> for DumbbellEnsemble<D> {
                     .flatten()
                     .min_by_key(|v| (v.0, v.1))
             }
+            VarData::Words(rows) => {
+                // BDDFS: regenerate, advance, measure, histogram (super::bddfs), the noise
+                // keyed by the same (seed, owner, step) as the connectors' above.
+                let grid = self.grid.expect("histogram storage has a grid");
+                rows.par_iter_mut()
+                    .zip(measured.par_chunks_mut(packed_width(D)))
+                    .enumerate()
+                    .map_init(Workspace::default, |ws, (i, (row, out))| {
+                        if row.is_empty() {
+                            return None;
+                        }
+                        let owner = streams.stream_owner(gid[i]);
+                        let m = step_histogram::<D>(
+                            row,
+                            &grid,
+                            &kappa_of(i),
+                            &params,
+                            limit,
+                            seed,
+                            owner,
+                            n,
+                            ws,
+                        );
+                        self.write_stress(&m.stress, out);
+                        self.clipped.fetch_add(m.clipped, Ordering::Relaxed);
+                        self.fallbacks.fetch_add(m.fallbacks, Ordering::Relaxed);
+                        m.outside.map(|(k, q2)| (gid[i], k, q2))
+                    })
+                    .flatten()
+                    .min_by_key(|v| (v.0, v.1))
+            }
         };
-        self.update_stress(p);
+        if self.grid.is_some() {
+            extra[self.stress].data = measured;
+        } else {
+            self.update_stress(p);
+        }
         blow_up.map(|(gid, k, q2)| StateBlowUp {
             gid,
             item: k as u64,
             value: if q2.is_finite() { q2 } else { f64::INFINITY },
         })
+    }
+
+    fn counted_warnings(&self) -> Vec<(u64, &'static str)> {
+        if self.grid.is_none() {
+            return Vec::new();
+        }
+        vec![
+            (
+                self.clipped.load(Ordering::Relaxed),
+                "{n} BDDFS connectors (dumbbell × step) lay outside the histogram grid and were \
+                 counted in its boundary cell: raise fluid.polymer.q_max",
+            ),
+            (
+                self.fallbacks.load(Ordering::Relaxed),
+                "{n} FENE reconstructions (dumbbell × step) found no point of their cell inside \
+                 |Q|² < b in 64 draws and took the cell's point nearest the origin",
+            ),
+        ]
     }
 
     fn state_quantity(&self) -> crate::error::Quantity {

@@ -2,6 +2,7 @@
 //! the CONNFFESSIT fluid (`[fluid.polymer]`): spring law, stochastic scheme, storage precision,
 //! and their validation.
 
+use crate::models::bddfs::QGrid;
 use crate::models::dumbbells::{Scheme, Spring};
 use crate::spans::{CaseError, Segment, SpanIndex};
 use serde::{Deserialize, Serialize};
@@ -154,6 +155,53 @@ pub fn validate_ensemble(
                 }
             ),
         ));
+    }
+    Ok(())
+}
+
+/// Checks of a BDDFS histogram grid `grid` under the table `table` (`[polymer]` of a
+/// homogeneous flow, `[fluid.polymer]` of a CONNFFESSIT fluid), `given` saying whether `cells`
+/// and `q_max` were given: `cells` is required, `q_max` is required for Hookean springs (the
+/// grid clips their unbounded connectors) and defaults to √b for FENE, and the grid must work
+/// ([`QGrid::check`]).
+#[allow(clippy::too_many_arguments)]
+pub fn validate_histogram_grid(
+    table: &[Segment],
+    grid: &QGrid,
+    given: (bool, bool),
+    spring: SpringKind,
+    law: Spring,
+    dim: usize,
+    ix: &SpanIndex,
+) -> Result<(), CaseError> {
+    let pk = |key: &str| {
+        let mut path = table.to_vec();
+        path.push(k(key));
+        path
+    };
+    let (cells_given, q_max_given) = given;
+    if !cells_given {
+        return Err(ix.error(
+            &pk("cells"),
+            "missing: BDDFS needs the cells per axis n_c of its histogram grid (≥ 2; `check` \
+             suggests one for the time step)",
+        ));
+    }
+    if spring == SpringKind::Hookean && !q_max_given {
+        return Err(ix.error(
+            &pk("q_max"),
+            "missing: a Hookean connector is unbounded, so BDDFS needs the grid's half-edge \
+             Q_max (> 0, in units of √(k_BT/H); connectors beyond it are clipped into the \
+             boundary cells and counted — e.g. 6 + 3 Wi keeps them rare)",
+        ));
+    }
+    if let Err(e) = grid.check(dim, law) {
+        let key = if e.starts_with("n_c") {
+            "cells"
+        } else {
+            "q_max"
+        };
+        return Err(ix.error(&pk(key), e));
     }
     Ok(())
 }

@@ -737,6 +737,14 @@ impl<'c, const D: usize> HomogeneousEnsembles<'c, D> {
             .fold(0.0, f64::max)
     }
 
+    /// Bytes of connector storage per particle over every rank ([`Self::memory_bytes`]
+    /// summed, over the particle count; collective).
+    pub fn memory_bytes_per_particle(&self) -> f64 {
+        let mut bytes = [self.memory_bytes() as u64];
+        self.comm.allreduce_u64(&mut bytes, crate::comm::U64Op::Sum);
+        bytes[0] as f64 / self.total.max(1) as f64
+    }
+
     /// A digest of every connector vector (collective, order-independent).
     pub fn digest(&self) -> u64 {
         let mut acc = [0u64];

@@ -42,7 +42,7 @@ use crate::error::Error;
 use crate::fixed_sum::FixedSum;
 use crate::neighbour::NeighbourList;
 use crate::observable::Observable;
-use crate::particles::{FieldFlags, Particles, Precision};
+use crate::particles::{FieldFlags, Particles, VarStorage};
 use crate::simd::Isa;
 use crate::species::Species;
 
@@ -59,9 +59,9 @@ pub enum FieldKind {
     Tensor,
     /// A fixed number of values (an MSPH moment matrix, a packed symmetric tensor).
     Values(usize),
-    /// A variable-length array per owned particle (a dumbbell ensemble), stored in the given
-    /// precision; never sent to ghosts, always migrated, checkpointed and digested.
-    Ensemble(Precision),
+    /// A variable-length array per owned particle (a dumbbell ensemble, a BDDFS histogram),
+    /// in the given storage; never sent to ghosts, always migrated, checkpointed and digested.
+    Ensemble(VarStorage),
 }
 
 impl FieldKind {

@@ -385,16 +385,16 @@ impl<'c, const D: usize> Simulation<'c, D> {
                 }
             }
             match spec.kind {
-                FieldKind::Ensemble(precision) => match p.var.iter().find(|f| f.name == name) {
+                FieldKind::Ensemble(storage) => match p.var.iter().find(|f| f.name == name) {
                     None => {
-                        p.register_var_in(name, precision);
+                        p.register_var_in(name, storage);
                     }
-                    Some(f) if f.data.precision() != precision => {
+                    Some(f) if f.data.storage() != storage => {
                         return Err(format!(
-                            "the field `{name}` of the model {} is stored in {:?} precision, \
-                             {precision:?} declared",
+                            "the field `{name}` of the model {} is stored as {:?}, {storage:?} \
+                             declared",
                             model.name(),
-                            f.data.precision()
+                            f.data.storage()
                         )
                         .into());
                     }
@@ -1042,17 +1042,49 @@ impl<'c, const D: usize> Simulation<'c, D> {
     }
 
     /// Dumbbells in the whole system (the rows of the `connectors` ensemble field over every
-    /// rank, / D), or None without ensembles. Collective.
+    /// rank, / D; or the counts of the BDDFS `histograms`), or None without ensembles.
+    /// Collective.
     pub fn dumbbell_count(&self) -> Option<u64> {
+        use crate::models::dumbbell_ensemble::{CONNECTORS, HISTOGRAMS};
         let p = &self.particles;
-        let k = p
+        let f = p
             .var
             .iter()
-            .position(|f| f.name == crate::models::dumbbell_ensemble::CONNECTORS)?;
-        let mine: usize = (0..p.n_owned).map(|i| p.var[k].data.row_len(i)).sum();
-        let mut total = [(mine / D) as u64];
+            .find(|f| f.name == CONNECTORS || f.name == HISTOGRAMS)?;
+        let mine = match f.data.words() {
+            Some(rows) => (rows.iter())
+                .map(Vec::as_slice)
+                .map(crate::models::bddfs::dumbbell_count)
+                .sum(),
+            None => ((0..p.n_owned).map(|i| f.data.row_len(i)).sum::<usize>() / D) as u64,
+        };
+        let mut total = [mine];
         self.comm.allreduce_u64(&mut total, U64Op::Sum);
         Some(total[0])
+    }
+
+    /// The bytes the variable-length fields (dumbbell connectors, BDDFS histograms) hold per
+    /// particle that carries any, over every rank (8 per f64 or word, 4 per f32), or None
+    /// without such fields. Collective.
+    pub fn ensemble_bytes_per_particle(&self) -> Option<f64> {
+        use crate::particles::VarStorage;
+        let p = &self.particles;
+        let first = p.var.first()?;
+        let bytes: usize = (p.var.iter())
+            .map(|f| {
+                let word = match f.data.storage() {
+                    VarStorage::Single => 4,
+                    VarStorage::Double | VarStorage::Words => 8,
+                };
+                word * (0..p.n_owned).map(|i| f.data.row_len(i)).sum::<usize>()
+            })
+            .sum();
+        let carriers = (0..p.n_owned)
+            .filter(|&i| first.data.row_len(i) > 0)
+            .count();
+        let mut total = [bytes as u64, carriers as u64];
+        self.comm.allreduce_u64(&mut total, U64Op::Sum);
+        Some(total[0] as f64 / total[1].max(1) as f64)
     }
 
     /// Runs `steps` steps, sampling on schedule and calling `progress` every step (rank-local).

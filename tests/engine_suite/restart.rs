@@ -13,7 +13,7 @@ use mesorheo::driver::{CHECKPOINT_REFUSED, RunOptions, in_process, restart_case,
 use mesorheo::models::{FieldKind, FieldSpec, ParticleModel};
 use mesorheo::output::checkpoint;
 use mesorheo::particles::Particles;
-use mesorheo::particles::{FieldFlags, Precision};
+use mesorheo::particles::{FieldFlags, VarStorage};
 use mesorheo::sim::Simulation;
 use mesorheo::summary::Summary;
 use std::path::{Path, PathBuf};
@@ -155,9 +155,9 @@ impl<const D: usize> ParticleModel<D> for TensorAndArray {
         vec![
             spec("tensor", FieldKind::Tensor),
             spec("a_scalar", FieldKind::Scalar),
-            spec("history", FieldKind::Ensemble(Precision::Double)),
+            spec("history", FieldKind::Ensemble(VarStorage::Double)),
             // Single-precision storage, like a dumbbell ensemble with precision = "single".
-            spec("aa_log", FieldKind::Ensemble(Precision::Single)),
+            spec("aa_log", FieldKind::Ensemble(VarStorage::Single)),
         ]
     }
 
@@ -725,6 +725,23 @@ fn connffessit_restart_is_bitwise() {
         ],
     );
     assert_restart_at_60_is_bitwise(&text, "CONNFFESSIT shear");
+}
+
+/// CONNFFESSIT with BDDFS histograms per particle (variable-length word rows, and the stress
+/// measured on the last step's advanced connectors, which the histogram no longer holds: both
+/// checkpointed): N steps ≡ N/2 + checkpoint + restart on another rank count + N/2, bitwise.
+#[test]
+fn bddfs_connffessit_restart_is_bitwise() {
+    let text = stock_text_with(
+        "bddfs_connffessit_shear_2d.toml",
+        &[
+            "reference=[]",
+            "run.steps=120",
+            "run.equilibration=0",
+            "fluid.polymer.per_particle=8",
+        ],
+    );
+    assert_restart_at_60_is_bitwise(&text, "BDDFS CONNFFESSIT shear");
 }
 
 /// The CONNFFESSIT channel with MSPH derivatives and mirror walls (the moment systems and the

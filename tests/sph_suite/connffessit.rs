@@ -207,7 +207,7 @@ fn a_connector_outside_its_domain_stops_a_particle_scene() {
                 rows[i][6] = poison;
                 rows[i][7] = poison;
             }
-            mesorheo::particles::VarData::Single(_) => panic!("double storage"),
+            _ => panic!("double storage"),
         }
         let err = sim
             .advance()

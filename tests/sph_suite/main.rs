@@ -5,6 +5,7 @@
 #[path = "../common/mod.rs"]
 mod common;
 
+mod bddfs_connffessit;
 mod connffessit;
 mod msph_channel;
 mod sph_channel;

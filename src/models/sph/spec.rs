@@ -166,12 +166,15 @@ impl FluidModel for SphCfg {
             };
             if poly.is_ensemble() {
                 line(format!(
-                    "dumbbells: {} per fluid particle, spring {:?}, scheme {:?}, {:?} \
-                     precision; Kramers stress G(⟨QF(Q)⟩ − I) with G = η_p/λ = {}; noise {}",
+                    "dumbbells: {} per fluid particle, spring {:?}, scheme {:?}, {}; Kramers \
+                     stress G(⟨QF(Q)⟩ − I) with G = η_p/λ = {}; noise {}",
                     poly.per_particle.unwrap_or(0),
                     poly.spring_law(),
                     poly.scheme_or_default(),
-                    poly.connector_precision(),
+                    match poly.histogram_grid() {
+                        Some(_) => "stored as BDDFS histograms".to_string(),
+                        None => format!("{:?} precision", poly.connector_precision()),
+                    },
                     poly.modulus(),
                     match poly.ensemble_noise() {
                         crate::models::dumbbell_settings::EnsembleNoise::Independent =>
@@ -181,6 +184,9 @@ impl FluidModel for SphCfg {
                              N_d independent dumbbells)",
                     }
                 ));
+            }
+            for l in poly.model.check_lines(poly, case.dimension(), case.dt()) {
+                line(l);
             }
             // A finitely extensible law: the zero-shear polymer viscosity is below η_p.
             let zero_shear = poly.model.zero_shear_factor(poly, case.dimension());

@@ -264,6 +264,8 @@ pub(super) fn validate_sph(
             ("scheme", poly.scheme.is_some()),
             ("precision", poly.precision.is_some()),
             ("noise", poly.noise.is_some()),
+            ("cells", poly.cells.is_some()),
+            ("q_max", poly.q_max.is_some()),
         ];
         if let Some((key, _)) = optional
             .iter()
@@ -278,7 +280,14 @@ pub(super) fn validate_sph(
                 "rotation" => "switching the rotation terms off is the linear variant of the \
                                corotational model"
                     .to_string(),
-                _ if owners == ["\"dumbbells\""] => {
+                _ if owners == ["\"bddfs\""] => {
+                    format!("`{key}` describes a BDDFS histogram grid")
+                }
+                _ if owners.contains(&"\"dumbbells\"".to_string())
+                    && owners
+                        .iter()
+                        .all(|o| o == "\"dumbbells\"" || o == "\"bddfs\"") =>
+                {
                     format!("`{key}` describes dumbbell ensembles")
                 }
                 _ => format!("`{key}` is not a key of model = \"{}\"", poly.model.name()),
@@ -303,6 +312,18 @@ pub(super) fn validate_sph(
                     .unwrap_or(crate::models::dumbbell_settings::SpringKind::Hookean),
                 poly.b,
                 poly.scheme,
+                ix,
+            )?;
+        }
+        if let Some(grid) = poly.histogram_grid() {
+            crate::models::dumbbell_settings::validate_histogram_grid(
+                &[k("fluid"), k("polymer")],
+                &grid,
+                (poly.cells.is_some(), poly.q_max.is_some()),
+                poly.spring
+                    .unwrap_or(crate::models::dumbbell_settings::SpringKind::Hookean),
+                poly.spring_law(),
+                case.dimension(),
                 ix,
             )?;
         }

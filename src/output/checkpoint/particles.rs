@@ -12,7 +12,8 @@
 //! /particles/fields/<name>  [N, w]   f64   every checkpointed fixed-width field, then
 //!                                          list_reference_position (list-build positions)
 //! /particles/var/<name>/count [N]    u64   every variable-length field (an ensemble) …
-//! /particles/var/<name>/value [ΣN_i] f64   … concatenated in id order
+//! /particles/var/<name>/value [ΣN_i] f64   … concatenated in id order (attribute precision =
+//!                                          "single": f32; "words": u64, a BDDFS histogram)
 //! /observables/velocity_profile [S, bins]
 //! ```
 //!
@@ -189,6 +190,12 @@ pub fn write<const D: usize>(
                 f.dataset::<f32>(&value, &[grand as usize], false)?;
                 f.write(&value, at, len, &r.concat())?;
             }
+            VarData::Words(r) => {
+                // Words (a BDDFS histogram's packed cells), not numbers: u64.
+                f.attr_str(&base, "precision", "words")?;
+                f.dataset::<u64>(&value, &[grand as usize], false)?;
+                f.write(&value, at, len, &r.concat())?;
+            }
         }
     }
     write_series(&mut f, &sim.series, rank == 0)?;
@@ -360,7 +367,7 @@ fn read_particles<const D: usize>(
         let len: u64 = counts.iter().sum();
         let value = format!("{base}/value");
         let (at, len) = (&[offset as usize], &[len as usize]);
-        let single = read_attr_str(f, &base, "precision").is_ok_and(|p| p == "single");
+        let storage = read_attr_str(f, &base, "precision").unwrap_or_default();
         fn rows_of<T: Copy>(flat: &[T], counts: &[u64]) -> Vec<Vec<T>> {
             let mut at = 0usize;
             counts
@@ -373,10 +380,10 @@ fn read_particles<const D: usize>(
                 .collect()
         }
         let k = p.register_var(&name);
-        p.var[k].data = if single {
-            VarData::Single(rows_of(&read_block::<f32>(f, &value, at, len)?, counts))
-        } else {
-            VarData::Double(rows_of(&read_block::<f64>(f, &value, at, len)?, counts))
+        p.var[k].data = match storage.as_str() {
+            "single" => VarData::Single(rows_of(&read_block::<f32>(f, &value, at, len)?, counts)),
+            "words" => VarData::Words(rows_of(&read_block::<u64>(f, &value, at, len)?, counts)),
+            _ => VarData::Double(rows_of(&read_block::<f64>(f, &value, at, len)?, counts)),
         };
     }
     let series = read_series(f)?;

@@ -2,7 +2,8 @@
 //! constitutive laws: the rate τ̇_i = f(τ_i, G_i) that the integrator advances with the
 //! particle, from the particle's own stress τ_i and its velocity-gradient estimate
 //! G_i^{ab} = ∂v^a/∂x^b; or, for `dumbbells`, the Kramers stress of an ensemble the particle
-//! carries ([`crate::models::dumbbell_ensemble`]).
+//! carries ([`crate::models::dumbbell_ensemble`]), or for `bddfs` of the dumbbells regenerated
+//! every step from the histogram it carries ([`crate::models::bddfs`]).
 //!
 //! **Adding a constitutive law is one file in this directory plus one line of
 //! `polymer_laws!`**: a unit struct implementing [`Law`] (its rate, its keys and their
@@ -12,6 +13,7 @@
 //! The stress is stored packed, the upper triangle row by row: (xx, xy, yy) in 2D,
 //! (xx, xy, xz, yy, yz, zz) in 3D.
 
+use crate::models::bddfs::QGrid;
 use crate::models::dumbbell_settings::{EnsembleNoise, SchemeKind, SpringKind};
 use crate::models::dumbbells::{DumbbellParams, Scheme, Spring};
 use crate::particles::Precision;
@@ -49,6 +51,13 @@ pub struct PolymerCfg {
     /// `dumbbells`: whose Wiener increments the ensembles draw (default independent).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub noise: Option<EnsembleNoise>,
+    /// `bddfs`: cells per axis n_c of the histogram grid (required).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub cells: Option<usize>,
+    /// `bddfs`: half-edge Q_max of the histogram grid (required for Hookean springs; √b for
+    /// FENE by default).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub q_max: Option<f64>,
 }
 
 impl PolymerCfg {
@@ -99,8 +108,25 @@ impl PolymerCfg {
         self.precision.unwrap_or_default()
     }
 
-    /// Bytes of connector storage per fluid particle (0 for a constitutive model).
+    /// The BDDFS histogram grid (`model = "bddfs"`; Q_max defaults to √b for FENE), None for
+    /// explicit dumbbells and constitutive laws.
+    pub fn histogram_grid(&self) -> Option<QGrid> {
+        (self.model == PolymerModel::Bddfs).then(|| QGrid {
+            cells: self.cells.unwrap_or(0),
+            q_max: self.q_max.or(self.b.map(f64::sqrt)).unwrap_or(f64::NAN),
+        })
+    }
+
+    /// Bytes of connector storage per fluid particle (0 for a constitutive model); BDDFS: the
+    /// bound 8 × min(N_d, n_c^D) of its sparse histogram.
     pub fn bytes_per_particle(&self, dimension: usize) -> f64 {
+        if let Some(grid) = self.histogram_grid() {
+            return crate::models::bddfs::histogram_bytes_bound(
+                &grid,
+                self.per_particle.unwrap_or(0),
+                dimension,
+            );
+        }
         let word = match self.connector_precision() {
             Precision::Double => 8.0,
             Precision::Single => 4.0,
@@ -175,6 +201,11 @@ pub trait Law {
 
     /// Its steady-shear tension τ_xx at shear rate γ̇ in `dimension` dimensions.
     fn steady_shear_tension(cfg: &PolymerCfg, shear_rate: f64, dimension: usize) -> f64;
+
+    /// Its own lines of the `check` report at time step `dt` (none by default).
+    fn check_lines(_cfg: &PolymerCfg, _dimension: usize, _dt: f64) -> Vec<String> {
+        Vec::new()
+    }
 }
 
 /// The registry of polymer laws: `Variant in module = "model name"`, the law being the unit
@@ -254,6 +285,13 @@ macro_rules! polymer_laws {
                 }
             }
 
+            /// [`Law::check_lines`].
+            pub fn check_lines(self, cfg: &PolymerCfg, dimension: usize, dt: f64) -> Vec<String> {
+                match self {
+                    $( PolymerModel::$variant => <$module::$variant as Law>::check_lines(cfg, dimension, dt), )*
+                }
+            }
+
             /// [`Law::rate`].
             #[inline]
             fn rate<const D: usize>(
@@ -283,6 +321,9 @@ polymer_laws! {
     Dumbbells in dumbbells = "dumbbells",
     /// The FENE-P closure of FENE dumbbells (`b`), as a conformation law advanced in τ.
     FeneP in fene_p = "fene_p",
+    /// The dumbbells of `dumbbells`, stored per particle as a histogram on a Q-grid (`cells`,
+    /// `q_max`) and regenerated every step (BDDFS, [`crate::models::bddfs`]).
+    Bddfs in bddfs = "bddfs",
 }
 
 /// A constitutive polymer law with its parameters, as the gradient pass applies it.
