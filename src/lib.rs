@@ -56,6 +56,7 @@ pub mod integrators;
 pub mod key_doc;
 pub mod models;
 pub mod neighbour;
+pub mod rigid_bodies;
 pub mod observable;
 pub mod observables_csv;
 #[cfg(feature = "hdf5")]

@@ -29,6 +29,8 @@ pub enum Purpose {
     /// Uniform positions of the dumbbells BDDFS regenerates within their histogram cells (keyed
     /// by particle id and step).
     BddfsReconstruction = 6,
+    /// Random initial centres of rigid bodies (keyed by body and try).
+    RigidBodyPlacement = 7,
     /// Test-only uses.
     Test = 255,
 }
