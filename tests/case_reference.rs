@@ -371,9 +371,43 @@ fn every_physical_key_tau() -> String {
     )
 }
 
+/// `[fluid.colloids]` with a count and random placement (and every optional key); the volume
+/// fraction and explicit centres (the three counts exclude each other) in the variants below.
+const EVERY_COLLOID_KEY: &str = r#"
+dimension = 3
+[box]
+lengths = [8.0, 8.0, 8.0]
+[particles]
+lattice = "fcc"
+density = 4.0
+temperature = 1.0
+[fluid]
+kind = "dpd"
+a = 3.5
+gamma = 4.5
+kt = 1.0
+cutoff = 1.5
+[fluid.colloids]
+shape = "cube"
+count = 4
+placement = "random"
+min_separation = 2.0
+site_radius = 0.1
+spring_stiffness = 100.0
+fixed = true
+[integrator]
+kind = "groot_warren"
+dt = 0.01
+[run]
+steps = 100
+"#;
+
 #[test]
 fn documented_keys_are_exactly_the_parsed_keys() {
     let physical_tau = every_physical_key_tau();
+    let colloids_phi = EVERY_COLLOID_KEY.replace("count = 4", "volume_fraction = 0.02");
+    let colloids_centres =
+        EVERY_COLLOID_KEY.replace("count = 4", "centres = [[1.0, 1.0, 1.0], [5.0, 5.0, 5.0]]");
     let loaded = case_from_str(EVERY_KEY, "every_key.toml");
     let text = toml::to_string(&loaded.case).expect("serialise");
     let value: toml::Value = toml::from_str(&text).expect("re-parse");
@@ -408,6 +442,9 @@ fn documented_keys_are_exactly_the_parsed_keys() {
         (EVERY_MSPH_KEY, "msph.toml"),
         (EVERY_PHYSICAL_KEY_SC, "physical_sc.toml"),
         (physical_tau.as_str(), "physical_tau.toml"),
+        (EVERY_COLLOID_KEY, "colloids.toml"),
+        (colloids_phi.as_str(), "colloids_phi.toml"),
+        (colloids_centres.as_str(), "colloids_centres.toml"),
     ] {
         let sph = case_from_str(text, name);
         let text = toml::to_string(&sph.case).expect("serialise");
