@@ -56,12 +56,12 @@ pub mod integrators;
 pub mod key_doc;
 pub mod models;
 pub mod neighbour;
-pub mod rigid_bodies;
 pub mod observable;
 pub mod observables_csv;
 #[cfg(feature = "hdf5")]
 pub mod output;
 pub mod particles;
+pub mod rigid_bodies;
 pub mod rng;
 pub mod scene;
 pub mod sim;

@@ -400,6 +400,16 @@ kind = "groot_warren"
 dt = 0.01
 [run]
 steps = 100
+[diagnostics]
+observables = ["temperature"]
+[[reference]]
+kind = "value"
+name = "t"
+observable = "temperature"
+value = 1.0
+metric = "relative_error"
+tolerance = 0.1
+source = "s"
 "#;
 
 #[test]

@@ -351,11 +351,9 @@ impl<const D: usize> RigidBodies<D> {
                 } else {
                     [0.0, 0.0, arm[0] * f[1] - arm[1] * f[0]]
                 };
-                let terms = f[..D].iter().chain(if D == 3 {
-                    &torque[..]
-                } else {
-                    &torque[2..]
-                });
+                let terms = f[..D]
+                    .iter()
+                    .chain(if D == 3 { &torque[..] } else { &torque[2..] });
                 for (slot, &x) in sums[b * width..(b + 1) * width].iter_mut().zip(terms) {
                     if !FixedSum::representable(x) {
                         return Err(crate::error::Unstable::new(
@@ -433,8 +431,8 @@ impl<const D: usize> RigidBodies<D> {
                     body.orientation = q.map(|x| x / norm);
                 }
             } else {
-                body.orientation[0] =
-                    (body.orientation[0] + dt * body.angular_velocity[2]).rem_euclid(std::f64::consts::TAU);
+                body.orientation[0] = (body.orientation[0] + dt * body.angular_velocity[2])
+                    .rem_euclid(std::f64::consts::TAU);
             }
             let mut centre = [0.0; D];
             centre.copy_from_slice(&body.centre[..D]);

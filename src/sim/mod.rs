@@ -771,7 +771,12 @@ impl<'c, const D: usize> Simulation<'c, D> {
             let t = Instant::now();
             bodies.couple(&mut self.particles, &self.sim_box, self.step, self.comm)?;
             let seconds = t.elapsed().as_secs_f64();
-            match self.times.passes.iter_mut().find(|p| p.pass == "rigid bodies") {
+            match self
+                .times
+                .passes
+                .iter_mut()
+                .find(|p| p.pass == "rigid bodies")
+            {
                 Some(entry) => entry.seconds += seconds,
                 None => self.times.passes.push(PassSeconds {
                     model: "engine",

@@ -82,9 +82,9 @@ fn body_velocity_variance(
 
 /// Equipartition of the colloids (spec §8 T2/T4, Nguyen 2021 Fig. 3.2/3.4): M_c var(V_α) = k_BT,
 /// M_c = n_cp m (massless sites), for the octahedron (n_cp = 6) and the icosahedron (12) in the
-/// thesis's T4 fluid. 8 bodies × 3 components, 10 blocks of 300 steps (Δt = 0.01; the velocity
+/// thesis's T4 fluid. 8 bodies × 3 components, 10 blocks of 200 steps (Δt = 0.01; the velocity
 /// decorrelates in M/ζ ≈ 0.05 with Stokes ζ = 6πηa), the tolerance 4 standard errors of the block
-/// mean (≈ 3 % here). Only the mean is asserted; the thesis's T4 reports 0.1661 for 1/6 and
+/// mean (≈ 3.5 % here). Only the mean is asserted; the thesis's T4 reports 0.1661 for 1/6 and
 /// 0.0812 for 1/12.
 #[test]
 fn colloid_velocities_obey_equipartition() {
@@ -96,7 +96,7 @@ fn colloid_velocities_obey_equipartition() {
             &format!("shape = \"{shape}\"\ncount = 8"),
             1000,
         );
-        let v = body_velocity_variance(&text, 300, 10, 300, 5);
+        let v = body_velocity_variance(&text, 200, 10, 200, 5);
         let (mean, se) = mean_se(&v);
         let want = 1.0 / sites;
         println!(
@@ -112,7 +112,10 @@ fn colloid_velocities_obey_equipartition() {
 }
 
 /// Σ_solvent m v + Σ_bodies M V at the current step (momentum of the system whose forces are
-/// antisymmetric: docs/theory/colloids.md), and Σ_all particles m v.
+/// antisymmetric: docs/theory/colloids.md), and Σ_all particles m v (printed only: the bodies start
+/// with their constituents' mean velocity at their sites, so the offset X of the constituents'
+/// centre of mass from R, M Ẍ = −n_cp H X, starts and stays at zero and the particles' momentum
+/// is conserved too).
 fn momenta(sim: &Simulation<'_, 3>) -> ([f64; 3], [f64; 3]) {
     let bodies = sim.rigid_bodies().expect("bodies");
     let first = bodies.spec().first_gid;
@@ -137,9 +140,8 @@ fn momenta(sim: &Simulation<'_, 3>) -> ([f64; 3], [f64; 3]) {
 
 /// The solvent's momentum plus the bodies' Σ M V is conserved by the coupled step (the pair
 /// forces are antisymmetric, the springs act on the constituents only): over 300 steps it moves
-/// by less than 10⁻¹⁰ of the thermal scale √(N m k_BT) ≈ 47 (round-off of ~10⁵ force
-/// additions); the particles' own momentum, exchanged with the body frames through the
-/// springs, moves by orders of magnitude more (shown, so the test is not vacuous).
+/// by less than 10⁻¹⁰ of the thermal scale √(N m k_BT) ≈ 47 (measured 1.1·10⁻¹²: round-off of
+/// the per-particle force conversions; a body kick with the wrong factor moves it by ~10⁻²).
 #[test]
 fn solvent_and_body_momentum_is_conserved() {
     let text = suspension_3d(6.0, 0.01, 0.0, "shape = \"cube\"\ncount = 8", 1000);
@@ -157,9 +159,13 @@ fn solvent_and_body_momentum_is_conserved() {
             particle_drift = particle_drift.max((now_particles[d] - start_particles[d]).abs());
         }
     }
-    println!("momentum drift: solvent + bodies {system_drift:.3e}, particles alone {particle_drift:.3e}");
-    assert!(system_drift < 1e-10 * 47.0, "solvent + body momentum moved by {system_drift:.3e}");
-    assert!(particle_drift > 1e-3, "the springs must exchange momentum ({particle_drift:.3e})");
+    println!(
+        "momentum drift: solvent + bodies {system_drift:.3e}, particles alone {particle_drift:.3e}"
+    );
+    assert!(
+        system_drift < 1e-10 * 47.0,
+        "solvent + body momentum moved by {system_drift:.3e}"
+    );
 }
 
 /// Bodies straddling the slab boundaries of 2, 3 and 4 ranks (y = 3.75; 2.5, 5.0; 1.875) and the
@@ -232,8 +238,11 @@ fn suspension_restarts_bitwise_on_another_rank_count() {
         in_process(first, move |c| run_to(c, &t, None, 57, Some(&c1))).expect("first part");
         let ck = ckdir.join(checkpoint::file_name(57));
         let t = text.clone();
-        let d = in_process(second, move |c| run_to(c, &t, Some(&ck), 120, None))
-            .expect("second part");
-        assert_eq!(d, reference, "colloids: {first} ranks → 57 → {second} ranks");
+        let d =
+            in_process(second, move |c| run_to(c, &t, Some(&ck), 120, None)).expect("second part");
+        assert_eq!(
+            d, reference,
+            "colloids: {first} ranks → 57 → {second} ranks"
+        );
     }
 }

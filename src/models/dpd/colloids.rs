@@ -233,7 +233,12 @@ impl ColloidsCfg {
     }
 
     /// Checks the table against the case.
-    pub fn validate(&self, case: &dyn CaseView, cutoff: f64, ix: &SpanIndex) -> Result<(), CaseError> {
+    pub fn validate(
+        &self,
+        case: &dyn CaseView,
+        cutoff: f64,
+        ix: &SpanIndex,
+    ) -> Result<(), CaseError> {
         let d = case.dimension();
         if self.shape.dimension() != d {
             let valid: Vec<&str> = BodyShape::ALL
@@ -258,7 +263,10 @@ impl ColloidsCfg {
         ];
         if given.iter().filter(|&&g| g).count() != 1 {
             return Err(ix.error(
-                &[Segment::Key("fluid".into()), Segment::Key("colloids".into())],
+                &[
+                    Segment::Key("fluid".into()),
+                    Segment::Key("colloids".into()),
+                ],
                 "give exactly one of count, volume_fraction and centres",
             ));
         }
@@ -270,8 +278,7 @@ impl ColloidsCfg {
                 format!("found {phi}; φ = N_C/(N_C + N_S) must lie in (0, 1)"),
             ));
         }
-        if self.count == Some(0) || (self.volume_fraction.is_some() && self.body_count(case) == 0)
-        {
+        if self.count == Some(0) || (self.volume_fraction.is_some() && self.body_count(case) == 0) {
             return Err(ix.error(
                 &path(if self.count.is_some() {
                     "count"
@@ -308,7 +315,10 @@ impl ColloidsCfg {
         // A body and the reach of its constituents' forces must fit in half the box, so that
         // the minimum image of every lever arm and spring is its own body's.
         let extent = 2.0 * radius + cutoff;
-        let half = case.lengths().iter().fold(f64::INFINITY, |a, &l| a.min(0.5 * l));
+        let half = case
+            .lengths()
+            .iter()
+            .fold(f64::INFINITY, |a, &l| a.min(0.5 * l));
         if extent >= half {
             return Err(ix.error(
                 &path("site_radius"),
@@ -346,10 +356,7 @@ impl ColloidsCfg {
         if let Some(min) = self.min_separation
             && !(min.is_finite() && min >= 0.0)
         {
-            return Err(ix.error(
-                &path("min_separation"),
-                format!("found {min}; must be ≥ 0"),
-            ));
+            return Err(ix.error(&path("min_separation"), format!("found {min}; must be ≥ 0")));
         }
         let centres = self
             .centres(case, cutoff)
