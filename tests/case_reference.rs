@@ -483,6 +483,9 @@ fn documented_keys_are_exactly_the_parsed_keys() {
         EVERY_MSPH_KEY,
         EVERY_PHYSICAL_KEY_SC,
         physical_tau.as_str(),
+        EVERY_COLLOID_KEY,
+        colloids_phi.as_str(),
+        colloids_centres.as_str(),
     ] {
         paths(
             "",

@@ -161,7 +161,6 @@ pub fn initial_particles<const D: usize>(
     let half_sine = case.particles.velocity_profile == VelocityProfile::HalfSine;
     let (amplitude, ly) = (case.particles.velocity_amplitude, sim_box.lengths[GRADIENT]);
     let mut particles = Particles::default();
-    let mut velocities = velocities;
     for (x, v) in positions.iter().zip(velocities.iter_mut()) {
         if shear_profile {
             v[0] += sim_box.streaming_velocity(x[GRADIENT]);

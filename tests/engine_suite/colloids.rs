@@ -131,8 +131,8 @@ fn momenta(sim: &Simulation<'_, 3>) -> ([f64; 3], [f64; 3]) {
         }
     }
     for b in bodies.bodies() {
-        for d in 0..3 {
-            system[d] += bodies.body_mass() * b.velocity[d];
+        for (s, v) in system.iter_mut().zip(b.velocity) {
+            *s += bodies.body_mass() * v;
         }
     }
     (system, particles)
