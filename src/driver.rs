@@ -275,6 +275,7 @@ fn restore_and_drive<const D: usize>(
         r.rebuild_step,
         r.series,
         r.species,
+        r.rigid_bodies.as_deref(),
     )
     .map_err(Restart::Failed)?;
     log_restart(comm, path, r.step);

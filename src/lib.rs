@@ -61,6 +61,7 @@ pub mod observables_csv;
 #[cfg(feature = "hdf5")]
 pub mod output;
 pub mod particles;
+pub mod rigid_bodies;
 pub mod rng;
 pub mod scene;
 pub mod sim;

@@ -498,9 +498,53 @@ fn every_physical_key_tau() -> String {
     )
 }
 
+/// `[fluid.colloids]` with a count and random placement (and every optional key); the volume
+/// fraction and explicit centres (the three counts exclude each other) in the variants below.
+const EVERY_COLLOID_KEY: &str = r#"
+dimension = 3
+[box]
+lengths = [8.0, 8.0, 8.0]
+[particles]
+lattice = "fcc"
+density = 4.0
+temperature = 1.0
+[fluid]
+kind = "dpd"
+a = 3.5
+gamma = 4.5
+kt = 1.0
+cutoff = 1.5
+[fluid.colloids]
+shape = "cube"
+count = 4
+placement = "random"
+min_separation = 2.0
+site_radius = 0.1
+spring_stiffness = 100.0
+fixed = true
+[integrator]
+kind = "groot_warren"
+dt = 0.01
+[run]
+steps = 100
+[diagnostics]
+observables = ["temperature"]
+[[reference]]
+kind = "value"
+name = "t"
+observable = "temperature"
+value = 1.0
+metric = "relative_error"
+tolerance = 0.1
+source = "s"
+"#;
+
 #[test]
 fn documented_keys_are_exactly_the_parsed_keys() {
     let physical_tau = every_physical_key_tau();
+    let colloids_phi = EVERY_COLLOID_KEY.replace("count = 4", "volume_fraction = 0.02");
+    let colloids_centres =
+        EVERY_COLLOID_KEY.replace("count = 4", "centres = [[1.0, 1.0, 1.0], [5.0, 5.0, 5.0]]");
     let loaded = case_from_str(EVERY_KEY, "every_key.toml");
     let text = toml::to_string(&loaded.case).expect("serialise");
     let value: toml::Value = toml::from_str(&text).expect("re-parse");
@@ -538,6 +582,9 @@ fn documented_keys_are_exactly_the_parsed_keys() {
         (physical_tau.as_str(), "physical_tau.toml"),
         (EVERY_GENERIC_POLYMER_KEY, "generic_polymer.toml"),
         (EVERY_GENERIC_POLYMER_SI_KEY, "generic_polymer_si.toml"),
+        (EVERY_COLLOID_KEY, "colloids.toml"),
+        (colloids_phi.as_str(), "colloids_phi.toml"),
+        (colloids_centres.as_str(), "colloids_centres.toml"),
     ] {
         let sph = case_from_str(text, name);
         let text = toml::to_string(&sph.case).expect("serialise");
@@ -569,6 +616,9 @@ fn documented_keys_are_exactly_the_parsed_keys() {
         physical_tau.as_str(),
         EVERY_GENERIC_POLYMER_KEY,
         EVERY_GENERIC_POLYMER_SI_KEY,
+        EVERY_COLLOID_KEY,
+        colloids_phi.as_str(),
+        colloids_centres.as_str(),
     ] {
         paths(
             "",

@@ -277,6 +277,15 @@ pub trait BuildModels<const D: usize> {
         None
     }
 
+    /// The rigid bodies of spring-tied constituents it suspends ([`crate::rigid_bodies`]), whose
+    /// constituents the engine adds after the fluid's particles; `None` without any.
+    fn rigid_bodies(
+        &self,
+        _case: &dyn CaseView,
+    ) -> Result<Option<crate::rigid_bodies::RigidBodies<D>>, String> {
+        Ok(None)
+    }
+
     /// The models it needs beside the fluid (attached after the species are known).
     fn build_companions(
         &self,

@@ -534,6 +534,7 @@ mod tests {
             physical: None,
             body_force: Vec::new(),
             body_force_profile: crate::models::dpd::BodyForceProfile::Uniform,
+            colloids: None,
         };
         let dpd = Dpd::new(&cfg, 0.04, 5);
         let run = |isa: Isa| {

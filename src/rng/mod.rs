@@ -37,6 +37,8 @@ pub enum Purpose {
     GenericPolymerConformation = 8,
     /// The GENERIC polymer fluid's equilibrium initial conformations (keyed by particle id).
     GenericPolymerInit = 9,
+    /// Random initial centres of rigid bodies (keyed by body and try).
+    RigidBodyPlacement = 10,
     /// Test-only uses.
     Test = 255,
 }

@@ -9,10 +9,14 @@ use super::*;
 ///
 /// Velocities: Maxwellian at k_BT from Philox keyed by id, centre-of-mass motion removed and
 /// rescaled to exactly k_BT over D(N − 1) degrees of freedom; then the shear profile if asked.
+///
+/// With `bodies`, their constituents follow the fluid's particles in id order, each at its site,
+/// and are thermalised like them; each free body starts with its constituents' mean velocity.
 pub fn initial_particles<const D: usize>(
     case: &Case,
     sim_box: &SimBox<D>,
     slab: &Slab,
+    bodies: Option<&mut crate::rigid_bodies::RigidBodies<D>>,
 ) -> (Particles<D>, u64) {
     let dim = D;
     let (cells, total) = case.lattice_counts();
@@ -97,6 +101,14 @@ pub fn initial_particles<const D: usize>(
             }
         }
     }
+    if let Some(b) = &bodies {
+        debug_assert_eq!(b.spec().first_gid, positions.len() as u64);
+        // Sites near a face lie outside the box: wrapped in (no Lees–Edwards offset at step 0).
+        positions.extend(b.initial_constituents().into_iter().map(|(_, mut x)| {
+            sim_box.wrap(&mut x, &mut [], &mut [0; D], 0.0, true);
+            x
+        }));
+    }
     let total = positions.len() as u64;
     let key = StreamKey::new(case.seed, Purpose::InitialVelocity, 0);
     let m = case.particles.mass;
@@ -149,7 +161,7 @@ pub fn initial_particles<const D: usize>(
     let half_sine = case.particles.velocity_profile == VelocityProfile::HalfSine;
     let (amplitude, ly) = (case.particles.velocity_amplitude, sim_box.lengths[GRADIENT]);
     let mut particles = Particles::default();
-    for (g, (x, mut v)) in positions.into_iter().zip(velocities).enumerate() {
+    for (x, v) in positions.iter().zip(velocities.iter_mut()) {
         if shear_profile {
             v[0] += sim_box.streaming_velocity(x[GRADIENT]);
         }
@@ -157,6 +169,11 @@ pub fn initial_particles<const D: usize>(
         if half_sine && (0.0..=ly).contains(&y) {
             v[0] += amplitude * (std::f64::consts::PI * y / ly).sin();
         }
+    }
+    if let Some(b) = bodies {
+        b.start_with_constituent_velocities(|gid| velocities[gid as usize]);
+    }
+    for (g, (x, v)) in positions.into_iter().zip(velocities).enumerate() {
         if slab.owner_of(x[slab.axis]) == slab.rank {
             particles.push_owned(g as u64, x, v);
         }

@@ -32,6 +32,7 @@ use crate::models::interface::{
 use crate::models::pair_loop::{Virial, VirialScope};
 use crate::neighbour::{NeighbourList, spatial_order};
 use crate::particles::Particles;
+use crate::rigid_bodies::RigidBodies;
 use crate::rng::{Purpose, StreamKey};
 use crate::simd::Isa;
 use crate::species::{Motion, Species};
@@ -137,6 +138,9 @@ pub struct Simulation<'c, const D: usize> {
     state_blow_up: Option<(usize, StateBlowUp)>,
     /// Some rank asked to stop during the last step (the same on every rank).
     stop_agreed: bool,
+    /// Rigid bodies of spring-tied constituents, when the fluid suspends any (the same table
+    /// on every rank; [`crate::rigid_bodies`]).
+    bodies: Option<RigidBodies<D>>,
 }
 
 use crate::error::UNSTABLE;
@@ -158,8 +162,14 @@ impl<'c, const D: usize> Simulation<'c, D> {
     /// `threads` rayon workers serve this rank (0: all available cores).
     pub fn new(case: &Case, comm: &'c dyn Comm, threads: usize) -> Result<Self, Error> {
         let (sim_box, slab) = Self::geometry(case, comm)?;
-        let (particles, total) = initial_particles(case, &sim_box, &slab);
+        let mut bodies = case
+            .fluid
+            .builder::<D>()
+            .rigid_bodies(case)
+            .map_err(Error::InvalidCase)?;
+        let (particles, total) = initial_particles(case, &sim_box, &slab, bodies.as_mut());
         let mut sim = Self::assemble(case, comm, threads, sim_box, slab, particles, total, false)?;
+        sim.bodies = bodies;
         sim.attach(build_fluid::<D>(case))?;
         if let Some(layout) = case.fluid.builder::<D>().species_layout(case) {
             sim.set_species(layout.table, |_, x| (layout.species_at)(x))?;
@@ -200,8 +210,24 @@ impl<'c, const D: usize> Simulation<'c, D> {
         rebuild_step: u64,
         series: Series,
         species: Option<Vec<Species>>,
+        bodies: Option<&str>,
     ) -> Result<Self, Error> {
         let (sim_box, slab) = Self::geometry(case, comm)?;
+        let mut built = case
+            .fluid
+            .builder::<D>()
+            .rigid_bodies(case)
+            .map_err(Error::InvalidCase)?;
+        match (&mut built, bodies) {
+            (Some(b), Some(text)) => b.restore_json(text)?,
+            (None, None) => {}
+            (Some(_), None) => {
+                return Err("the case suspends rigid bodies but the checkpoint has none".into());
+            }
+            (None, Some(_)) => {
+                return Err("the checkpoint holds rigid bodies the case does not have".into());
+            }
+        }
         let field = particles
             .extra_index(LIST_REFERENCE_FIELD)
             .ok_or_else(|| format!("the checkpoint lacks the field {LIST_REFERENCE_FIELD}"))?;
@@ -222,6 +248,7 @@ impl<'c, const D: usize> Simulation<'c, D> {
             slab.owner_of(particles.pos[i][slab.axis])
         });
         let mut sim = Self::assemble(case, comm, threads, sim_box, slab, particles, total, true)?;
+        sim.bodies = built;
         // The species table first: the rebuild below must not reflect boundary particles.
         if let Some(table) = species {
             if sim.particles.species.is_none() {
@@ -358,6 +385,7 @@ impl<'c, const D: usize> Simulation<'c, D> {
             stop_requested_here: false,
             state_blow_up: None,
             stop_agreed: false,
+            bodies: None,
         };
         // The range the first list build needs; the attached models confirm or widen it.
         sim.cutoff = case.cutoff();
@@ -739,6 +767,24 @@ impl<'c, const D: usize> Simulation<'c, D> {
                 }
             }
         }
+        if let Some(bodies) = &mut self.bodies {
+            let t = Instant::now();
+            bodies.couple(&mut self.particles, &self.sim_box, self.step, self.comm)?;
+            let seconds = t.elapsed().as_secs_f64();
+            match self
+                .times
+                .passes
+                .iter_mut()
+                .find(|p| p.pass == "rigid bodies")
+            {
+                Some(entry) => entry.seconds += seconds,
+                None => self.times.passes.push(PassSeconds {
+                    model: "engine",
+                    pass: "rigid bodies",
+                    seconds,
+                }),
+            }
+        }
         if let Some(v) = virial {
             self.virial = Some((self.step, v));
         }
@@ -1012,6 +1058,14 @@ impl<'c, const D: usize> Simulation<'c, D> {
             acc[0] = acc[0].wrapping_add(h);
             acc[1] ^= h.rotate_left(17).wrapping_mul(0x9E37_79B9_7F4A_7C15);
         }
+        // The body table is the same on every rank: rank 0 adds it once.
+        if let Some(bodies) = &self.bodies
+            && self.comm.rank() == 0
+        {
+            let h = hash_words(&bodies.words());
+            acc[0] = acc[0].wrapping_add(h);
+            acc[1] ^= h.rotate_left(17).wrapping_mul(0x9E37_79B9_7F4A_7C15);
+        }
         let mut sum = [acc[0]];
         let mut xor = [acc[1]];
         self.comm.allreduce_u64(&mut sum, U64Op::Sum);
@@ -1102,6 +1156,11 @@ impl<'c, const D: usize> Simulation<'c, D> {
             progress(self);
         }
         Ok(start.elapsed())
+    }
+
+    /// The rigid bodies, when the case suspends any.
+    pub fn rigid_bodies(&self) -> Option<&RigidBodies<D>> {
+        self.bodies.as_ref()
     }
 
     /// Simulated time.

@@ -6,6 +6,7 @@
 mod common;
 
 mod bddfs;
+mod colloids;
 mod determinism;
 mod dpd_physics;
 mod dumbbell_particles;

@@ -261,6 +261,7 @@ fn model_run(
                 r.rebuild_step,
                 r.series,
                 r.species,
+                r.rigid_bodies.as_deref(),
             )?
         }
     };

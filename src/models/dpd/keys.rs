@@ -89,4 +89,58 @@ pub const KEYS: &[KeyDoc] = &[
         "\"gaussian\"",
         "Distribution of θ_ij: standard normal, or √3(2u − 1) (unit variance).",
     ),
+    key(
+        "fluid.colloids.shape",
+        "\"tetrahedron\" | \"octahedron\" | \"cube\" | \"icosahedron\" | \"dodecahedron\" (3D) | \"cylinder\" (2D)",
+        "required in [fluid.colloids]",
+        "DPD suspensions (Nguyen 2021 §2.4, §5; docs/theory/colloids.md): a `[fluid.colloids]` table suspends rigid bodies whose reference sites (the vertices of the regular polyhedron, 4/6/8/12/20; the 2D cylinder's 19 sites: centre, 6 at half the radius, 12 at the radius) each carry a constituent, a particle of the fluid tied to its site by a spring −H(r_i − r̄_i); a body moves with the pair force and torque on its constituents. The solvent keeps particles.density; the constituents come on top. The body force (fluid.body_force) drives the solvent only.",
+    ),
+    key(
+        "fluid.colloids.count",
+        "integer ≥ 1",
+        "one of count, volume_fraction, centres",
+        "Number of bodies.",
+    ),
+    key(
+        "fluid.colloids.volume_fraction",
+        "float in (0, 1)",
+        "one of count, volume_fraction, centres",
+        "Particle volume fraction φ = N_C/(N_C + N_S) (the thesis's, L815): N_bodies = round(φ N_S/((1 − φ) n_cp)).",
+    ),
+    key(
+        "fluid.colloids.centres",
+        "array of arrays of D floats in [0, L)",
+        "one of count, volume_fraction, centres",
+        "Explicit body centres. Bodies whose centres are closer than twice the site radius overlap and are refused.",
+    ),
+    key(
+        "fluid.colloids.placement",
+        "\"lattice\" | \"random\"",
+        "\"lattice\"",
+        "Where count/volume_fraction bodies start: the first N cell centres of a k^D lattice (k = ⌈N^{1/D}⌉), or seeded uniform random centres at least min_separation apart.",
+    ),
+    key(
+        "fluid.colloids.min_separation",
+        "float ≥ 0",
+        "fluid.cutoff",
+        "Smallest centre distance of random placement.",
+    ),
+    key(
+        "fluid.colloids.site_radius",
+        "float > 0",
+        "0.1 n^(−1/3) (3D), 0.075 (8/n)^(1/2) (2D)",
+        "Distance of the outermost site from the body centre. 2 × site_radius + r_c must be less than half the smallest box edge.",
+    ),
+    key(
+        "fluid.colloids.spring_stiffness",
+        "float > 0",
+        "m (0.05/Δt)²",
+        "Spring stiffness H of the constituent–site tie; √(H/m)Δt ≤ 0.2 is required (velocity Verlet of the tie), `check` prints it.",
+    ),
+    key(
+        "fluid.colloids.fixed",
+        "bool",
+        "false",
+        "Fixed bodies (V = 0, ω = 0; static sites), as in a cylinder array; the pair force on them is still summed (the drag).",
+    ),
 ];

@@ -16,6 +16,7 @@
 //! follows from the compressibility when the fluid is given by its physical properties
 //! (`[fluid.physical]`, [`crate::dpd_parameters`]).
 
+pub mod colloids;
 pub mod keys;
 pub mod physical;
 pub mod spec;
@@ -74,6 +75,9 @@ pub struct DpdCfg {
     /// How the body force depends on y.
     #[serde(default, skip_serializing_if = "is_uniform")]
     pub body_force_profile: BodyForceProfile,
+    /// Suspended rigid colloids of spring-tied constituents (`[fluid.colloids]`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub colloids: Option<colloids::ColloidsCfg>,
 }
 
 /// The y-dependence of a DPD body force.
@@ -295,6 +299,9 @@ pub struct DpdModel<const D: usize> {
     body: Option<([f64; D], BodyForceProfile, f64)>,
     /// Bins and L_y of the binned shear virial, when the diagnostics ask for it.
     shear_profile: Option<(usize, f64)>,
+    /// Particles of this global id and above are colloid constituents, which the body force
+    /// does not drive (it drives the solvent; the thesis's cylinder array, spec §5.3).
+    first_constituent: u64,
 }
 
 impl<const D: usize> DpdModel<D> {
@@ -305,6 +312,7 @@ impl<const D: usize> DpdModel<D> {
             workspace: PairWorkspace::default(),
             body: None,
             shear_profile: None,
+            first_constituent: u64::MAX,
         }
     }
 
@@ -312,6 +320,13 @@ impl<const D: usize> DpdModel<D> {
     /// ([`crate::models::stress_profile`]) in `bins` bins across `ly` whenever the full virial is asked.
     pub fn with_shear_stress_profile(mut self, bins: usize, ly: f64) -> Self {
         self.shear_profile = Some((bins, ly));
+        self
+    }
+
+    /// The same with the particles of global id `first` and above exempt from the body force
+    /// (colloid constituents).
+    pub fn with_constituents_from(mut self, first: u64) -> Self {
+        self.first_constituent = first;
         self
     }
 
@@ -360,7 +375,10 @@ impl<const D: usize> ParticleModel<D> for DpdModel<D> {
         if let Some((mg, profile, ly)) = self.body {
             // Positions may lie up to half the skin outside [0, L_y) between list builds: the
             // half is taken of the wrapped coordinate.
-            for (f, x) in force.iter_mut().zip(&p.pos).take(p.n_owned) {
+            for ((f, x), &gid) in force.iter_mut().zip(&p.pos).zip(&p.gid).take(p.n_owned) {
+                if gid >= self.first_constituent {
+                    continue;
+                }
                 let sign = match profile {
                     BodyForceProfile::Uniform => 1.0,
                     BodyForceProfile::Reverse if x[1].rem_euclid(ly) >= 0.5 * ly => 1.0,
@@ -406,6 +424,7 @@ mod tests {
             physical: None,
             body_force: Vec::new(),
             body_force_profile: BodyForceProfile::Uniform,
+            colloids: None,
         };
         let dpd = Dpd::new(&cfg, 0.04, 7);
         let r = [0.3, -0.4, 0.0];
@@ -440,6 +459,7 @@ mod tests {
             physical: None,
             body_force: Vec::new(),
             body_force_profile: BodyForceProfile::Uniform,
+            colloids: None,
         };
         let dpd = Dpd::new(&cfg, 0.001, 7);
         let (r, v) = ([0.3, -0.4, 0.0], [1.0, 0.5, -0.2]);

@@ -28,7 +28,11 @@ impl FluidModel for DpdCfg {
     }
 
     fn validate(&self, case: &dyn CaseView, ix: &SpanIndex) -> Result<(), CaseError> {
-        validate_dpd(self, case.dimension(), ix)
+        validate_dpd(self, case.dimension(), ix)?;
+        if let Some(colloids) = &self.colloids {
+            colloids.validate(case, self.cutoff, ix)?;
+        }
+        Ok(())
     }
 
     fn accepts_integrator(&self, integrator: &IntegratorCfg) -> Result<(), String> {
@@ -41,12 +45,32 @@ impl FluidModel for DpdCfg {
 
     fn time_step_limits(&self, case: &dyn CaseView) -> Vec<(String, f64)> {
         let l = super::time_step::dpd_limits_of(self, case);
-        vec![("measured DPD limit".to_string(), l.combined)]
+        let mut limits = vec![("measured DPD limit".to_string(), l.combined)];
+        if let Some(colloids) = &self.colloids {
+            limits.push((
+                format!(
+                    "colloid spring tie (√(H/m)Δt ≤ {})",
+                    super::colloids::SPRING_LIMIT
+                ),
+                colloids.time_step_limit(case),
+            ));
+        }
+        limits
     }
 
     fn time_step_error(&self, case: &dyn CaseView, dt: f64) -> Option<String> {
         use super::time_step::dpd_fit;
         let l = super::time_step::dpd_limits_of(self, case);
+        if let Some(colloids) = &self.colloids {
+            let limit = colloids.time_step_limit(case);
+            if dt > limit {
+                return Some(format!(
+                    "Δt = {dt} is beyond the colloid spring tie's limit √(H/m)Δt ≤ {}                      (Δt ≤ {limit:.4e} at H = {}); use a smaller time step or a softer                      fluid.colloids.spring_stiffness",
+                    super::colloids::SPRING_LIMIT,
+                    colloids.spring_stiffness(case)
+                ));
+            }
+        }
         if dt <= l.combined {
             return None;
         }
@@ -94,6 +118,9 @@ impl FluidModel for DpdCfg {
 
     fn report(&self, case: &dyn CaseView, density: f64, line: &mut dyn FnMut(String)) {
         dpd_report(case, self, density, line);
+        if let Some(colloids) = &self.colloids {
+            colloids.report(case, self.kt, line);
+        }
         transverse_current_report(case, self, line);
     }
 
@@ -146,16 +173,30 @@ impl<const D: usize> BuildModels<D> for DpdCfg {
     fn build_fluid(&self, case: &dyn CaseView) -> Box<dyn ParticleModel<D>> {
         let d = &as_integrated(case, self);
         let ly = case.lengths()[1];
-        let model = super::DpdModel::<D>::new(d, case.dt(), case.seed()).with_body_force(
+        let mut model = super::DpdModel::<D>::new(d, case.dt(), case.seed()).with_body_force(
             d,
             case.mass(),
             ly,
         );
+        if self.colloids.is_some() {
+            model = model.with_constituents_from(case.lattice_counts().1);
+        }
         if case.wants(Observable::ShearStressProfile) {
             Box::new(model.with_shear_stress_profile(case.profile_bins(), ly))
         } else {
             Box::new(model)
         }
+    }
+
+    fn rigid_bodies(
+        &self,
+        case: &dyn CaseView,
+    ) -> Result<Option<crate::rigid_bodies::RigidBodies<D>>, String> {
+        let Some(colloids) = &self.colloids else {
+            return Ok(None);
+        };
+        let spec = colloids.spec(case, self.cutoff)?;
+        Ok(Some(crate::rigid_bodies::RigidBodies::new(spec, case.dt())))
     }
 }
 

@@ -2,6 +2,7 @@
 //!
 //! ```text
 //! /                         attributes (beside the common ones): rebuild_step, le_offset
+//!                           rigid_bodies (JSON of exact words, when the scene has bodies)
 //! /particles/id             [N]      u64   global ids 0..N−1, sorted
 //! /particles/position       [N, D]   f64   as integrated (may be up to skin/2 outside the box
 //!                                          between neighbour-list builds)
@@ -88,6 +89,8 @@ pub fn write<const D: usize>(
         series_hash(&sim.series),
     ];
     scalars.extend(species_table.as_deref().map(text_hash));
+    let rigid_bodies = sim.rigid_bodies().map(|b| b.to_json());
+    scalars.extend(rigid_bodies.as_deref().map(text_hash));
     let sum = checksum(&mine, comm, &scalars);
     crate::output::create_dir_collective(dir, comm)?;
     let path = dir.join(file_name(sim.step));
@@ -110,6 +113,9 @@ pub fn write<const D: usize>(
     f.attr("/", "le_offset", &sim.sim_box.le_offset(sim.step, sim.dt()))?;
     f.attr_str("/", "case", &case_toml)?;
     f.attr_str("/", "checksum", &format!("{sum:016x}"))?;
+    if let Some(table) = &rigid_bodies {
+        f.attr_str("/", "rigid_bodies", table)?;
+    }
     f.group("particles")?;
     f.group("particles/fields")?;
     f.group("particles/var")?;
@@ -225,6 +231,8 @@ pub struct Restored<const D: usize> {
     /// The species table of a several-species scene (the particles' species are in
     /// `particles.species`).
     pub species: Option<Vec<crate::species::Species>>,
+    /// The rigid-body table (exact words as JSON), when the scene suspends bodies.
+    pub rigid_bodies: Option<String>,
 }
 
 /// The case echoed in a particle scene's checkpoint (any rank, independent).
@@ -409,6 +417,8 @@ fn read_particles<const D: usize>(
         series_hash(&series),
     ];
     scalars.extend(species_table.as_deref().map(text_hash));
+    let rigid_bodies = read_attr_str(f, "/", "rigid_bodies").ok();
+    scalars.extend(rigid_bodies.as_deref().map(text_hash));
     scalars.push(u64::from_str_radix(&stored_checksum, 16).map_err(|_| {
         format!(
             "{}: checksum attribute {stored_checksum:?} is not hexadecimal",
@@ -424,6 +434,7 @@ fn read_particles<const D: usize>(
             rebuild_step,
             series,
             species,
+            rigid_bodies,
         },
         scalars,
     ))
