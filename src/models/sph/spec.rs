@@ -308,7 +308,8 @@ impl FluidModel for SphCfg {
                          docs/validation.md): Wi = 1, 1 000 dumbbells per particle, p_t = 50: \
                          η −0.02 %, N₁ −0.2 % with a Lucy support of 4Δ, −0.9 % and −1.0 % \
                          with 3Δ (the particles' own stress within 0.1 % in both); Wi = 2, 3Δ: \
-                         particles' η and N₁ within 0.5 %, flux −1.2 %, −0.9 %. This scene: \
+                         particles' η and N₁ within 0.5 %, flux −1.2 %, −0.9 %; Wi = 4 with \
+                         p_t = 3 τ_xx: η +5 % (not resolved). This scene: \
                          Wi = {de:.3}, {} dumbbells per particle, support {:.2}Δ, p_t = {:.1} \
                          τ_xx",
                         poly.per_particle.unwrap_or(0),
