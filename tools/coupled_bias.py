@@ -40,11 +40,14 @@ LAMBDA = 1.0
 NOISE_SUFFIX = {"independent": "", "configuration_fields": "_cf"}
 
 
-def point_name(wi, nd, pb, density, seed, noise="independent"):
-    return f"wi{wi:g}_nd{nd}_pb{pb:g}_rho{density:g}_seed{seed}{NOISE_SUFFIX[noise]}"
+def point_name(wi, nd, pb, density, seed, noise="independent", pt=0.0, support=3.0):
+    """The folder of one point; the transport pressure and the support appear when they are not
+    the stock 0 and 3Δ (so the points run before they existed keep their names)."""
+    extra = (f"_pt{pt:g}" if pt else "") + (f"_h{support:g}" if support != 3.0 else "")
+    return f"wi{wi:g}_nd{nd}_pb{pb:g}{extra}_rho{density:g}_seed{seed}{NOISE_SUFFIX[noise]}"
 
 
-def overrides(wi, nd, pb, density, seed, noise="independent"):
+def overrides(wi, nd, pb, density, seed, noise="independent", pt=0.0, support=3.0):
     """The --set overrides of one point."""
     scale = max(1.0, wi / 2.0)
     spacing = 1.0 / math.sqrt(density)
@@ -58,9 +61,10 @@ def overrides(wi, nd, pb, density, seed, noise="independent"):
         f"box.shear_rate={wi}",
         f"particles.density={density}",
         f"particles.mass={1.0 / density}",
-        f"fluid.smoothing_length={3.0 * spacing}",
+        f"fluid.smoothing_length={support * spacing}",
         f"fluid.sound_speed={10.0 * scale}",
         f"fluid.background_pressure={pb}",
+        f"fluid.transport_pressure={pt}",
         f"fluid.polymer.per_particle={nd}",
         f'fluid.polymer.noise="{noise}"',
         f"integrator.dt={dt}",
@@ -73,15 +77,15 @@ def overrides(wi, nd, pb, density, seed, noise="independent"):
     ]
 
 
-def run_point(binary, out, wi, nd, pb, density, seed, threads, noise):
-    folder = os.path.join(out, point_name(wi, nd, pb, density, seed, noise))
+def run_point(binary, out, wi, nd, pb, density, seed, threads, noise, pt=0.0, support=3.0):
+    folder = os.path.join(out, point_name(wi, nd, pb, density, seed, noise, pt, support))
     summary = os.path.join(folder, "summary.json")
     if os.path.exists(summary):
         return summary
     cmd = [binary, "run", CASE, "--out", folder, "-q", "-t", str(threads)]
-    for s in overrides(wi, nd, pb, density, seed, noise):
+    for s in overrides(wi, nd, pb, density, seed, noise, pt, support):
         cmd += ["--set", s]
-    print("running", point_name(wi, nd, pb, density, seed, noise), flush=True)
+    print("running", point_name(wi, nd, pb, density, seed, noise, pt, support), flush=True)
     # A reference miss exits 3 (the stock case's references are for Wi = 1): not an error here.
     r = subprocess.run(cmd, capture_output=True, text=True)
     if r.returncode not in (0, 3) or not os.path.exists(summary):
@@ -97,9 +101,9 @@ def read_points(out):
             continue
         s = json.load(open(path))
         o = s["observables"]
-        fields = {"cf": 1.0 if name.endswith("_cf") else 0.0}
+        fields = {"cf": 1.0 if name.endswith("_cf") else 0.0, "pt": 0.0, "h": 3.0}
         for token in name.split("_"):
-            for key in ("wi", "nd", "pb", "rho", "seed"):
+            for key in ("wi", "nd", "pb", "pt", "h", "rho", "seed"):
                 if token.startswith(key):
                     fields[key] = float(token[len(key):])
         wi = fields["wi"]
@@ -123,10 +127,10 @@ def aggregate(rows):
     """Mean bias over seeds per setting, with its error bar."""
     groups = {}
     for r in rows:
-        groups.setdefault((r["cf"], r["wi"], r["nd"], r["pb"], r["rho"]), []).append(r)
+        groups.setdefault((r["cf"], r["wi"], r["nd"], r["pb"], r["pt"], r["h"], r["rho"]), []).append(r)
     out = []
     for key, members in sorted(groups.items()):
-        g = dict(zip(("cf", "wi", "nd", "pb", "rho"), key))
+        g = dict(zip(("cf", "wi", "nd", "pb", "pt", "h", "rho"), key))
         g["seeds"] = len(members)
         for label in ("eta_flux", "n1_flux", "eta_constitutive", "n1_constitutive"):
             values = [m[label] for m in members]
@@ -148,12 +152,12 @@ def report(out, png):
         w = csv.DictWriter(f, fieldnames=list(groups[0].keys()))
         w.writeheader()
         w.writerows(groups)
-    print("| noise | Wi | N_d | p_b | particles | seeds | η flux | N₁ flux | η constitutive | N₁ constitutive | core-s/run |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|")
+    print("| noise | Wi | N_d | p_b | p_t | h/Δ | particles | seeds | η flux | N₁ flux | η constitutive | N₁ constitutive | core-s/run |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     pct = lambda g, k: f"{100 * g[k]:+.2f} ± {100 * g[k + '_err']:.2f} %"
     for g in groups:
         print(
-            f"| {'configuration fields' if g['cf'] else 'independent'} | {g['wi']:g} | {g['nd']:g} | {g['pb']:g} | {g['rho']:g} | {g['seeds']} | "
+            f"| {'configuration fields' if g['cf'] else 'independent'} | {g['wi']:g} | {g['nd']:g} | {g['pb']:g} | {g['pt']:g} | {g['h']:g} | {g['rho']:g} | {g['seeds']} | "
             f"{pct(g, 'eta_flux')} | {pct(g, 'n1_flux')} | {pct(g, 'eta_constitutive')} | "
             f"{pct(g, 'n1_constitutive')} | {g['core_seconds']:.0f} |"
         )
@@ -169,17 +173,20 @@ def report(out, png):
         )
         colours = plt.get_cmap("tab10")
         for row, cf in zip(axes, kinds):
-            settings = sorted({(g["nd"], g["pb"], g["rho"]) for g in groups if g["cf"] == cf})
+            settings = sorted(
+                {(g["nd"], g["pb"], g["pt"], g["h"], g["rho"]) for g in groups if g["cf"] == cf}
+            )
             noise = "configuration fields" if cf else "independent noise"
             for ax, quantity, title in [
                 (row[0], "eta", "shear viscosity η"),
                 (row[1], "n1", "first normal stress difference N₁"),
             ]:
-                for c, (nd, pb, rho) in enumerate(settings):
+                for c, (nd, pb, pt, h, rho) in enumerate(settings):
                     sel = [
                         g
                         for g in groups
-                        if (g["cf"], g["nd"], g["pb"], g["rho"]) == (cf, nd, pb, rho)
+                        if (g["cf"], g["nd"], g["pb"], g["pt"], g["h"], g["rho"])
+                        == (cf, nd, pb, pt, h, rho)
                     ]
                     wi = [g["wi"] for g in sel]
                     for kind, style in (("flux", "-o"), ("constitutive", "--s")):
@@ -191,7 +198,7 @@ def report(out, png):
                             fmt=style,
                             color=colours(c % 10),
                             capsize=3,
-                            label=f"{kind}, N_d = {nd:g}, p_b = {pb:g}, N = {rho:g}",
+                            label=f"{kind}, N_d = {nd:g}, p_b = {pb:g}, p_t = {pt:g}, h = {h:g}Δ, N = {rho:g}",
                         )
                 ax.axhline(0.0, color="k", lw=0.8)
                 ax.set_xscale("log", base=2)
@@ -214,6 +221,20 @@ def main():
     a.add_argument("--pb", type=float, nargs="*", default=[5.0])
     a.add_argument("--seeds", type=int, nargs="*", default=[1])
     a.add_argument("--density", type=float, nargs="*", default=[400.0])
+    a.add_argument(
+        "--pt",
+        type=float,
+        nargs="*",
+        default=[0.0],
+        help="fluid.transport_pressure (the transport velocity; 0: none, points named …_ptP when set)",
+    )
+    a.add_argument(
+        "--support",
+        type=float,
+        nargs="*",
+        default=[3.0],
+        help="the smoothing length in lattice spacings (points named …_hS when not 3)",
+    )
     a.add_argument("--threads", type=int, default=1)
     a.add_argument(
         "--noise",
@@ -228,12 +249,15 @@ def main():
     for density in args.density:
         for nd in args.nd:
             for pb in args.pb:
-                for wi in args.wi:
-                    for seed in args.seeds:
-                        for noise in args.noise:
-                            run_point(
-                                args.binary, args.out, wi, nd, pb, density, seed, args.threads, noise
-                            )
+                for pt in args.pt:
+                    for support in args.support:
+                        for wi in args.wi:
+                            for seed in args.seeds:
+                                for noise in args.noise:
+                                    run_point(
+                                        args.binary, args.out, wi, nd, pb, density, seed,
+                                        args.threads, noise, pt, support,
+                                    )
     if args.report is not None:
         report(args.out, args.report or None)
 

@@ -997,8 +997,11 @@ def connffessit_shear():
         # p_b = 5 τ_xx (τ_xx = 2η_pλγ̇² = λ here, at least the stock 5): with less, the tension
         # feeds the SPH tensile instability at Wi = 3 (p_b = 5: η +5.8 %, N₁ +10 %, the UCM fluid
         # started from a perturbed lattice alike; p_b = 15: +0.17 %, +0.26 %).
+        # Lucy 3Δ and no transport velocity, pinned: the settings of the recorded table (the
+        # transport velocity's sweep is tools/coupled_bias.py --pt).
         return [f"fluid.polymer.relaxation_time={lam}", f"fluid.polymer.per_particle={n_d}",
                 f"fluid.background_pressure={5 * max(lam, 1.0)}",
+                "fluid.smoothing_length=0.15", "fluid.transport_pressure=0.0",
                 f"run.equilibration={round(t / dt)}", f"run.steps={round(2 * t / dt)}"]
 
     def rel(o, name, want):
@@ -1009,7 +1012,7 @@ def connffessit_shear():
                          .replace("per_particle = 100\n", "")
     print("### CONNFFESSIT in steady shear (cases/connffessit_shear_2d.toml)\n")
     print("Hookean dumbbells, η_s = η_p = 0.5 (G = η_p/λ), so η = 1 and N₁ = 2η_pλγ̇² = Wi at every Wi "
-          "(Oldroyd-B). 400 particles, Δt = 1.5·10⁻³, background pressure p_b = 5 max(Wi, 1) (5 τ_xx), averaged over t ∈ [9λ', 18λ'], λ' = max(λ, 1); "
+          "(Oldroyd-B). 400 particles, Δt = 1.5·10⁻³, Lucy support 3Δ, background pressure p_b = 5 max(Wi, 1) (5 τ_xx) and no transport velocity, averaged over t ∈ [9λ', 18λ'], λ' = max(λ, 1); "
           "errors relative, ± the run's block standard error (about half the seed-to-seed spread, "
           "see the case file). The UCM SPH fluid (model = \"upper_convected_maxwell\") on the same "
           "particles beside it.\n")

@@ -75,7 +75,7 @@ pub const KEYS: &[KeyDoc] = &[
         "fluid.transport_pressure",
         "float ≥ 0",
         "0.0",
-        "Transport-velocity background pressure p_t (sph; Adami, Hu & Adams, J. Comput. Phys. 241 (2013) 292): particles drift with v + ½Δt a_t, a_t = −m p_t Σ_j (1/ρ_i² + 1/ρ_j²) ∇W_ij, which keeps their arrangement uniform like fluid.background_pressure but exchanges no momentum, so the measured stress carries none of the lattice's pressure virial (in sheared CONNFFESSIT flows: N₁ +2.6 % with background_pressure = 5, see docs/theory/sph_maxwell.md §1.14). Their A = ρv(v̂ − v) term is omitted (order Δt p_t). Needs kick_drift_kick and density = \"summation\".",
+        "Transport-velocity background pressure p_t (sph; Adami, Hu & Adams, J. Comput. Phys. 241 (2013) 292): particles drift with v + ½Δt a_t, a_t = −m p_t Σ_j (1/ρ_i² + 1/ρ_j²) ∇W_ij, which keeps their arrangement uniform like fluid.background_pressure but exchanges no momentum, so the measured stress carries none of the lattice's pressure virial (in sheared CONNFFESSIT flows: N₁ +2.6 % with background_pressure = 5, see docs/theory/sph_maxwell.md §1.14). Their A = ρv(v̂ − v) term is omitted (order Δt p_t). With dumbbell ensembles in shear use p_t ≥ 12 τ_xx (measured at Wi = 4: 6 τ_xx reads η +4 %, 12.5 τ_xx +0.4 %; `check` notes a smaller one). Needs kick_drift_kick and density = \"summation\".",
     ),
     key(
         "fluid.velocity_gradient",

@@ -14,6 +14,11 @@ use crate::models::interface::ParticleModel;
 use crate::observable::Observable;
 use crate::spans::{CaseError, SpanIndex};
 
+/// The smallest transport pressure, in units of the steady-shear tension τ_xx, that holds a
+/// CONNFFESSIT fluid's particles ordered against its ensembles' noise (measured at Wi = 4:
+/// 6 τ_xx reads η +4 %, 12.5 τ_xx +0.4 %; docs/validation.md).
+pub const TRANSPORT_PRESSURE_PER_TENSION: f64 = 12.0;
+
 impl KindTraits for SphCfg {
     const CARRIES_BOUNDARY_PARTICLES: bool = true;
     const KEYS: &'static [crate::key_doc::KeyDoc] = super::keys::KEYS;
@@ -266,6 +271,20 @@ impl FluidModel for SphCfg {
                         sph.transport_pressure,
                         sph.transport_pressure / tension
                     ));
+                    if poly.is_ensemble()
+                        && sph.transport_pressure < TRANSPORT_PRESSURE_PER_TENSION * tension
+                    {
+                        // docs/validation.md, "Wi = 4: the transport pressure against τ_xx".
+                        line(format!(
+                            "  note: below {TRANSPORT_PRESSURE_PER_TENSION} τ_xx the transport \
+                             velocity does not hold the particles the ensembles' noise disorders \
+                             (measured, CONNFFESSIT shear at Wi = 4, τ_xx = 16, 1 000 dumbbells \
+                             per particle, Lucy 4Δ: p_t = 3 and 6 τ_xx read η +5.0 % and +4.0 %, \
+                             12.5 τ_xx +0.4 %, 25 τ_xx −0.8 % with the particles' own stress \
+                             within 0.2 %): raise fluid.transport_pressure to about {:.0}",
+                            2.0 * TRANSPORT_PRESSURE_PER_TENSION * tension
+                        ));
+                    }
                 } else if sph.background_pressure > 0.0 {
                     line(format!(
                         "  note: the background pressure's pair forces carry momentum, and on a \
@@ -304,14 +323,14 @@ impl FluidModel for SphCfg {
                     // ("The background pressure's virial, and the transport velocity").
                     line(format!(
                         "  expected bias of the measured η and N₁ (the momentum flux; 2D \
-                         CONNFFESSIT shear with the transport velocity, measured 2026-11-27, \
-                         docs/validation.md): Wi = 1, 1 000 dumbbells per particle, p_t = 50: \
-                         η −0.02 %, N₁ −0.2 % with a Lucy support of 4Δ, −0.9 % and −1.0 % \
-                         with 3Δ (the particles' own stress within 0.1 % in both); Wi = 2, 3Δ: \
-                         particles' η and N₁ within 0.5 %, flux −1.2 %, −0.9 %; Wi = 4 with \
-                         p_t = 3 τ_xx: η +5 % (not resolved). This scene: \
-                         Wi = {de:.3}, {} dumbbells per particle, support {:.2}Δ, p_t = {:.1} \
-                         τ_xx",
+                         CONNFFESSIT shear, Lucy 4Δ, the transport velocity at p_t ≥ 12 τ_xx; \
+                         measured 2026-11-27, tools/coupled_bias.py and docs/validation.md): \
+                         1 000 dumbbells per particle: within 0.05 % (η) and 0.35 % (N₁) at \
+                         Wi ≤ 1, −0.5 % and −0.7 % at Wi = 2, +0.4 % and +0.6 % at Wi = 4 \
+                         (p_t = 12.5 τ_xx; −0.8 %, −0.7 % at 25 τ_xx); 100 per particle: η \
+                         −0.3 to −0.9 %, N₁ −0.8 to −1.4 % at Wi = 0.5–2; a 3Δ support reads \
+                         about 1 % lower. This scene: Wi = {de:.3}, {} dumbbells per particle, \
+                         support {:.2}Δ, p_t = {:.1} τ_xx",
                         poly.per_particle.unwrap_or(0),
                         sph.support() / case.lattice_spacing(),
                         sph.transport_pressure / tension
