@@ -30,6 +30,11 @@ struct Cli {
     /// at trace, every rebuild.
     #[arg(long, global = true, value_name = "LEVEL", value_parser = log_level)]
     log_level: Option<String>,
+    /// `run` and `restart`: draw no PNGs at the end (OUT/observables.png, and
+    /// OUT/velocity_profile.png where the case records a velocity profile; drawn with the
+    /// matplotlib of MESORHEO_PYTHON, else python3).
+    #[arg(long, global = true)]
+    no_plots: bool,
     #[command(subcommand)]
     command: Command,
 }
@@ -344,6 +349,7 @@ fn main() -> ExitCode {
                 quiet: cli.quiet,
                 verbose: cli.verbose,
                 file_level: cli.log_level.clone(),
+                plots: !cli.no_plots,
             };
             session(&*comm, &out, &logs, |comm| match &loaded.scene {
                 config::CaseScene::HomogeneousFlow(flow) => {
@@ -411,6 +417,7 @@ fn main() -> ExitCode {
                 quiet: cli.quiet,
                 verbose: cli.verbose,
                 file_level: cli.log_level.clone(),
+                plots: !cli.no_plots,
             };
             session(&*comm, &out, &logs, |comm| {
                 restart_case(&checkpoint, comm, &options)
@@ -540,6 +547,44 @@ struct Logs {
     verbose: bool,
     /// `--log-level`: the level of the per-rank files.
     file_level: Option<String>,
+    /// Whether the run draws its PNGs at the end (not `--no-plots`).
+    plots: bool,
+}
+
+/// The script that draws a run's PNGs from OUT/observables.csv and OUT/summary.json.
+const RUN_PLOTS: &str = include_str!("run_plots.py");
+
+/// Draws OUT/observables.png and, where the case records a velocity profile,
+/// OUT/velocity_profile.png with the matplotlib of [`python`] (the mechanism of `study` and
+/// `stability`); returns the PNGs written, or why there are none (one line).
+fn draw_run_plots(out: &std::path::Path) -> Result<Vec<PathBuf>, String> {
+    if !out.join(mesorheo::observables_csv::FILE_NAME).exists() {
+        return Ok(Vec::new());
+    }
+    let python = python();
+    let o = std::process::Command::new(&python)
+        .arg("-c")
+        .arg(RUN_PLOTS)
+        .arg(out)
+        .output()
+        .map_err(|e| {
+            format!(
+                "cannot start {} ({e}); set MESORHEO_PYTHON to a Python with matplotlib",
+                python.display()
+            )
+        })?;
+    if !o.status.success() {
+        let stderr = String::from_utf8_lossy(&o.stderr);
+        return Err(format!(
+            "{}: {}",
+            python.display(),
+            stderr.lines().last().unwrap_or("failed")
+        ));
+    }
+    Ok(String::from_utf8_lossy(&o.stdout)
+        .lines()
+        .map(PathBuf::from)
+        .collect())
 }
 
 /// The target of the log records that only the files take (the console shows the same text in
@@ -584,6 +629,17 @@ fn session(
                     tracing::warn!(target: FILES_ONLY, "{w}");
                 }
                 tracing::info!("wrote {}/summary.json", out.display());
+                if logs.plots {
+                    match draw_run_plots(out) {
+                        Ok(pngs) => {
+                            for png in pngs {
+                                tracing::info!("wrote {}", png.display());
+                            }
+                        }
+                        // A missing Python or matplotlib is a note, never a failure.
+                        Err(e) => eprintln!("note: no plots ({e})"),
+                    }
+                }
             }
             if summary.validation.iter().all(|v| v.pass) {
                 ExitCode::SUCCESS

@@ -43,6 +43,26 @@ impl Species {
         }
     }
 
+    /// The snapshot group of its particles (`/particles/<group>` in `OUT/snapshots.h5`, one
+    /// XDMF grid each, so a viewer shows them apart): `fluid` for a fluid species, else the last
+    /// word of its name in lower case ("lower wall" and "upper wall" → `wall`, "inclusion" →
+    /// `inclusion`).
+    pub fn group(&self) -> String {
+        if self.is_fluid() {
+            return "fluid".into();
+        }
+        let word = self.name.split_whitespace().last().unwrap_or("boundary");
+        word.chars()
+            .map(|c| {
+                if c.is_ascii_alphanumeric() {
+                    c.to_ascii_lowercase()
+                } else {
+                    '_'
+                }
+            })
+            .collect()
+    }
+
     /// Whether its particles are fluid (integrated with the forces, counted in diagnostics).
     pub fn is_fluid(&self) -> bool {
         self.motion == Motion::Free

@@ -50,7 +50,7 @@ checkpoint_every = 1000
 checkpoint_keep = 2
 checkpoint_at_end = false
 snapshot_every = 100
-snapshot_fields = ["position", "force"]
+snapshot_fields = ["position", "force", "unwrapped_position", "species"]
 [diagnostics]
 observables = ["temperature", "velocity_profile"]
 profile_bins = 4

@@ -145,6 +145,7 @@ fn shear_run(cwd: &Path, out: &str, extra: &[&str], env: &[(&str, &str)]) -> Str
         "reference=[]",
         "--set",
         "diagnostics.blocks=2",
+        "--no-plots",
     ];
     args.extend_from_slice(extra);
     let (code, err) = mesorheo(cwd, &args, env);

@@ -328,3 +328,252 @@ fn the_xdmf_gives_viewers_n_by_3_vectors_in_2d_and_3d() {
         );
     }
 }
+
+/// The 2D cell of `cases/inclusion_maxwell_2d.toml` (corotational Maxwell SPH around a fixed
+/// cylinder: 2500 particles, of which the inclusion's are boundary particles), a few steps
+/// with a frame every 3, writing `fields`.
+fn inclusion_2d(fields: &str) -> String {
+    common::stock_text_with(
+        "inclusion_maxwell_2d.toml",
+        &[
+            "reference=[]",
+            "run.steps=6",
+            "run.equilibration=0",
+            "run.sample_every=1",
+            "diagnostics.blocks=2",
+            "diagnostics.observables=[\"viscosity\"]",
+            "output.snapshot_every=3",
+            &format!("output.snapshot_fields={fields}"),
+        ],
+    )
+}
+
+/// The 3D CONNFFESSIT case of `cases/connffessit_shear_3d.toml` shrunk to 8³ SPH particles of
+/// 10 Hookean dumbbells each, a few steps with a frame every 2.
+fn connffessit_3d(fields: &str) -> String {
+    common::stock_text_with(
+        "connffessit_shear_3d.toml",
+        &[
+            "reference=[]",
+            "particles.density=512.0",
+            "particles.mass=0.001953125",
+            "fluid.smoothing_length=0.375",
+            "fluid.polymer.per_particle=10",
+            "run.steps=4",
+            "run.equilibration=0",
+            "run.sample_every=1",
+            "diagnostics.blocks=2",
+            "diagnostics.observables=[\"viscosity\"]",
+            "output.snapshot_every=2",
+            &format!("output.snapshot_fields={fields}"),
+        ],
+    )
+}
+
+/// Every field an SPH case offers, and the engine's, in 2D (with an inclusion: its particles
+/// are their own group) and in 3D (CONNFFESSIT: τ and ⟨QQ⟩ of each particle's dumbbells),
+/// read through the XDMF by tools/check_xdmf.py and VTK's vtkXdmfReader: vectors N × 3,
+/// tensors `Tensor6` (N × 6, padded in 2D), scalars N, one grid per group with the group's
+/// particles only. Mutations: writing every particle into `fluid` (`Species::group` returning
+/// "fluid") leaves no `inclusion` group; dropping the parentheses of the 2D tensor `JOIN` makes
+/// VTK read xy as 0; the 3D ⟨QQ⟩ summed instead of averaged fails the value check below.
+#[test]
+fn model_fields_and_particle_groups_read_through_the_xdmf_in_2d_and_3d() {
+    let Ok(python) = std::env::var("MESORHEO_PYTHON") else {
+        assert!(
+            std::env::var("MESORHEO_REQUIRE_PYTHON").is_err(),
+            "MESORHEO_PYTHON is not set"
+        );
+        common::report_skip(
+            "the XDMF reader check of model fields",
+            "set MESORHEO_PYTHON to a Python with h5py (./run test does)",
+        );
+        return;
+    };
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tools/check_xdmf.py");
+    let dir = tempfile::tempdir().expect("tempdir");
+    let cases = [
+        (
+            2,
+            inclusion_2d(
+                "[\"position\", \"velocity\", \"density\", \"pressure\", \"polymer_stress\", \
+                 \"species\", \"unwrapped_position\", \"image\"]",
+            ),
+            "vectors N × 3: image, unwrapped_position, velocity; tensors N × 6: polymer_stress; \
+             scalars: density, pressure, species; groups: fluid (",
+        ),
+        (
+            3,
+            connffessit_3d(
+                "[\"position\", \"velocity\", \"force\", \"density\", \"pressure\", \
+                 \"polymer_stress\", \"conformation\", \"species\"]",
+            ),
+            "vectors N × 3: force, velocity; tensors N × 6: conformation, polymer_stress; \
+             scalars: density, pressure, species; groups: fluid (512)",
+        ),
+    ];
+    for (dimension, text, expected) in cases {
+        let out = dir.path().join(format!("d{dimension}"));
+        run(&text, 1, &out, None);
+        let mut cmd = std::process::Command::new(&python);
+        cmd.arg(&script).arg(out.join("snapshots.xdmf"));
+        if std::env::var("MESORHEO_REQUIRE_PYTHON").is_ok() {
+            cmd.arg("--require-vtk");
+        }
+        let o = cmd.output().expect("python");
+        let stdout = String::from_utf8_lossy(&o.stdout);
+        assert!(
+            o.status.success(),
+            "{dimension}D: {stdout}\n{}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+        assert!(stdout.contains(expected), "{dimension}D: {stdout}");
+        assert!(
+            stdout.contains(&format!("({dimension}D)")),
+            "{dimension}D: {stdout}"
+        );
+        let h5 = content(&out.join("snapshots.h5"));
+        let get = |name: &str| {
+            h5.iter()
+                .find(|(n, _, _)| n == name)
+                .unwrap_or_else(|| panic!("{name} missing"))
+                .clone()
+        };
+        if dimension == 2 {
+            // The inclusion's particles apart, the fluid without them; τ packed (xx, xy, yy).
+            assert!(
+                stdout.contains("inclusion ("),
+                "no inclusion group: {stdout}"
+            );
+            let (_, fluid_shape, _) = get("/particles/fluid/polymer_stress/value");
+            let (_, inclusion_shape, species) = get("/particles/inclusion/species");
+            // Frames at steps 3 and 6.
+            assert_eq!(fluid_shape[0], 2);
+            assert_eq!(fluid_shape[2], 3);
+            assert_eq!(fluid_shape[1] + inclusion_shape[0], 2500);
+            // (`content` reads the i32 species as f64 bit patterns.)
+            assert!(
+                species.iter().all(|&s| f64::from_bits(s) == 3.0),
+                "inclusion species {:?}",
+                species
+                    .iter()
+                    .map(|&s| f64::from_bits(s))
+                    .collect::<Vec<_>>()
+            );
+        } else {
+            // ⟨QQ⟩ of Hookean dumbbells starts near equilibrium: its trace is about 3 (the
+            // connectors' unit), not 10 × 3 (a sum over the 10 dumbbells).
+            let (_, shape, bits) = get("/particles/fluid/conformation/value");
+            assert_eq!(shape, vec![2, 512, 6]);
+            let v: Vec<f64> = bits.iter().map(|&b| f64::from_bits(b)).collect();
+            let trace: f64 =
+                v.chunks_exact(6).map(|t| t[0] + t[3] + t[5]).sum::<f64>() / (v.len() / 6) as f64;
+            assert!((trace - 3.0).abs() < 0.3, "mean tr⟨QQ⟩ = {trace}");
+        }
+    }
+}
+
+/// The model fields and the particle groups are written in global-id order: the datasets of
+/// the 2D inclusion cell are bitwise the same on 1 and 2 in-process ranks (mutation: writing
+/// a group's rows at the rank's block start instead of its offset in the group, `g.start` →
+/// `0`, mixes the ranks' rows).
+#[test]
+fn model_fields_and_groups_are_the_same_on_1_and_2_ranks() {
+    let text = inclusion_2d(
+        "[\"position\", \"velocity\", \"density\", \"pressure\", \"polymer_stress\", \
+         \"species\", \"unwrapped_position\"]",
+    );
+    let dir = tempfile::tempdir().expect("tempdir");
+    let mut first: Option<Vec<_>> = None;
+    for ranks in [1, 2] {
+        let out = dir.path().join(format!("r{ranks}"));
+        run(&text, ranks, &out, None);
+        let c = content(&out.join("snapshots.h5"));
+        let names: Vec<&str> = c.iter().map(|(n, _, _)| n.as_str()).collect();
+        for want in [
+            "/particles/fluid/density/value",
+            "/particles/fluid/polymer_stress/value",
+            "/particles/inclusion/pressure/value",
+            "/particles/inclusion/species",
+            "/particles/fluid/unwrapped_position/value",
+        ] {
+            assert!(names.contains(&want), "{want} missing: {names:?}");
+        }
+        let c0 = first.get_or_insert(c.clone());
+        assert_eq!(c.len(), c0.len());
+        for ((n, s, v), (n0, s0, v0)) in c.iter().zip(c0.iter()) {
+            assert_eq!((n, s), (n0, s0), "{ranks} ranks");
+            assert!(v == v0, "{n} differs between 1 and {ranks} ranks");
+        }
+    }
+}
+
+/// The run draws its pictures itself at the end, with the matplotlib of MESORHEO_PYTHON (the
+/// mechanism of `study` and `stability`): `observables.png` (every column of
+/// `observables.csv` against time) and, for a case that records a velocity profile,
+/// `velocity_profile.png` against its `linear_shear_profile` reference; both valid PNGs. A
+/// Python that cannot be started costs the pictures and one note line, never the run (exit 0);
+/// `--no-plots` draws none. Mutation: dropping the `draw_run_plots` call from `session` leaves
+/// no PNG.
+#[test]
+fn a_run_draws_its_observables_and_velocity_profile_as_png() {
+    let Ok(python) = std::env::var("MESORHEO_PYTHON") else {
+        assert!(
+            std::env::var("MESORHEO_REQUIRE_PYTHON").is_err(),
+            "MESORHEO_PYTHON is not set"
+        );
+        common::report_skip(
+            "the run's PNGs",
+            "set MESORHEO_PYTHON to a Python with matplotlib (./run test does)",
+        );
+        return;
+    };
+    let dir = tempfile::tempdir().expect("tempdir");
+    let case_file = dir.path().join("shear.toml");
+    let text = format!(
+        "{}\n[[reference]]\nkind = \"linear_shear_profile\"\nname = \"linear profile\"\n\
+         tolerance = 100.0\n",
+        case(60, "")
+    );
+    std::fs::write(&case_file, text).expect("case");
+    let run_binary = |out: &str, python: &str, extra: &[&str]| {
+        let o = std::process::Command::new(env!("CARGO_BIN_EXE_mesorheo"))
+            .arg("run")
+            .arg(&case_file)
+            .args(["--out", out, "-q", "-t", "1"])
+            .args(extra)
+            .current_dir(dir.path())
+            .env("MESORHEO_PYTHON", python)
+            .output()
+            .expect("run the binary");
+        let stderr = String::from_utf8_lossy(&o.stderr).into_owned();
+        assert_eq!(o.status.code(), Some(0), "{stderr}");
+        stderr
+    };
+    let png = |out: &str, name: &str| std::fs::read(dir.path().join(out).join(name)).ok();
+    let stderr = run_binary("drawn", &python, &[]);
+    assert!(!stderr.contains("no plots"), "{stderr}");
+    for name in ["observables.png", "velocity_profile.png"] {
+        let bytes = png("drawn", name).unwrap_or_else(|| panic!("no {name}: {stderr}"));
+        assert!(
+            bytes.starts_with(b"\x89PNG\r\n\x1a\n") && bytes.len() > 5000,
+            "{name}: {} bytes, not a PNG",
+            bytes.len()
+        );
+    }
+    let stderr = run_binary("no_python", "/nonexistent/python", &[]);
+    assert_eq!(
+        stderr
+            .lines()
+            .filter(|l| l.starts_with("note: no plots (cannot start /nonexistent/python"))
+            .count(),
+        1,
+        "{stderr}"
+    );
+    assert!(png("no_python", "observables.png").is_none());
+    let stderr = run_binary("not_asked", &python, &["--no-plots"]);
+    assert!(
+        png("not_asked", "observables.png").is_none() && !stderr.contains("no plots"),
+        "{stderr}"
+    );
+}

@@ -2,7 +2,7 @@
 
     python docs/snippets/read_snapshots.py OUT/snapshots.h5
 
-Prints the frames, the mean velocity of the last frame and the sampled viscosity, then checks
+Prints the frames of the fluid group, the mean velocity of the last frame and the sampled viscosity, then checks
 that every HDF5 dataset the XDMF sidecar (OUT/snapshots.xdmf) points to exists with the
 declared dimensions. Exits non-zero on any mismatch (the test suite runs it).
 """
@@ -35,7 +35,10 @@ with h5py.File(path, "r") as f:
     # The XDMF sidecar must point at datasets that exist, with the declared dimensions.
     xdmf = path.with_suffix(".xdmf")
     root = ET.parse(xdmf).getroot()
-    grids = root.findall("./Domain/Grid/Grid")
+    # One temporal collection per particle group (fluid, and wall or inclusion where present).
+    groups = [g.get("Name") for g in root.findall("./Domain/Grid")]
+    assert sorted(groups) == sorted(f["particles"].keys()), (groups, list(f["particles"].keys()))
+    grids = root.findall("./Domain/Grid[@Name='fluid']/Grid")
     assert len(grids) == len(steps), f"{len(grids)} XDMF grids, {len(steps)} frames"
     checked = 0
     for item in root.iter("DataItem"):
@@ -48,5 +51,5 @@ with h5py.File(path, "r") as f:
         assert f[dataset].shape == dims, f"{dataset}: XDMF says {dims}, file has {f[dataset].shape}"
         checked += 1
     for grid, step in zip(grids, steps):
-        assert grid.get("Name") == f"step_{step}", grid.get("Name")
-    print(f"XDMF sidecar OK ({len(grids)} frames, {checked} dataset references)")
+        assert grid.get("Name") == f"fluid_step_{step}", grid.get("Name")
+    print(f"XDMF sidecar OK ({len(grids)} frames, {checked} dataset references, groups {', '.join(groups)})")

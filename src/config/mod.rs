@@ -123,7 +123,9 @@ impl Default for OutputCfg {
     }
 }
 
-/// Per-particle fields a snapshot can hold.
+/// Per-particle fields a snapshot can hold: the engine's (every case has them) and the names a
+/// fluid model may provide ([`crate::models::fluid_model::FluidModel::snapshot_quantities`]
+/// says which it does in a case, and its particle models give the values).
 #[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq, Eq, Hash, PartialOrd, Ord)]
 #[serde(rename_all = "snake_case")]
 pub enum SnapshotField {
@@ -135,9 +137,35 @@ pub enum SnapshotField {
     Force,
     /// Periodic image counts.
     Image,
+    /// Positions with the periodic crossings undone, r + n ∘ L.
+    UnwrappedPosition,
+    /// The species number of each particle (time-independent).
+    Species,
+    /// A model's density (SPH, generic_polymer).
+    Density,
+    /// A model's pressure (SPH: its equation of state at the particle's density).
+    Pressure,
+    /// A model's polymer stress τ (symmetric tensor).
+    PolymerStress,
+    /// A model's conformation ⟨QQ⟩ (symmetric tensor).
+    Conformation,
 }
 
 impl SnapshotField {
+    /// Every field, in the order of the enum.
+    pub const ALL: [SnapshotField; 10] = [
+        SnapshotField::Position,
+        SnapshotField::Velocity,
+        SnapshotField::Force,
+        SnapshotField::Image,
+        SnapshotField::UnwrappedPosition,
+        SnapshotField::Species,
+        SnapshotField::Density,
+        SnapshotField::Pressure,
+        SnapshotField::PolymerStress,
+        SnapshotField::Conformation,
+    ];
+
     /// Name of the H5MD element.
     pub fn name(self) -> &'static str {
         match self {
@@ -145,7 +173,26 @@ impl SnapshotField {
             SnapshotField::Velocity => "velocity",
             SnapshotField::Force => "force",
             SnapshotField::Image => "image",
+            SnapshotField::UnwrappedPosition => "unwrapped_position",
+            SnapshotField::Species => "species",
+            SnapshotField::Density => "density",
+            SnapshotField::Pressure => "pressure",
+            SnapshotField::PolymerStress => "polymer_stress",
+            SnapshotField::Conformation => "conformation",
         }
+    }
+
+    /// Whether the engine writes it for every case (else a fluid model must provide it).
+    pub fn is_engine_field(self) -> bool {
+        matches!(
+            self,
+            SnapshotField::Position
+                | SnapshotField::Velocity
+                | SnapshotField::Force
+                | SnapshotField::Image
+                | SnapshotField::UnwrappedPosition
+                | SnapshotField::Species
+        )
     }
 }
 

@@ -258,9 +258,9 @@ const LATER_KEYS: &[KeyDoc] = &[
     ),
     key(
         "output.snapshot_fields",
-        "array of \"position\" | \"velocity\" | \"force\" | \"image\"",
+        "array of \"position\" | \"velocity\" | \"force\" | \"image\" | \"unwrapped_position\" | \"species\" | \"density\" | \"pressure\" | \"polymer_stress\" | \"conformation\"",
         "[\"position\", \"velocity\", \"image\"]",
-        "Per-particle fields of each snapshot frame (written in global-id order).",
+        "Per-particle fields of each snapshot frame, written in global-id order in one H5MD group per kind of particle (/particles/fluid, /particles/wall, /particles/inclusion; one XDMF grid each); \"position\" is required. Every case: position, velocity, force, image (periodic crossings n), unwrapped_position (r + n∘L), species (the species number, written once). The fluid model's, where it offers them (an error lists what a case offers): sph: density, pressure (its equation of state), polymer_stress (τ, with [fluid.polymer]; CONNFFESSIT: the Kramers τ of the particle's dumbbells), conformation (⟨QQ⟩ over the particle's dumbbells, explicit dumbbells only); generic_polymer: density, conformation (Q Q). Tensors are symmetric: the upper triangle row by row, XDMF Tensor6 (padded with zeros in 2D).",
     ),
     key(
         "diagnostics.observables",

@@ -244,6 +244,37 @@ impl<const D: usize> ParticleModel<D> for DumbbellEnsemble<D> {
         ]
     }
 
+    /// `conformation`: the mean ⟨QQ⟩ over each owned particle's explicit dumbbells (packed
+    /// upper triangle; 0 for a particle without dumbbells); `polymer_stress`: their Kramers τ_p.
+    fn snapshot_values(&self, name: &str, p: &Particles<D>) -> Option<Vec<f64>> {
+        let n = p.n_owned;
+        let w = packed_width(D);
+        match name {
+            "conformation" if self.grid.is_none() => {
+                let rows = &p.var[self.connectors].data;
+                let mut out = vec![0.0; n * w];
+                let mut q = Vec::new();
+                for (i, o) in out.chunks_mut(w).enumerate().take(rows.len()) {
+                    q.clear();
+                    rows.extend_f64(i, &mut q);
+                    let count = q.len() / D;
+                    if count == 0 {
+                        continue;
+                    }
+                    for a in 0..D {
+                        for b in a..D {
+                            let sum: f64 = q.chunks_exact(D).map(|v| v[a] * v[b]).sum();
+                            o[packed_index::<D>(a, b)] = sum / count as f64;
+                        }
+                    }
+                }
+                Some(out)
+            }
+            "polymer_stress" => Some(p.extra[self.stress].data[..n * w].to_vec()),
+            _ => None,
+        }
+    }
+
     fn attach(&mut self, p: &mut Particles<D>, restarted: bool) -> Result<(), Error> {
         let state = self.state_field();
         self.connectors = (p.var.iter().position(|f| f.name == state))

@@ -259,6 +259,13 @@ pub trait FluidModel: Send + Sync {
         None
     }
 
+    /// The per-particle quantities it offers to the snapshots in this case, besides the
+    /// engine's (`output.snapshot_fields`; [`super::interface::SnapshotQuantity`]); its particle
+    /// models give their values ([`ParticleModel::snapshot_values`]).
+    fn snapshot_quantities(&self, _case: &dyn CaseView) -> Vec<super::interface::SnapshotQuantity> {
+        Vec::new()
+    }
+
     /// The continuum it discretises, when it has one ([`Continuum`]).
     fn continuum(&self) -> Option<Continuum> {
         None

@@ -88,6 +88,38 @@ pub struct FieldSpec {
     pub flags: FieldFlags,
 }
 
+/// The shape of a per-particle quantity a model offers to the snapshots.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SnapshotShape {
+    /// One number per particle.
+    Scalar,
+    /// A symmetric D × D tensor, its upper triangle packed row by row (2D: xx, xy, yy; 3D: xx,
+    /// xy, xz, yy, yz, zz, XDMF's `Tensor6` order).
+    SymmetricTensor,
+}
+
+impl SnapshotShape {
+    /// Numbers per particle in `dimension` dimensions.
+    pub fn width(self, dimension: usize) -> usize {
+        match self {
+            SnapshotShape::Scalar => 1,
+            SnapshotShape::SymmetricTensor => dimension * (dimension + 1) / 2,
+        }
+    }
+}
+
+/// A per-particle quantity a fluid model offers to the snapshots (`output.snapshot_fields`):
+/// declared by the fluid model for a case
+/// ([`crate::models::fluid_model::FluidModel::snapshot_quantities`]), its values given by one of
+/// the particle models the case runs ([`ParticleModel::snapshot_values`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SnapshotQuantity {
+    /// Its `output.snapshot_fields` name, which is also its H5MD element.
+    pub name: &'static str,
+    /// Its shape.
+    pub shape: SnapshotShape,
+}
+
 /// A pair pass a model declares.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct PassSpec {
@@ -249,6 +281,14 @@ pub trait ParticleModel<const D: usize>: Send + Sync {
     ) -> Vec<(String, f64)> {
         let _ = (o, sums, ctx);
         Vec::new()
+    }
+
+    /// The values of the snapshot quantity `name` ([`SnapshotQuantity`]) of every owned
+    /// particle, in the rank's order, [`SnapshotShape::width`] numbers each; `None` when this
+    /// model does not give it (the engine asks the models in order and takes the first answer).
+    fn snapshot_values(&self, name: &str, particles: &Particles<D>) -> Option<Vec<f64>> {
+        let _ = (name, particles);
+        None
     }
 
     /// Events this rank counted since the process started (a restart counts afresh) that the

@@ -55,6 +55,20 @@ pub fn describe(path: &std::path::Path) -> Result<String, String> {
             _ => s.push_str("  frames: 0\n"),
         }
     }
+    if f.link_exists("h5md")
+        && let Ok(p) = f.group("particles")
+    {
+        let mut groups = Vec::new();
+        for name in p.member_names().unwrap_or_default() {
+            let n = p
+                .dataset(&format!("{name}/id"))
+                .map_or(0, |d| d.shape().first().copied().unwrap_or(0));
+            groups.push(format!("{name} ({n})"));
+        }
+        // The fluid first, as the run writes them.
+        groups.sort_by_key(|g| !g.starts_with("fluid "));
+        s.push_str(&format!("  particle groups: {}\n", groups.join(", ")));
+    }
     s.push_str("  datasets:\n");
     let mut lines = Vec::new();
     walk(&f, "", &mut lines).map_err(|e| e.to_string())?;

@@ -573,6 +573,15 @@ impl<'c, const D: usize> Simulation<'c, D> {
         &self.species
     }
 
+    /// The values of the snapshot quantity `name` of the owned particles (in the rank's order),
+    /// from the first model that gives it
+    /// ([`crate::models::interface::ParticleModel::snapshot_values`]).
+    pub fn snapshot_values(&self, name: &str) -> Option<Vec<f64>> {
+        self.models
+            .iter()
+            .find_map(|m| m.snapshot_values(name, &self.particles))
+    }
+
     /// Owned particles (no ghosts) with the list-build positions as the extra field
     /// [`LIST_REFERENCE_FIELD`]: everything a checkpoint must hold. Fields derived anew every
     /// step ([`crate::particles::FieldFlags::checkpointed`] unset) are left out. The

@@ -292,6 +292,7 @@ pub fn launch(
             "--out",
             &dir.display().to_string(),
             "-q",
+            "--no-plots",
             "-t",
             &how.threads.to_string(),
         ]

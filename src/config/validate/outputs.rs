@@ -19,13 +19,44 @@ pub(super) fn validate_outputs(case: &Case, ix: &SpanIndex) -> Result<(), CaseEr
             "found 0; keep at least 1 checkpoint (a restart needs one)".to_owned(),
         );
     }
+    // The engine's fields, then those the fluid model offers in this case.
+    let offered = case.fluid.model().snapshot_quantities(case);
+    let available: Vec<&str> = crate::config::SnapshotField::ALL
+        .iter()
+        .filter(|f| f.is_engine_field())
+        .map(|f| f.name())
+        .chain(offered.iter().map(|q| q.name))
+        .collect();
+    let listed = || {
+        available
+            .iter()
+            .map(|n| format!("\"{n}\""))
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
     if o.snapshot_every > 0 && o.snapshot_fields.is_empty() {
         return err(
             &["output", "snapshot_fields"],
-            "found an empty list with snapshot_every > 0; name at least one of \
-             \"position\", \"velocity\", \"force\", \"image\""
-                .to_owned(),
+            format!(
+                "found an empty list with snapshot_every > 0; name at least \"position\" \
+                 (this case offers {})",
+                listed()
+            ),
         );
+    }
+    for (i, f) in o.snapshot_fields.iter().enumerate() {
+        if !available.contains(&f.name()) {
+            return Err(ix.error(
+                &[k("output"), k("snapshot_fields"), Segment::Index(i)],
+                format!(
+                    "\"{}\" is not provided by fluid.kind = \"{}\" in this case; this case \
+                     offers {}",
+                    f.name(),
+                    case.fluid.model().kind(),
+                    listed()
+                ),
+            ));
+        }
     }
     if o.snapshot_every > 0
         && !o

@@ -468,6 +468,28 @@ impl<const D: usize> ParticleModel<D> for GenericPolymer<D> {
         ]
     }
 
+    /// `density`: the particle's density d; `conformation`: Q Q of its conformation vector
+    /// (packed upper triangle).
+    fn snapshot_values(&self, name: &str, p: &Particles<D>) -> Option<Vec<f64>> {
+        let n = p.n_owned;
+        match name {
+            "density" => Some(p.extra[self.density].data[..n].to_vec()),
+            "conformation" => {
+                let q = &p.extra[self.conformation].data;
+                let mut out = Vec::with_capacity(n * D * (D + 1) / 2);
+                for v in q[..n * D].chunks_exact(D) {
+                    for a in 0..D {
+                        for b in a..D {
+                            out.push(v[a] * v[b]);
+                        }
+                    }
+                }
+                Some(out)
+            }
+            _ => None,
+        }
+    }
+
     fn attach(&mut self, p: &mut Particles<D>, restarted: bool) -> Result<(), Error> {
         let index = |p: &Particles<D>, name: &str| {
             p.extra_index(name)

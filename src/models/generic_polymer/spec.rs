@@ -320,6 +320,23 @@ impl FluidModel for GenericPolymerCfg {
     fn continuum(&self) -> Option<crate::models::fluid_model::Continuum> {
         None
     }
+
+    fn snapshot_quantities(
+        &self,
+        _case: &dyn CaseView,
+    ) -> Vec<crate::models::interface::SnapshotQuantity> {
+        use crate::models::interface::{SnapshotQuantity, SnapshotShape};
+        vec![
+            SnapshotQuantity {
+                name: "density",
+                shape: SnapshotShape::Scalar,
+            },
+            SnapshotQuantity {
+                name: "conformation",
+                shape: SnapshotShape::SymmetricTensor,
+            },
+        ]
+    }
 }
 
 impl<const D: usize> BuildModels<D> for GenericPolymerCfg {

@@ -998,6 +998,20 @@ impl<const D: usize> ParticleModel<D> for SphModel<D> {
         out
     }
 
+    fn snapshot_values(&self, name: &str, p: &Particles<D>) -> Option<Vec<f64>> {
+        let n = p.n_owned;
+        let rho = &p.extra[self.density].data[..n];
+        match name {
+            "density" => Some(rho.to_vec()),
+            "pressure" => Some(rho.iter().map(|&r| self.cfg.pressure(r)).collect()),
+            "polymer_stress" => {
+                let f = &p.extra[self.polymer_stress?];
+                Some(f.data[..n * f.width].to_vec())
+            }
+            _ => None,
+        }
+    }
+
     fn attach(&mut self, p: &mut Particles<D>, restarted: bool) -> Result<(), Error> {
         self.density = p
             .extra_index(DENSITY)

@@ -458,6 +458,37 @@ impl FluidModel for SphCfg {
         }
     }
 
+    fn snapshot_quantities(
+        &self,
+        _case: &dyn CaseView,
+    ) -> Vec<crate::models::interface::SnapshotQuantity> {
+        use crate::models::interface::{SnapshotQuantity, SnapshotShape};
+        let mut q = vec![
+            SnapshotQuantity {
+                name: "density",
+                shape: SnapshotShape::Scalar,
+            },
+            SnapshotQuantity {
+                name: "pressure",
+                shape: SnapshotShape::Scalar,
+            },
+        ];
+        if let Some(polymer) = &self.polymer {
+            q.push(SnapshotQuantity {
+                name: "polymer_stress",
+                shape: SnapshotShape::SymmetricTensor,
+            });
+            // ⟨QQ⟩ of explicit dumbbells (a BDDFS histogram keeps no connectors between steps).
+            if polymer.is_ensemble() && polymer.histogram_grid().is_none() {
+                q.push(SnapshotQuantity {
+                    name: "conformation",
+                    shape: SnapshotShape::SymmetricTensor,
+                });
+            }
+        }
+        q
+    }
+
     fn continuum(&self) -> Option<Continuum> {
         Some(Continuum {
             density: self.rest_density,
