@@ -70,6 +70,8 @@ and writes plots to docs/ when matplotlib is available. Exits 1 when any recorde
                  the fit never saw): the same table and verdicts (~10 min)
   dpd_held_out3  the third held-out set, docs/stability/dpd_held_out3.txt (22 maps × seeds 1–3,
                  committed before the limit was evaluated there): the same (~12 min)
+  dpd_held_out4  the fourth held-out set, docs/stability/dpd_held_out4.txt (14 maps × seeds 1–3,
+                 committed before the margin fitted to the third set was evaluated there)
   fuzz           the long fuzz of the stock case files through `mesorheo check` (the ignored test
                  tests/check_fuzz.rs::long_fuzz_through_check; MESORHEO_FUZZ_VARIANTS per case,
                  default here 100 000, ~7 min): no panic, no hang
@@ -1818,6 +1820,12 @@ def dpd_held_out3():
     dpd_stability("dpd_held_out3.txt")
 
 
+def dpd_held_out4():
+    """The fourth held-out DPD stability set (docs/stability/dpd_held_out4.txt, chosen and
+    committed before the margin fitted to the third set was evaluated there)."""
+    dpd_stability("dpd_held_out4.txt")
+
+
 def launch_text(text, sets=(), ranks=1, threads=2):
     """launch() on a case given as text."""
     with tempfile.NamedTemporaryFile("w", suffix=".toml", delete=False) as f:
@@ -1832,7 +1840,7 @@ if __name__ == "__main__":
     todo = sys.argv[1:] or ["stock", "kt_vs_dt", "viscosity", "viscometric", "sph", "sph_convergence", "maxwell",
                             "inclusion", "maxwell_convergence", "maxwell_stability", "connffessit_shear",
                             "msph_channel", "connffessit_channel_seeds", "weak_order", "fene_table", "transverse_current",
-                            "kt_vs_dt_low_mass", "dpd_stability", "dpd_held_out", "dpd_held_out3", "fuzz", "maxwell_couette_causes", "maxwell_couette",
+                            "kt_vs_dt_low_mass", "dpd_stability", "dpd_held_out", "dpd_held_out3", "dpd_held_out4", "fuzz", "maxwell_couette_causes", "maxwell_couette",
                             "coupled_configuration_fields", "bddfs_t2"]
     targets = {"kt_vs_dt": kt_vs_dt, "viscosity": viscosity, "stock": stock,
                "viscometric": viscometric, "sph": sph, "sph_convergence": sph_convergence,
@@ -1842,7 +1850,7 @@ if __name__ == "__main__":
                "weak_order": weak_order, "fene_table": fene_table,
                "transverse_current": transverse_current, "kt_vs_dt_low_mass": kt_vs_dt_low_mass,
                "dpd_stability": dpd_stability, "dpd_held_out": dpd_held_out,
-               "dpd_held_out3": dpd_held_out3,
+               "dpd_held_out3": dpd_held_out3, "dpd_held_out4": dpd_held_out4,
                "connffessit_channel_seeds": connffessit_channel_seeds, "fuzz": fuzz,
                "bddfs_t2": bddfs_t2, "maxwell_couette": maxwell_couette,
                "maxwell_couette_causes": maxwell_couette_causes,
