@@ -527,10 +527,7 @@ fn check_against_the_fourth_held_out_dpd_stability_maps() {
             at_least_80 += 1;
         }
     }
-    let known = [
-        "s4_3d_a8_g60_lattice seed=2",
-        "s4_3d_a8_g60_lattice seed=3",
-    ];
+    let known = ["s4_3d_a8_g60_lattice seed=2", "s4_3d_a8_g60_lattice seed=3"];
     assert_eq!(
         accepted_unstable, known,
         "the held-out points whose measured unstable step check accepts"
