@@ -412,23 +412,28 @@ fn map_points(manifest: &str) -> (usize, Vec<MapPoint>) {
 /// #18, #40): at every point it refuses the smallest unstable step with a margin (limit ≤ 0.97
 /// × the first unstable step; the bisection brackets the boundary to 3 %), and it accepts at
 /// least 80 % of the stable range except where docs/validation.md says it is conservative (at
-/// most 16 of the 197 points, none below 68 %: the fit gives 16 and 68.4 %; the six maps over
-/// seeds show that one trial's limit scatters by up to 18 %), and it refuses every Δt that blew
-/// up in the 1500-step γ × Δt study (docs/studies/dpd_gamma_dt.csv: at γ = 40 that is 0.015,
-/// below the 1000-step map's 0.0158). The maps are runs of the engine with its blow-up
+/// most 154 of the 323 points, none below 41 %: the fit gives 154 and 41.3 %; 148 of the 154
+/// are random starts, whose friction part carries the margin for the luckless seed: one
+/// trial's limit scatters by up to 18 % between seeds, a random start's at strong friction by
+/// 1.7×), and it refuses every Δt that blew up in the 1500-step γ × Δt study
+/// (docs/studies/dpd_gamma_dt.csv: at γ = 40 that is 0.015, below the 1000-step map's 0.0158).
+/// The 323 points include the second and third held-out sets (20 and 22 maps × seeds 1–3),
+/// folded in on 2026-11-27 after each was reported. The maps are runs of the engine with its blow-up
 /// detectors, independent of the formula; the limit is recomputed here from the library, so a
 /// change of a coefficient is judged against the measurement, and the `check_limit` column
 /// the docs' tables print must be the library's (to 10⁻³; tools/dpd_stability_fit.py, which
-/// wrote it, mirrors the library). Fails without the 3D random start's factor (accepts 1.09 ×
-/// 0.97 × the unstable step at 3D a = 5, γ = 25, seed 3), with α₂ = 1.35 (the 2D a = 150,
-/// ρ = 2 map), or without the free-flight part (the ideal gas at γ = 1, 10 × its unstable
-/// step).
+/// wrote it, mirrors the library). Fails with the random-start margins of the refit before the
+/// third set (RANDOM_START_FRICTION_2D = 0.635, _3D = 0.922; run 2026-11-27: the first point
+/// past 0.97 × is 3D a = 0, γ = 15.9, accepting 3.4123e-2 against an unstable 3.4372e-2),
+/// with α₂ = 1.35 (the 2D a = 130, γ = 20 lattice map of the third set, 1.014 × 0.97 × its
+/// unstable step, by tools/dpd_stability_fit.py), or without the free-flight part (the 3D ideal
+/// gas at γ = 1, 6.2 × 0.97 × its unstable step).
 #[test]
 fn check_refuses_every_measured_unstable_dpd_step() {
     let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
     let (maps, points) = map_points("dpd_maps.txt");
-    assert_eq!(maps, 52, "the maps of docs/stability/dpd_maps.txt");
-    assert_eq!(points.len(), 197, "the points of docs/stability");
+    assert_eq!(maps, 94, "the maps of docs/stability/dpd_maps.txt");
+    assert_eq!(points.len(), 323, "the points of docs/stability");
     let (mut conservative, mut worst) = (0, f64::INFINITY);
     // The first point whose printed limit is not the library's (judged after the physics).
     let mut stale: Option<String> = None;
@@ -452,8 +457,8 @@ fn check_refuses_every_measured_unstable_dpd_step() {
         }
     }
     assert!(
-        conservative <= 16 && worst >= 0.68,
-        "{conservative} conservative points, worst {worst:.2}"
+        conservative <= 154 && worst >= 0.41,
+        "{conservative} conservative points, worst {worst:.3}"
     );
     assert!(stale.is_none(), "{}", stale.unwrap_or_default());
     // The γ × Δt study's blow-ups (longer runs than the maps' trials).
@@ -486,30 +491,28 @@ fn check_refuses_every_measured_unstable_dpd_step() {
     assert!(blowups >= 3, "{blowups} blow-ups in the study");
 }
 
-/// `check`'s DPD limit out of sample (issue #40): the maps of docs/stability/dpd_held_out.txt
-/// (20 maps × seeds 1–3, chosen before the current fit and never read by
-/// tools/dpd_stability_fit.py). A point fails when the limit accepts its measured unstable
-/// step (limit ≥ the smallest unstable Δt). The limit fails there at four points, all named
-/// below and in docs/validation.md: three random starts at weak repulsion and strong friction,
-/// which blow up in their first 5–19 steps with a 1.7× scatter of the unstable step between
-/// seeds (the start's densest cluster decides: no mean-field formula sees it), and a 3D λ = 0.5
-/// lattice point at 1.011 ×. The test holds those four as the known failures: a new failure
-/// anywhere else, a loosened limit (any coefficient that raises the limit by 4 % fails at 3D
-/// a = 18, γ = 14, λ = 0.5 seeds 1 and 2, at 0.990 ×), or a fix of the known ones (then this
-/// list and the docs must change) all fail it. It also holds the accepted fraction of the
-/// stable range where the limit refuses the unstable step: ≥ 80 % at 46 of the 56 (measured:
-/// 46, worst 69.9 %).
+/// `check`'s DPD limit out of sample (issue #40): the fourth held-out set, the 14 maps × seeds
+/// 1–3 of docs/stability/dpd_held_out4.txt (new (a, γ, ρ, λ, start) combinations in 2D and 3D,
+/// mostly random starts at strong friction, where the second and third sets failed), chosen and
+/// committed before the current limit was evaluated there and never read by
+/// tools/dpd_stability_fit.py. A point fails when the limit accepts its measured
+/// unstable step (limit ≥ the smallest unstable Δt). Measured 2026-11-27: the limit refuses all
+/// 36 random-start unstable steps (the start's margin, fitted to the third set, holds out of
+/// sample there) and accepts 2 of the 42: the 3D a = 8, γ = 60 lattice map, seeds 2 and 3
+/// (1.063 × and 1.018 × their unstable step; blow-ups at steps 583 and 282, the equilibrium
+/// friction limit at a γ beyond the fitted 3D lattice maps, not a start). The test holds those
+/// two as the known failures: a new failure anywhere else, a loosened limit, or a fix of the
+/// known ones (then this list and the docs must change) all fail it. It also holds the price of
+/// the margin: of the 40 refused points, ≥ 80 % of the stable range is accepted at only 7
+/// (measured: 7, worst 44.9 %, median 57 %). Fails with the random-start margins of the refit
+/// before the third set (RANDOM_START_FRICTION_2D = 0.635, _3D = 0.922; run 2026-11-27: 8
+/// accepted instead of the 2 known, adding 2D a = 20, γ = 30 seed 3, 3D a = 10, γ = 50 seeds 2
+/// and 3, and 3D a = 15, γ = 55, ρ = 4 seeds 1–3).
 #[test]
-fn check_against_the_held_out_dpd_stability_maps() {
-    let (maps, points) = map_points("dpd_held_out.txt");
-    assert_eq!((maps, points.len()), (20, 60), "the held-out maps");
-    let known = [
-        "held2_a12_g18 seed=3",
-        "held2_a6_g20_rho5 seed=1",
-        "held2_a6_g20_rho5 seed=3",
-        "held23_a18_g14_lambda05_lattice seed=3",
-    ];
-    let mut accepted_unstable = Vec::new();
+fn check_against_the_fourth_held_out_dpd_stability_maps() {
+    let (maps, points) = map_points("dpd_held_out4.txt");
+    assert_eq!((maps, points.len()), (14, 42), "the fourth held-out set");
+    let mut accepted_unstable: Vec<String> = Vec::new();
     let (mut at_least_80, mut refused, mut worst) = (0, 0, f64::INFINITY);
     for p in &points {
         let ratio = p.limit / p.smallest_unstable;
@@ -528,12 +531,13 @@ fn check_against_the_held_out_dpd_stability_maps() {
             at_least_80 += 1;
         }
     }
+    let known = ["s4_3d_a8_g60_lattice seed=2", "s4_3d_a8_g60_lattice seed=3"];
     assert_eq!(
         accepted_unstable, known,
         "the held-out points whose measured unstable step check accepts"
     );
     assert!(
-        refused == 56 && at_least_80 >= 46 && worst >= 0.69,
+        refused == 40 && at_least_80 >= 7 && worst >= 0.44,
         "{at_least_80} of {refused} refused points accept ≥ 80 %, worst {worst:.3}"
     );
 }

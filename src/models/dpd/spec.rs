@@ -437,6 +437,19 @@ fn dpd_report(case: &dyn CaseView, d: &DpdCfg, density: f64, line: &mut dyn FnMu
             "expect k_BT errors > few %"
         }
     ));
+    if case.lattice() == crate::geometry::Lattice::Random && phi.is_none() {
+        let margin = if dim == 2 {
+            super::time_step::dpd_fit::RANDOM_START_FRICTION_2D
+        } else {
+            super::time_step::dpd_fit::RANDOM_START_FRICTION_3D
+        };
+        line(format!(
+            "random start: the dissipative part carries a margin × {margin} (at strong friction \
+             the start's densest clusters blow a run up in its first 4–21 steps, at a step that \
+             scatters 1.7× between seeds; docs/validation.md); a lattice start \
+             (particles.lattice = \"cubic\") or thermostat = \"exponential\" does not need it"
+        ));
+    }
 }
 
 /// `[fluid] kind = "dpd"`: the parameters' ranges.
