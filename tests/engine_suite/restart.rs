@@ -683,6 +683,47 @@ profile_bins = 6
     }
 }
 
+/// The GENERIC polymer fluid particle (`kind = "generic_polymer"`) in Lees–Edwards shear with
+/// its thermal noise on: the continuity density, the conformation vectors and their
+/// kick–drift–kick half-step scratch travel in the checkpoint, and the pair and conformation
+/// noise, keyed by (seed, step, ids), continue where they stopped: N steps ≡ N/2 + checkpoint
+/// + restart on another rank count + N/2, bitwise.
+#[test]
+fn generic_polymer_restart_is_bitwise() {
+    let text = r#"
+dimension = 2
+seed = 5
+[box]
+lengths = [8.0, 8.0]
+shear_rate = 0.3
+[particles]
+lattice = "cubic"
+density = 4.0
+mass = 100.0
+temperature = 1.0
+[fluid]
+kind = "generic_polymer"
+smoothing_length = 1.5
+sound_speed = 1.0
+solvent_viscosity = 40.0
+kt = 1.0
+spring_constant = 1.0
+relaxation_time = 0.1
+dumbbell_density = 16.0
+[integrator]
+kind = "kick_drift_kick"
+dt = 0.01
+[neighbour]
+skin = 0.2
+[run]
+steps = 120
+sample_every = 5
+[diagnostics]
+observables = ["conformation", "constitutive_stress", "momentum"]
+"#;
+    assert_restart_at_60_is_bitwise(text, "GENERIC polymer, Lees–Edwards");
+}
+
 /// `text` run whole ≡ run to step 60 on 1 (2) ranks + restarted on 2 (1) ranks, bitwise.
 fn assert_restart_at_60_is_bitwise(text: &str, name: &str) {
     let whole = uninterrupted(text);
