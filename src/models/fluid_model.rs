@@ -204,7 +204,7 @@ pub trait FluidModel: Send + Sync {
 
     /// The contributions its momentum flux (the `stress` observable) is split into; the first
     /// is "total" and the second "kinetic".
-    fn stress_parts(&self) -> [&'static str; 5];
+    fn stress_parts(&self) -> Vec<&'static str>;
 
     /// Whether its momentum flux is symmetric (central pair forces): `stress` then lists the
     /// upper triangle only.

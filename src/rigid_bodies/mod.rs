@@ -148,7 +148,13 @@ pub struct RigidBodies<const D: usize> {
     /// Whether the forces of `step` have been summed.
     forces_known: bool,
     dt: f64,
+    /// This rank's share of the constraint virial of the last evaluation (module
+    /// documentation), D × D, symmetrised; scratch, rebuilt by every [`Self::couple`].
+    constraint_virial: Vec<FixedSum>,
 }
+
+/// The name of the constraint virial among the parts of the `stress` observable.
+pub const CONSTRAINT_STRESS_PART: &str = "constraint";
 
 /// Minimum-image separation a − b in the box, across the Lees–Edwards plane with the offset
 /// `offset` (the image of b one box up in y sits at x + s): the gradient axis first.
@@ -218,6 +224,7 @@ impl<const D: usize> RigidBodies<D> {
             step: 0,
             forces_known: false,
             dt,
+            constraint_virial: vec![FixedSum::ZERO; D * D],
         }
     }
 
@@ -335,6 +342,7 @@ impl<const D: usize> RigidBodies<D> {
         let width = if D == 3 { 6 } else { 3 };
         let mut sums = vec![FixedSum::ZERO; nb * width];
         let h = self.spec.spring_stiffness;
+        let mut virial = vec![FixedSum::ZERO; D * D];
         for k in 0..p.n_owned {
             let Some((b, s)) = self.constituent(p.gid[k]) else {
                 continue;
@@ -342,10 +350,32 @@ impl<const D: usize> RigidBodies<D> {
             let site = self.site_position(b, s);
             let stretch = separation(sim_box, &p.pos[k], &site, offset);
             let f = p.force[k];
+            let mut centre = [0.0; D];
+            centre.copy_from_slice(&self.bodies[b].centre[..D]);
+            let arm = separation(sim_box, &p.pos[k], &centre, offset);
+            // The constraint virial ½[(r_i − R) ⊗ F_S + F_S ⊗ (r_i − R)], F_S = −H (r_i − r̄_i).
+            for a in 0..D {
+                for c in 0..D {
+                    let w = -0.5 * h * (arm[a] * stretch[c] + arm[c] * stretch[a]);
+                    if !FixedSum::representable(w) {
+                        return Err(crate::error::Unstable::new(
+                            crate::error::Quantity::PairForce,
+                            Some(p.gid[k]),
+                            step,
+                            format!(
+                                "the spring virial {w:.4e} of constituent {} of rigid body {b} \
+                                 is beyond the exact sum's range at step {step}: {} (time step \
+                                 too large?)",
+                                p.gid[k],
+                                crate::error::UNSTABLE
+                            ),
+                        )
+                        .into());
+                    }
+                    virial[a * D + c].add(w);
+                }
+            }
             if !repeat {
-                let mut centre = [0.0; D];
-                centre.copy_from_slice(&self.bodies[b].centre[..D]);
-                let arm = separation(sim_box, &p.pos[k], &centre, offset);
                 let torque: [f64; 3] = if D == 3 {
                     cross(&[arm[0], arm[1], arm[2]], &[f[0], f[1], f[2]])
                 } else {
@@ -376,7 +406,12 @@ impl<const D: usize> RigidBodies<D> {
             for d in 0..D {
                 p.force[k][d] -= h * stretch[d];
             }
+            if k % 2048 == 2047 {
+                virial.iter_mut().for_each(FixedSum::normalize);
+            }
         }
+        virial.iter_mut().for_each(FixedSum::normalize);
+        self.constraint_virial = virial;
         if repeat {
             return Ok(());
         }
@@ -443,6 +478,14 @@ impl<const D: usize> RigidBodies<D> {
             body.centre[..D].copy_from_slice(&centre);
             body.velocity[..D].copy_from_slice(&velocity);
         }
+    }
+
+    /// This rank's share (its owned constituents) of the constraint virial of the last
+    /// evaluation, Σ_k Σ_{i∈k} ½[(r_i − R_k) ⊗ F_i,S + F_i,S ⊗ (r_i − R_k)], flattened D × D,
+    /// not yet reduced over the ranks: the suspension's part of the momentum flux besides the
+    /// pair virial (module documentation; docs/theory/colloids.md).
+    pub fn constraint_virial(&self) -> &[FixedSum] {
+        &self.constraint_virial
     }
 
     /// Every word of the table (state, step, whether the forces are known), for the state

@@ -112,8 +112,14 @@ impl FluidModel for DpdCfg {
         }
     }
 
-    fn stress_parts(&self) -> [&'static str; 5] {
-        crate::models::fluid_model::CENTRAL_STRESS_PARTS
+    /// The central pair parts, and with colloids the tie springs' constraint virial
+    /// ([`crate::rigid_bodies`], docs/theory/colloids.md "The suspension's stress").
+    fn stress_parts(&self) -> Vec<&'static str> {
+        let mut parts = crate::models::fluid_model::CENTRAL_STRESS_PARTS.to_vec();
+        if self.colloids.is_some() {
+            parts.push(crate::rigid_bodies::CONSTRAINT_STRESS_PART);
+        }
+        parts
     }
 
     fn report(&self, case: &dyn CaseView, density: f64, line: &mut dyn FnMut(String)) {
