@@ -74,6 +74,13 @@ pub fn scalar_names(case: &Case) -> Vec<String> {
                 out.push("wall_shear_stress_lower".to_owned());
                 out.push("wall_shear_stress_upper".to_owned());
             }
+            Observable::ColloidVelocityVariance => {
+                out.extend(
+                    crate::observable::COLLOID_VELOCITY_VARIANCE_NAMES
+                        .iter()
+                        .map(|s| s.to_string()),
+                );
+            }
             Observable::CompositeViscosity => {
                 out.push("composite_viscosity".to_owned());
                 out.push("inclusion_torque".to_owned());

@@ -298,22 +298,40 @@ impl<const D: usize> RigidBodies<D> {
             .collect()
     }
 
-    /// Sets each free body's velocity to the mean of its constituents' (`velocity_of(gid)`),
-    /// so the bodies start with their constituents' momentum.
+    /// Sets each free body's velocity to the mean of its constituents' (`velocity_of(gid)`)
+    /// and its angular velocity to their angular momentum about the centre over I,
+    /// ω = I⁻¹ Σ_i (r̄_i − R) × m v_i (the constituents start on their sites), so the bodies
+    /// start with their constituents' momentum and angular momentum. Each tie then starts
+    /// relaxed in both its translational mode (M Ẍ = −n_cp H X, exact) and its rotational one
+    /// (linear in the rotation between constituents and sites): a body started at rest would
+    /// keep that rotational mode oscillating, undamped at linear order, on top of its thermal
+    /// rotation (docs/theory/colloids.md).
     pub fn start_with_constituent_velocities(&mut self, velocity_of: impl Fn(u64) -> [f64; D]) {
         let n = self.offsets.len();
+        let (m, inertia) = (self.spec.constituent_mass, self.moment_of_inertia());
         for k in 0..self.bodies.len() {
             if self.bodies[k].fixed {
                 continue;
             }
-            let mut v = [0.0; 3];
+            let (mut v, mut l) = ([0.0; 3], [0.0; 3]);
             for i in 0..n {
                 let u = velocity_of(self.spec.first_gid + (k * n + i) as u64);
+                let site = self.site_position(k, i);
+                let (mut arm, mut w) = ([0.0; 3], [0.0; 3]);
                 for d in 0..D {
                     v[d] += u[d];
+                    arm[d] = site[d] - self.bodies[k].centre[d];
+                    w[d] = u[d];
+                }
+                let moment = cross(&arm, &w);
+                for (a, c) in l.iter_mut().zip(moment) {
+                    *a += m * c;
                 }
             }
             self.bodies[k].velocity = v.map(|c| c / n as f64);
+            if inertia > 0.0 {
+                self.bodies[k].angular_velocity = l.map(|c| c / inertia);
+            }
         }
     }
 
@@ -478,6 +496,30 @@ impl<const D: usize> RigidBodies<D> {
             body.centre[..D].copy_from_slice(&centre);
             body.velocity[..D].copy_from_slice(&velocity);
         }
+    }
+
+    /// [⟨(V_α − U_α(Y))²⟩, ⟨(ω_α − Ω_α)²⟩] over the free bodies: the translational variance
+    /// over the D components about the imposed streaming velocity U = γ̇(Y − L_y/2) x̂ at the
+    /// centre, and the rotational variance over the rotational components (x, y, z in 3D; z in
+    /// 2D) about the imposed flow's rotation Ω = −(γ̇/2) ẑ. Equipartition: k_BT/M and k_BT/I.
+    pub fn velocity_variances(&self, sim_box: &SimBox<D>) -> [f64; 2] {
+        let spin = [0.0, 0.0, -0.5 * sim_box.shear_rate];
+        let rotational: &[usize] = if D == 3 { &[0, 1, 2] } else { &[2] };
+        let (mut v2, mut w2, mut n) = (0.0, 0.0, 0.0);
+        for b in self.bodies.iter().filter(|b| !b.fixed) {
+            let mut peculiar = b.velocity;
+            peculiar[FLOW] -= sim_box.streaming_velocity(b.centre[GRADIENT]);
+            v2 += peculiar[..D].iter().map(|x| x * x).sum::<f64>();
+            w2 += rotational
+                .iter()
+                .map(|&a| (b.angular_velocity[a] - spin[a]).powi(2))
+                .sum::<f64>();
+            n += 1.0;
+        }
+        if n == 0.0 {
+            return [0.0; 2];
+        }
+        [v2 / (n * D as f64), w2 / (n * rotational.len() as f64)]
     }
 
     /// This rank's share (its owned constituents) of the constraint virial of the last

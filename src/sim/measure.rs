@@ -40,6 +40,7 @@ pub(super) fn virial_scope(observables: &[Observable]) -> VirialScope {
         | Observable::PolymerStressTrace
         | Observable::ConstitutiveStress
         | Observable::Conformation
+        | Observable::ColloidVelocityVariance
         | Observable::CompositeViscosity
         | Observable::TransverseCurrentViscosity => VirialScope::Off,
     };
@@ -529,6 +530,15 @@ impl<'c, const D: usize> Simulation<'c, D> {
                             format!("{SHEAR_STRESS_PROFILE_PREFIX}{b:04}"),
                             -w.value() / bin_volume,
                         ));
+                    }
+                }
+                Observable::ColloidVelocityVariance => {
+                    // The body table is the same on every rank: no reduction.
+                    if let Some(bodies) = &self.bodies {
+                        let [v, w] = bodies.velocity_variances(&self.sim_box);
+                        let [vn, wn] = crate::observable::COLLOID_VELOCITY_VARIANCE_NAMES;
+                        out.scalars.push((vn.into(), v));
+                        out.scalars.push((wn.into(), w));
                     }
                 }
                 // Measured by the model whose fields they are (above); `check` refuses

@@ -108,8 +108,19 @@ impl FluidModel for DpdCfg {
             Observable::ShearStressProfile
             | Observable::GreenKuboViscosity
             | Observable::TransverseCurrentViscosity => Ok(()),
+            Observable::ColloidVelocityVariance
+                if self.colloids.as_ref().is_some_and(|c| !c.fixed) =>
+            {
+                Ok(())
+            }
             _ => crate::models::fluid_model::generic_support(o),
         }
+    }
+
+    fn constituent_count(&self, case: &dyn CaseView) -> u64 {
+        self.colloids
+            .as_ref()
+            .map_or(0, |c| c.body_count(case) * c.shape.sites() as u64)
     }
 
     /// The central pair parts, and with colloids the tie springs' constraint virial
