@@ -303,7 +303,7 @@ fn flux_sample(sim: &mut Simulation<'_, 3>) -> FluxSample {
     }
     FluxSample {
         viscosity: value("viscosity"),
-        constraint: value("stress_constraint_xy") * -1.0 / shear,
+        constraint: -value("stress_constraint_xy") / shear,
         pair_to_centre: scale * pair_to_centre,
         internal_kinetic: scale * internal,
     }
