@@ -32,6 +32,16 @@ pub fn report(case: &Case, ranks: usize) -> String {
         cells,
         case.particles.density
     ));
+    // Constituents of suspended bodies come on top of the lattice (the solvent keeps its
+    // density): counted apart, and in the cost.
+    let constituents = case.fluid.model().constituent_count(case);
+    if constituents > 0 {
+        line(format!(
+            "particles with colloids: {n} solvent + {constituents} colloid constituents = {}",
+            n + constituents
+        ));
+    }
+    let n = n + constituents;
     line(format!(
         "neighbours per particle: {:.1} within r_c, {:.1} within r_c + skin (list)",
         neighbours, list_neighbours

@@ -69,6 +69,14 @@ pub enum Observable {
     /// `conformation_xy`, `conformation_yy` (and the z components in 3D), ⟨Q_aQ_b⟩, and
     /// `conformation_q2`, ⟨Q²⟩.
     Conformation,
+    /// The velocity fluctuations of suspended rigid colloids (needs `[fluid.colloids]`, free
+    /// bodies; [`crate::rigid_bodies`]): `colloid_velocity_variance`, ⟨(V_α − U_α(Y))²⟩ over the
+    /// bodies and the D components, U the imposed streaming velocity γ̇(Y − L_y/2) x̂ at the
+    /// body's centre (equipartition: k_BT/M, M = n_cp m); and
+    /// `colloid_angular_velocity_variance`, ⟨(ω_α − Ω_α)²⟩ over the bodies and the rotational
+    /// components (3 in 3D, z in 2D), Ω = −(γ̇/2) ẑ the imposed flow's rotation (equipartition:
+    /// k_BT/I, I the body's moment of inertia about its centre).
+    ColloidVelocityVariance,
 }
 
 impl Observable {
@@ -109,9 +117,16 @@ impl Observable {
             Observable::TransverseCurrentViscosity => "transverse_current_viscosity",
             Observable::ShearStressProfile => "shear_stress_profile",
             Observable::Conformation => "conformation",
+            Observable::ColloidVelocityVariance => "colloid_velocity_variance",
         }
     }
 }
+
+/// The scalars of [`Observable::ColloidVelocityVariance`]: translational, then rotational.
+pub const COLLOID_VELOCITY_VARIANCE_NAMES: [&str; 2] = [
+    "colloid_velocity_variance",
+    "colloid_angular_velocity_variance",
+];
 
 /// The scalar series of the density profile are named this and the bin number (four digits);
 /// the summary gathers them into `density_profile`.

@@ -33,7 +33,7 @@ pub fn stress_components(case: &Case) -> Vec<(usize, usize, String)> {
 pub use crate::models::fluid_model::CENTRAL_STRESS_PARTS as STRESS_PARTS;
 
 /// The contributions the `stress` observable of this case reports (the fluid model's).
-pub fn stress_parts(case: &Case) -> [&'static str; 5] {
+pub fn stress_parts(case: &Case) -> Vec<&'static str> {
     case.fluid.model().stress_parts()
 }
 
@@ -73,6 +73,13 @@ pub fn scalar_names(case: &Case) -> Vec<String> {
             Observable::WallShearStress => {
                 out.push("wall_shear_stress_lower".to_owned());
                 out.push("wall_shear_stress_upper".to_owned());
+            }
+            Observable::ColloidVelocityVariance => {
+                out.extend(
+                    crate::observable::COLLOID_VELOCITY_VARIANCE_NAMES
+                        .iter()
+                        .map(|s| s.to_string()),
+                );
             }
             Observable::CompositeViscosity => {
                 out.push("composite_viscosity".to_owned());

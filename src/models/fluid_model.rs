@@ -204,7 +204,13 @@ pub trait FluidModel: Send + Sync {
 
     /// The contributions its momentum flux (the `stress` observable) is split into; the first
     /// is "total" and the second "kinetic".
-    fn stress_parts(&self) -> [&'static str; 5];
+    fn stress_parts(&self) -> Vec<&'static str>;
+
+    /// The particles it adds on top of the fluid lattice: the constituents of suspended rigid
+    /// bodies ([`crate::rigid_bodies`]); `check` counts them apart from the solvent.
+    fn constituent_count(&self, _case: &dyn CaseView) -> u64 {
+        0
+    }
 
     /// Whether its momentum flux is symmetric (central pair forces): `stress` then lists the
     /// upper triangle only.
@@ -364,6 +370,10 @@ pub fn generic_support(o: Observable) -> Result<(), String> {
         }
         Observable::TransverseCurrentViscosity => {
             "\"transverse_current_viscosity\" needs a thermal fluid, [fluid] kind = \"dpd\""
+        }
+        Observable::ColloidVelocityVariance => {
+            "\"colloid_velocity_variance\" measures suspended rigid bodies; it needs \
+             [fluid.colloids] of a DPD fluid (not fixed)"
         }
         _ => return Ok(()),
     };

@@ -148,7 +148,13 @@ pub struct RigidBodies<const D: usize> {
     /// Whether the forces of `step` have been summed.
     forces_known: bool,
     dt: f64,
+    /// This rank's share of the constraint virial of the last evaluation (module
+    /// documentation), D × D, symmetrised; scratch, rebuilt by every [`Self::couple`].
+    constraint_virial: Vec<FixedSum>,
 }
+
+/// The name of the constraint virial among the parts of the `stress` observable.
+pub const CONSTRAINT_STRESS_PART: &str = "constraint";
 
 /// Minimum-image separation a − b in the box, across the Lees–Edwards plane with the offset
 /// `offset` (the image of b one box up in y sits at x + s): the gradient axis first.
@@ -218,6 +224,7 @@ impl<const D: usize> RigidBodies<D> {
             step: 0,
             forces_known: false,
             dt,
+            constraint_virial: vec![FixedSum::ZERO; D * D],
         }
     }
 
@@ -291,22 +298,40 @@ impl<const D: usize> RigidBodies<D> {
             .collect()
     }
 
-    /// Sets each free body's velocity to the mean of its constituents' (`velocity_of(gid)`),
-    /// so the bodies start with their constituents' momentum.
+    /// Sets each free body's velocity to the mean of its constituents' (`velocity_of(gid)`)
+    /// and its angular velocity to their angular momentum about the centre over I,
+    /// ω = I⁻¹ Σ_i (r̄_i − R) × m v_i (the constituents start on their sites), so the bodies
+    /// start with their constituents' momentum and angular momentum. Each tie then starts
+    /// relaxed in both its translational mode (M Ẍ = −n_cp H X, exact) and its rotational one
+    /// (linear in the rotation between constituents and sites): a body started at rest would
+    /// keep that rotational mode oscillating, undamped at linear order, on top of its thermal
+    /// rotation (docs/theory/colloids.md).
     pub fn start_with_constituent_velocities(&mut self, velocity_of: impl Fn(u64) -> [f64; D]) {
         let n = self.offsets.len();
+        let (m, inertia) = (self.spec.constituent_mass, self.moment_of_inertia());
         for k in 0..self.bodies.len() {
             if self.bodies[k].fixed {
                 continue;
             }
-            let mut v = [0.0; 3];
+            let (mut v, mut l) = ([0.0; 3], [0.0; 3]);
             for i in 0..n {
                 let u = velocity_of(self.spec.first_gid + (k * n + i) as u64);
+                let site = self.site_position(k, i);
+                let (mut arm, mut w) = ([0.0; 3], [0.0; 3]);
                 for d in 0..D {
                     v[d] += u[d];
+                    arm[d] = site[d] - self.bodies[k].centre[d];
+                    w[d] = u[d];
+                }
+                let moment = cross(&arm, &w);
+                for (a, c) in l.iter_mut().zip(moment) {
+                    *a += m * c;
                 }
             }
             self.bodies[k].velocity = v.map(|c| c / n as f64);
+            if inertia > 0.0 {
+                self.bodies[k].angular_velocity = l.map(|c| c / inertia);
+            }
         }
     }
 
@@ -335,6 +360,7 @@ impl<const D: usize> RigidBodies<D> {
         let width = if D == 3 { 6 } else { 3 };
         let mut sums = vec![FixedSum::ZERO; nb * width];
         let h = self.spec.spring_stiffness;
+        let mut virial = vec![FixedSum::ZERO; D * D];
         for k in 0..p.n_owned {
             let Some((b, s)) = self.constituent(p.gid[k]) else {
                 continue;
@@ -342,10 +368,32 @@ impl<const D: usize> RigidBodies<D> {
             let site = self.site_position(b, s);
             let stretch = separation(sim_box, &p.pos[k], &site, offset);
             let f = p.force[k];
+            let mut centre = [0.0; D];
+            centre.copy_from_slice(&self.bodies[b].centre[..D]);
+            let arm = separation(sim_box, &p.pos[k], &centre, offset);
+            // The constraint virial ½[(r_i − R) ⊗ F_S + F_S ⊗ (r_i − R)], F_S = −H (r_i − r̄_i).
+            for a in 0..D {
+                for c in 0..D {
+                    let w = -0.5 * h * (arm[a] * stretch[c] + arm[c] * stretch[a]);
+                    if !FixedSum::representable(w) {
+                        return Err(crate::error::Unstable::new(
+                            crate::error::Quantity::PairForce,
+                            Some(p.gid[k]),
+                            step,
+                            format!(
+                                "the spring virial {w:.4e} of constituent {} of rigid body {b} \
+                                 is beyond the exact sum's range at step {step}: {} (time step \
+                                 too large?)",
+                                p.gid[k],
+                                crate::error::UNSTABLE
+                            ),
+                        )
+                        .into());
+                    }
+                    virial[a * D + c].add(w);
+                }
+            }
             if !repeat {
-                let mut centre = [0.0; D];
-                centre.copy_from_slice(&self.bodies[b].centre[..D]);
-                let arm = separation(sim_box, &p.pos[k], &centre, offset);
                 let torque: [f64; 3] = if D == 3 {
                     cross(&[arm[0], arm[1], arm[2]], &[f[0], f[1], f[2]])
                 } else {
@@ -376,7 +424,12 @@ impl<const D: usize> RigidBodies<D> {
             for d in 0..D {
                 p.force[k][d] -= h * stretch[d];
             }
+            if k % 2048 == 2047 {
+                virial.iter_mut().for_each(FixedSum::normalize);
+            }
         }
+        virial.iter_mut().for_each(FixedSum::normalize);
+        self.constraint_virial = virial;
         if repeat {
             return Ok(());
         }
@@ -443,6 +496,38 @@ impl<const D: usize> RigidBodies<D> {
             body.centre[..D].copy_from_slice(&centre);
             body.velocity[..D].copy_from_slice(&velocity);
         }
+    }
+
+    /// [⟨(V_α − U_α(Y))²⟩, ⟨(ω_α − Ω_α)²⟩] over the free bodies: the translational variance
+    /// over the D components about the imposed streaming velocity U = γ̇(Y − L_y/2) x̂ at the
+    /// centre, and the rotational variance over the rotational components (x, y, z in 3D; z in
+    /// 2D) about the imposed flow's rotation Ω = −(γ̇/2) ẑ. Equipartition: k_BT/M and k_BT/I.
+    pub fn velocity_variances(&self, sim_box: &SimBox<D>) -> [f64; 2] {
+        let spin = [0.0, 0.0, -0.5 * sim_box.shear_rate];
+        let rotational: &[usize] = if D == 3 { &[0, 1, 2] } else { &[2] };
+        let (mut v2, mut w2, mut n) = (0.0, 0.0, 0.0);
+        for b in self.bodies.iter().filter(|b| !b.fixed) {
+            let mut peculiar = b.velocity;
+            peculiar[FLOW] -= sim_box.streaming_velocity(b.centre[GRADIENT]);
+            v2 += peculiar[..D].iter().map(|x| x * x).sum::<f64>();
+            w2 += rotational
+                .iter()
+                .map(|&a| (b.angular_velocity[a] - spin[a]).powi(2))
+                .sum::<f64>();
+            n += 1.0;
+        }
+        if n == 0.0 {
+            return [0.0; 2];
+        }
+        [v2 / (n * D as f64), w2 / (n * rotational.len() as f64)]
+    }
+
+    /// This rank's share (its owned constituents) of the constraint virial of the last
+    /// evaluation, Σ_k Σ_{i∈k} ½[(r_i − R_k) ⊗ F_i,S + F_i,S ⊗ (r_i − R_k)], flattened D × D,
+    /// not yet reduced over the ranks: the suspension's part of the momentum flux besides the
+    /// pair virial (module documentation; docs/theory/colloids.md).
+    pub fn constraint_virial(&self) -> &[FixedSum] {
+        &self.constraint_virial
     }
 
     /// Every word of the table (state, step, whether the forces are known), for the state

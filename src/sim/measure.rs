@@ -40,6 +40,7 @@ pub(super) fn virial_scope(observables: &[Observable]) -> VirialScope {
         | Observable::PolymerStressTrace
         | Observable::ConstitutiveStress
         | Observable::Conformation
+        | Observable::ColloidVelocityVariance
         | Observable::CompositeViscosity
         | Observable::TransverseCurrentViscosity => VirialScope::Off,
     };
@@ -91,7 +92,8 @@ impl<'c, const D: usize> Simulation<'c, D> {
         let virial = self.current_virial();
         let n = self.particles.n_owned;
         let dd = D * D;
-        let mut sums = vec![FixedSum::ZERO; 4 * dd];
+        // Kinetic, the three pair parts, the rigid bodies' constraint virial (zero without).
+        let mut sums = vec![FixedSum::ZERO; 5 * dd];
         let (particles, species) = (&self.particles, &self.species);
         for (k, v) in particles.vel[..n].iter().enumerate() {
             if k % 2048 == 2047 {
@@ -110,10 +112,13 @@ impl<'c, const D: usize> Simulation<'c, D> {
         for (k, w) in virial.iter().enumerate() {
             sums[(k + 1) * dd..(k + 2) * dd].copy_from_slice(w);
         }
+        if let Some(bodies) = &self.bodies {
+            sums[4 * dd..].copy_from_slice(bodies.constraint_virial());
+        }
         FixedSum::allreduce(self.comm, &mut sums);
         let volume = self.sim_box.volume();
         let tensor: Vec<f64> = (0..dd)
-            .map(|i| (0..4).map(|k| sums[k * dd + i].value()).sum::<f64>() / volume)
+            .map(|i| (0..5).map(|k| sums[k * dd + i].value()).sum::<f64>() / volume)
             .collect();
         let channels = crate::green_kubo::traceless_symmetric(&tensor, D);
         let r = &self.case.run;
@@ -369,9 +374,11 @@ impl<'c, const D: usize> Simulation<'c, D> {
         };
         // Pass 2: kinetic tensor, peculiar momentum, virial.
         let dd = D * D;
-        // The last slot: the degrees of freedom per dimension the local mean leaves (below).
-        let mut second = vec![FixedSum::ZERO; dd + D + 3 * dd + 1];
+        // Then the degrees of freedom per dimension the local mean leaves (below), and the
+        // rigid bodies' constraint virial (zero without bodies).
+        let mut second = vec![FixedSum::ZERO; dd + D + 3 * dd + 1 + dd];
         let dof_slot = dd + D + 3 * dd;
+        let constraint_slot = dof_slot + 1;
         for (k, (x, v)) in pos.iter().zip(vel).enumerate() {
             if k % 2048 == 2047 {
                 second.iter_mut().for_each(FixedSum::normalize);
@@ -413,6 +420,9 @@ impl<'c, const D: usize> Simulation<'c, D> {
         for (k, w) in virial.iter().enumerate() {
             second[dd + D + k * dd..dd + D + (k + 1) * dd].copy_from_slice(w);
         }
+        if let Some(bodies) = &self.bodies {
+            second[constraint_slot..].copy_from_slice(bodies.constraint_virial());
+        }
         FixedSum::allreduce(self.comm, &mut second);
         let second: Vec<f64> = second.iter().map(FixedSum::value).collect();
         let volume = self.sim_box.volume();
@@ -422,8 +432,13 @@ impl<'c, const D: usize> Simulation<'c, D> {
             let w = &second[dd + D + k * dd..dd + D + (k + 1) * dd];
             parts.push(w.iter().map(|x| x / volume).collect());
         }
+        if self.bodies.is_some() {
+            let w = &second[constraint_slot..];
+            parts.push(w.iter().map(|x| x / volume).collect());
+        }
         // The momentum flux: kinetic part plus every model's pair virial (for SPH, the pair
-        // forces of the momentum equation: `crate::models::sph::momentum_flux`).
+        // forces of the momentum equation: `crate::models::sph::momentum_flux`) plus the rigid
+        // bodies' constraint virial (docs/theory/colloids.md).
         let total: Vec<f64> = (0..dd).map(|i| parts.iter().map(|p| p[i]).sum()).collect();
         let trace_k: f64 = (0..D).map(|a| kinetic[a * D + a]).sum();
         // k_BT = Σ m V²/(degrees of freedom the local-mean subtraction leaves): unbiased for
@@ -515,6 +530,15 @@ impl<'c, const D: usize> Simulation<'c, D> {
                             format!("{SHEAR_STRESS_PROFILE_PREFIX}{b:04}"),
                             -w.value() / bin_volume,
                         ));
+                    }
+                }
+                Observable::ColloidVelocityVariance => {
+                    // The body table is the same on every rank: no reduction.
+                    if let Some(bodies) = &self.bodies {
+                        let [v, w] = bodies.velocity_variances(&self.sim_box);
+                        let [vn, wn] = crate::observable::COLLOID_VELOCITY_VARIANCE_NAMES;
+                        out.scalars.push((vn.into(), v));
+                        out.scalars.push((wn.into(), w));
                     }
                 }
                 // Measured by the model whose fields they are (above); `check` refuses

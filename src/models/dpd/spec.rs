@@ -108,12 +108,29 @@ impl FluidModel for DpdCfg {
             Observable::ShearStressProfile
             | Observable::GreenKuboViscosity
             | Observable::TransverseCurrentViscosity => Ok(()),
+            Observable::ColloidVelocityVariance
+                if self.colloids.as_ref().is_some_and(|c| !c.fixed) =>
+            {
+                Ok(())
+            }
             _ => crate::models::fluid_model::generic_support(o),
         }
     }
 
-    fn stress_parts(&self) -> [&'static str; 5] {
-        crate::models::fluid_model::CENTRAL_STRESS_PARTS
+    fn constituent_count(&self, case: &dyn CaseView) -> u64 {
+        self.colloids
+            .as_ref()
+            .map_or(0, |c| c.body_count(case) * c.shape.sites() as u64)
+    }
+
+    /// The central pair parts, and with colloids the tie springs' constraint virial
+    /// ([`crate::rigid_bodies`], docs/theory/colloids.md "The suspension's stress").
+    fn stress_parts(&self) -> Vec<&'static str> {
+        let mut parts = crate::models::fluid_model::CENTRAL_STRESS_PARTS.to_vec();
+        if self.colloids.is_some() {
+            parts.push(crate::rigid_bodies::CONSTRAINT_STRESS_PART);
+        }
+        parts
     }
 
     fn report(&self, case: &dyn CaseView, density: f64, line: &mut dyn FnMut(String)) {

@@ -233,8 +233,8 @@ impl FluidModel for GenericPolymerCfg {
         generic_support(o)
     }
 
-    fn stress_parts(&self) -> [&'static str; 5] {
-        crate::models::fluid_model::CENTRAL_STRESS_PARTS
+    fn stress_parts(&self) -> Vec<&'static str> {
+        crate::models::fluid_model::CENTRAL_STRESS_PARTS.to_vec()
     }
 
     fn report(&self, case: &dyn CaseView, density: f64, line: &mut dyn FnMut(String)) {

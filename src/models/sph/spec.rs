@@ -100,9 +100,9 @@ impl FluidModel for SphCfg {
         }
     }
 
-    fn stress_parts(&self) -> [&'static str; 5] {
+    fn stress_parts(&self) -> Vec<&'static str> {
         // the pair parts of `super::momentum_flux`, after the total and the kinetic part
-        ["total", "kinetic", "pressure", "viscous", "polymer"]
+        vec!["total", "kinetic", "pressure", "viscous", "polymer"]
     }
 
     /// Morris's viscous force lies along v_ij and an inclusion takes a couple: the momentum
