@@ -307,7 +307,10 @@ fn a_finished_run_is_not_restarted_and_an_extended_one_lists_its_segments() {
     // are what JSON kept of them (an exact comparison failed once: 0.222624271 against
     // 0.22262427099999998).
     let total = s["total_wall_seconds"].as_f64().expect("total wall");
-    assert!((total - walls).abs() <= 1e-9 * walls.max(1.0), "{total} vs {walls}: {s}");
+    assert!(
+        (total - walls).abs() <= 1e-9 * walls.max(1.0),
+        "{total} vs {walls}: {s}"
+    );
 }
 
 /// `./run case` called from another directory takes the case file and `--out` relative to that
