@@ -245,15 +245,10 @@ fn a_homogeneous_flow_scene_writes_observables_csv_from_the_start() {
 /// says so and passes only if MESORHEO_REQUIRE_PYTHON is unset.
 #[test]
 fn the_h5py_snippet_reads_the_series_and_the_xdmf_matches() {
-    let Ok(python) = std::env::var("MESORHEO_PYTHON") else {
-        assert!(
-            std::env::var("MESORHEO_REQUIRE_PYTHON").is_err(),
-            "MESORHEO_PYTHON is not set"
-        );
-        common::report_skip(
-            "the h5py snippet",
-            "set MESORHEO_PYTHON to a Python with h5py (./run test does)",
-        );
+    let Some(python) = common::python_or_skip(
+        "the h5py snippet",
+        "set MESORHEO_PYTHON to a Python with h5py (./run test does)",
+    ) else {
         return;
     };
     let text = case(60, "");
@@ -283,15 +278,10 @@ fn the_h5py_snippet_reads_the_series_and_the_xdmf_matches() {
 /// h5py test.
 #[test]
 fn the_xdmf_gives_viewers_n_by_3_vectors_in_2d_and_3d() {
-    let Ok(python) = std::env::var("MESORHEO_PYTHON") else {
-        assert!(
-            std::env::var("MESORHEO_REQUIRE_PYTHON").is_err(),
-            "MESORHEO_PYTHON is not set"
-        );
-        common::report_skip(
-            "the XDMF reader check",
-            "set MESORHEO_PYTHON to a Python with h5py (./run test does)",
-        );
+    let Some(python) = common::python_or_skip(
+        "the XDMF reader check",
+        "set MESORHEO_PYTHON to a Python with h5py (./run test does)",
+    ) else {
         return;
     };
     let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tools/check_xdmf.py");
@@ -379,15 +369,10 @@ fn connffessit_3d(fields: &str) -> String {
 /// VTK read xy as 0; the 3D ⟨QQ⟩ summed instead of averaged fails the value check below.
 #[test]
 fn model_fields_and_particle_groups_read_through_the_xdmf_in_2d_and_3d() {
-    let Ok(python) = std::env::var("MESORHEO_PYTHON") else {
-        assert!(
-            std::env::var("MESORHEO_REQUIRE_PYTHON").is_err(),
-            "MESORHEO_PYTHON is not set"
-        );
-        common::report_skip(
-            "the XDMF reader check of model fields",
-            "set MESORHEO_PYTHON to a Python with h5py (./run test does)",
-        );
+    let Some(python) = common::python_or_skip(
+        "the XDMF reader check of model fields",
+        "set MESORHEO_PYTHON to a Python with h5py (./run test does)",
+    ) else {
         return;
     };
     let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tools/check_xdmf.py");
@@ -517,15 +502,10 @@ fn model_fields_and_groups_are_the_same_on_1_and_2_ranks() {
 /// no PNG.
 #[test]
 fn a_run_draws_its_observables_and_velocity_profile_as_png() {
-    let Ok(python) = std::env::var("MESORHEO_PYTHON") else {
-        assert!(
-            std::env::var("MESORHEO_REQUIRE_PYTHON").is_err(),
-            "MESORHEO_PYTHON is not set"
-        );
-        common::report_skip(
-            "the run's PNGs",
-            "set MESORHEO_PYTHON to a Python with matplotlib (./run test does)",
-        );
+    let Some(python) = common::python_or_skip(
+        "the run's PNGs",
+        "set MESORHEO_PYTHON to a Python with matplotlib (./run test does)",
+    ) else {
         return;
     };
     let dir = tempfile::tempdir().expect("tempdir");

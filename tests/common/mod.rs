@@ -239,6 +239,21 @@ pub fn h5_content(path: &Path) -> Vec<(String, Vec<usize>, Vec<u64>)> {
 /// Says on the uncaptured stderr that a check was skipped, and why: the test harness captures
 /// `eprintln!` of a passing test, so a skip reported that way would be silent. (libtest has no
 /// "skipped" outcome; the line is what a reader of the test log sees.)
+/// The Python of `MESORHEO_PYTHON` for a check that needs one, or `None` after saying on the
+/// uncaptured stderr that `what` is skipped and `why`; with `MESORHEO_REQUIRE_PYTHON` set (as
+/// `./run test` does) a missing Python fails the test instead.
+pub fn python_or_skip(what: &str, why: &str) -> Option<String> {
+    let python = std::env::var("MESORHEO_PYTHON").ok();
+    if python.is_none() {
+        assert!(
+            std::env::var("MESORHEO_REQUIRE_PYTHON").is_err(),
+            "MESORHEO_PYTHON is not set"
+        );
+        report_skip(what, why);
+    }
+    python
+}
+
 pub fn report_skip(what: &str, why: &str) {
     use std::io::Write;
     let _ = writeln!(std::io::stderr().lock(), "SKIPPED {what}: {why}");

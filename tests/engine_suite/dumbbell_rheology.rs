@@ -11,7 +11,7 @@
 //! Gaussian leaves 4σ with probability 6·10⁻⁵, so ~30 comparisons give a false alarm < 0.2 %),
 //! stated separately where the reference itself is approximate (FENE-P).
 
-use crate::common::mean_se;
+use crate::common::{self, mean_se};
 use mesorheo::comm::SerialComm;
 use mesorheo::models::dumbbells::{
     DumbbellParams, Scheme, Spring, hookean_discrete_moment, kramers_stress,
@@ -587,19 +587,10 @@ fn steady_shear(
 /// dynamics). `None` (with a note) when no Python is given, unless MESORHEO_REQUIRE_PYTHON is
 /// set (`./run test` sets both).
 fn fokker_planck(b: f64, wi: f64) -> Option<(f64, f64, f64)> {
-    let Ok(python) = std::env::var("MESORHEO_PYTHON") else {
-        assert!(
-            std::env::var("MESORHEO_REQUIRE_PYTHON").is_err(),
-            "MESORHEO_PYTHON is not set"
-        );
-        // On the uncaptured stderr: a passing test's eprintln! would be silent.
-        use std::io::Write;
-        let _ = writeln!(
-            std::io::stderr().lock(),
-            "SKIPPED the Fokker–Planck comparison: set MESORHEO_PYTHON (./run test does)"
-        );
-        return None;
-    };
+    let python = common::python_or_skip(
+        "the Fokker–Planck comparison",
+        "set MESORHEO_PYTHON (./run test does)",
+    )?;
     let tool = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tools/fene_fokker_planck.py");
     let o = std::process::Command::new(python)
         .arg(tool)

@@ -16,7 +16,7 @@ const LAMBDA: f64 = 0.1;
 
 /// A 2D box of 16 × 16 particles at rest, k_BT = 1, m = 100 (thermal speed 0.1, Mach 0.1),
 /// with `extra` appended to `[fluid]` and the run's `dt`, `steps`, `shear`.
-fn at_rest(dt: f64, steps: u64, shear: f64, extra: &str) -> String {
+pub(crate) fn at_rest(dt: f64, steps: u64, shear: f64, extra: &str) -> String {
     format!(
         r#"title = "GENERIC polymer fluid test box"
 dimension = 2

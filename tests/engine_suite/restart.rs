@@ -690,38 +690,9 @@ profile_bins = 6
 /// + restart on another rank count + N/2, bitwise.
 #[test]
 fn generic_polymer_restart_is_bitwise() {
-    let text = r#"
-dimension = 2
-seed = 5
-[box]
-lengths = [8.0, 8.0]
-shear_rate = 0.3
-[particles]
-lattice = "cubic"
-density = 4.0
-mass = 100.0
-temperature = 1.0
-[fluid]
-kind = "generic_polymer"
-smoothing_length = 1.5
-sound_speed = 1.0
-solvent_viscosity = 40.0
-kt = 1.0
-spring_constant = 1.0
-relaxation_time = 0.1
-dumbbell_density = 16.0
-[integrator]
-kind = "kick_drift_kick"
-dt = 0.01
-[neighbour]
-skin = 0.2
-[run]
-steps = 120
-sample_every = 5
-[diagnostics]
-observables = ["conformation", "constitutive_stress", "momentum"]
-"#;
-    assert_restart_at_60_is_bitwise(text, "GENERIC polymer, Lees–Edwards");
+    // The GENERIC tests' box (16 × 16, k_BT = 1, λ_H = 0.1), sheared at 0.3, 120 steps.
+    let text = super::generic_polymer::at_rest(0.01, 120, 0.3, "");
+    assert_restart_at_60_is_bitwise(&text, "GENERIC polymer, Lees–Edwards");
 }
 
 /// `text` run whole ≡ run to step 60 on 1 (2) ranks + restarted on 2 (1) ranks, bitwise.

@@ -133,15 +133,10 @@ fn time_step_limit_can_be_lifted_for_stability_studies() {
 /// (`./run test` sets both; its own self-test runs there too).
 #[test]
 fn stokes_references_of_the_stock_cell_come_from_the_independent_solver() {
-    let Ok(python) = std::env::var("MESORHEO_PYTHON") else {
-        assert!(
-            std::env::var("MESORHEO_REQUIRE_PYTHON").is_err(),
-            "MESORHEO_PYTHON is not set"
-        );
-        common::report_skip(
-            "the Stokes-cell comparison",
-            "set MESORHEO_PYTHON (./run test does)",
-        );
+    let Some(python) = common::python_or_skip(
+        "the Stokes-cell comparison",
+        "set MESORHEO_PYTHON (./run test does)",
+    ) else {
         return;
     };
     let tool =
