@@ -61,6 +61,32 @@ pub fn render(path: &[Segment]) -> String {
     s
 }
 
+/// Parses a path rendered by [`render`] (`a.b[2].c`) back into its segments.
+pub fn parse_key_path(key: &str) -> Vec<Segment> {
+    let mut out = Vec::new();
+    for part in key.split('.') {
+        let mut rest = part;
+        if let Some(open) = rest.find('[') {
+            if open > 0 {
+                out.push(Segment::Key(rest[..open].to_owned()));
+            }
+            rest = &rest[open..];
+            while let Some(close) = rest.find(']') {
+                if let Ok(i) = rest[1..close].parse() {
+                    out.push(Segment::Index(i));
+                }
+                rest = &rest[close + 1..];
+                if !rest.starts_with('[') {
+                    break;
+                }
+            }
+        } else if !rest.is_empty() {
+            out.push(Segment::Key(rest.to_owned()));
+        }
+    }
+    out
+}
+
 /// The parsed document with spans.
 pub struct SpanIndex<'a> {
     source: &'a str,
@@ -287,4 +313,34 @@ pub fn line_col(source: &str, offset: usize) -> (usize, usize) {
     let line = before.matches('\n').count() + 1;
     let col = before.rsplit('\n').next().map_or(0, |l| l.chars().count()) + 1;
     (line, col)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_rendered_key_path_parses_back_to_its_segments() {
+        let path = vec![
+            Segment::Key("reference".into()),
+            Segment::Index(2),
+            Segment::Key("tolerance".into()),
+        ];
+        assert_eq!(render(&path), "reference[2].tolerance");
+        assert_eq!(parse_key_path(&render(&path)), path);
+        let nested = vec![
+            Segment::Key("box".into()),
+            Segment::Key("lengths".into()),
+            Segment::Index(1),
+        ];
+        assert_eq!(parse_key_path(&render(&nested)), nested);
+        assert_eq!(
+            parse_key_path("fluid.polymer.b"),
+            vec![
+                Segment::Key("fluid".into()),
+                Segment::Key("polymer".into()),
+                Segment::Key("b".into())
+            ]
+        );
+    }
 }

@@ -223,3 +223,44 @@ fn expectation_headers_are_parsed() {
     let exp = expectation("# expect: a\n# at: 1\n# col: 18\n").unwrap();
     assert_eq!(exp.column("lattice = \"random"), 18);
 }
+
+/// An error in a `--set` override is pointed at the override, and an error in the file at its
+/// line in the file on disk, even when an override added a key above it (which shifts the lines
+/// of the edited text). Fails if the location is taken from the edited text again (mutation:
+/// `locate_override` returning its argument unchanged: "(with --set overrides):39:13" and a
+/// `dt` line one below the file's).
+#[test]
+fn an_error_from_a_set_override_points_at_the_override_and_a_file_error_at_the_file() {
+    let stock = Path::new(env!("CARGO_MANIFEST_DIR")).join("cases/default.toml");
+    let err = mesorheo::config::load_scene(&stock, &["fluid.viscosity=-1".to_owned()])
+        .err()
+        .expect("a negative viscosity is refused");
+    let shown = err.to_string();
+    assert!(
+        shown.starts_with(&format!(
+            "{} (--set fluid.viscosity=-1): `fluid.viscosity`",
+            stock.display()
+        )),
+        "{shown}"
+    );
+
+    // An invalid time step in the file, below [fluid], and an override that adds a key to
+    // [fluid]: the error names the file's own line of `dt`.
+    let text = std::fs::read_to_string(&stock).expect("stock case");
+    let text = text.replacen("dt = 3.0e-3", "dt = -3.0e-3", 1);
+    let line = 1 + text
+        .lines()
+        .position(|l| l.starts_with("dt = -3"))
+        .expect("dt line");
+    let dir = tempfile::tempdir().expect("temp dir");
+    let case = dir.path().join("bad_dt.toml");
+    std::fs::write(&case, &text).expect("write case");
+    let err = mesorheo::config::load_scene(&case, &["fluid.xsph=0.0".to_owned()])
+        .err()
+        .expect("a negative time step is refused");
+    assert_eq!(
+        (err.file.as_str(), err.line, err.key.as_str()),
+        (case.to_str().expect("utf-8"), line, "integrator.dt"),
+        "{err}"
+    );
+}

@@ -22,6 +22,16 @@ fn case(steps: u64, extra: &str) -> String {
 }
 
 fn run(text: &str, ranks: usize, out: &Path, until: Option<u64>) -> mesorheo::summary::Summary {
+    run_threads(text, ranks, 1, out, until)
+}
+
+fn run_threads(
+    text: &str,
+    ranks: usize,
+    threads: usize,
+    out: &Path,
+    until: Option<u64>,
+) -> mesorheo::summary::Summary {
     let loaded = case_from_str(text, "snap");
     let out = out.to_path_buf();
     in_process(ranks, move |c| {
@@ -29,7 +39,7 @@ fn run(text: &str, ranks: usize, out: &Path, until: Option<u64>) -> mesorheo::su
             &loaded,
             c,
             &RunOptions {
-                threads: 1,
+                threads,
                 steps: None,
                 until_step: until,
                 out: Some(out.clone()),
@@ -491,6 +501,70 @@ fn model_fields_and_groups_are_the_same_on_1_and_2_ranks() {
             assert!(v == v0, "{n} differs between 1 and {ranks} ranks");
         }
     }
+}
+
+/// The model fields of a CONNFFESSIT scene (τ from the SPH fluid, ⟨QQ⟩ from each particle's
+/// dumbbells, density, pressure, species, unwrapped positions) are bitwise the same on 1 rank ×
+/// 1 thread, 2 ranks × 2 threads, and across a restart from the step-2 checkpoint on another
+/// rank count (the frame at step 4 rewritten from the restarted state). Mutation: ⟨QQ⟩ of the
+/// next rank-local row (`rows.extend_f64((i + 1) % rows.len(), …)` in the dumbbells'
+/// `snapshot_values`) gives each particle another's conformation, which depends on the local
+/// order and so on the rank count.
+#[test]
+fn model_fields_are_the_same_for_any_thread_count_and_across_a_restart() {
+    let text = common::with_overrides(
+        &connffessit_3d(
+            "[\"position\", \"density\", \"pressure\", \"polymer_stress\", \"conformation\", \
+             \"species\", \"unwrapped_position\"]",
+        ),
+        &["output.checkpoint_every=2"],
+    );
+    let dir = tempfile::tempdir().expect("tempdir");
+    let whole = dir.path().join("whole");
+    run_threads(&text, 1, 1, &whole, None);
+    let reference = content(&whole.join("snapshots.h5"));
+    let names: Vec<&str> = reference.iter().map(|(n, _, _)| n.as_str()).collect();
+    for want in [
+        "/particles/fluid/conformation/value",
+        "/particles/fluid/polymer_stress/value",
+        "/particles/fluid/density/value",
+    ] {
+        assert!(names.contains(&want), "{want} missing: {names:?}");
+    }
+    let same = |out: &Path, what: &str| {
+        let c = content(&out.join("snapshots.h5"));
+        assert_eq!(c.len(), reference.len(), "{what}");
+        for ((n, s, v), (n0, s0, v0)) in c.iter().zip(reference.iter()) {
+            assert_eq!((n, s), (n0, s0), "{what}");
+            assert!(v == v0, "{n} differs on {what}");
+        }
+    };
+    let threaded = dir.path().join("threaded");
+    run_threads(&text, 2, 2, &threaded, None);
+    same(&threaded, "2 ranks × 2 threads");
+
+    let parts = dir.path().join("parts");
+    run_threads(&text, 2, 1, &parts, Some(2));
+    let ck = parts
+        .join("checkpoints")
+        .join(mesorheo::output::checkpoint::file_name(2));
+    let out = parts.clone();
+    in_process(1, move |c| {
+        restart_case(
+            &ck,
+            c,
+            &RunOptions {
+                threads: 2,
+                out: Some(out.clone()),
+                ..RunOptions::default()
+            },
+        )
+    })
+    .expect("restart");
+    same(
+        &parts,
+        "a restart from step 2 (2 ranks, then 1 rank × 2 threads)",
+    );
 }
 
 /// The run draws its pictures itself at the end, with the matplotlib of MESORHEO_PYTHON (the

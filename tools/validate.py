@@ -64,6 +64,9 @@ and writes plots to docs/ when matplotlib is available. Exits 1 when any recorde
                  γ̇ = 5 and 0.01, BDDFS at n_c = 40, 80, 200, 1000 against Brownian dynamics with
                  the same N_d; the error against n_c and against Δt (the ΔQ²/Δt law), memory
                  per particle and CPU per dumbbell-step (~10 min on 2 cores)
+  default_weissenberg  the default scene at Wi = 2 (p_t = 50) and Wi = 4 (p_t = 200, c₀ = 20,
+                 Δt = 7.5·10⁻⁴), seeds 1–3: the momentum-flux η within 1 % and N₁ within 1.3 % of
+                 Oldroyd-B on every seed (~10 min on 2 quiet cores)
   report         docs/validation_results/verdicts.md from the per-target records that every
                  target with checks writes to docs/validation_results/<target>.json
   dpd_held_out4  the held-out DPD maps, docs/stability/dpd_held_out4.txt (14 maps × seeds 1–3,
@@ -379,6 +382,10 @@ def stock():
         for v in rows:
             verdict(f"{case}: {v['name']}", v["pass"],
                     f"({v['metric']} {v['value']:.4g}, tolerance {v['tolerance']:.4g})")
+        if case == "default.toml":
+            # The flagship run is sized so that its own error bars need no caveat (issue #41).
+            warnings = s.get("warnings") or []
+            verdict(f"{case}: ends without a warning", not warnings, _stock_cell("; ".join(warnings), 300))
         if not rows:
             print(f"| {case} | {layout} | {wall:.1f} | (no [[reference]]) | | | | | – |", flush=True)
         for i, v in enumerate(rows):
@@ -1815,6 +1822,57 @@ def dpd_held_out4():
     dpd_stability("dpd_held_out4.txt")
 
 
+def default_weissenberg():
+    """The default scene (cases/default.toml, Lucy 4Δ, 1 000 dumbbells per particle, p_b = 0) at
+    Wi = 2 (p_t = 50 = 12.5 τ_xx, c₀ = 10, Δt = 1.5·10⁻³) and Wi = 4 (p_t = 200 = 12.5 τ_xx,
+    c₀ = 20, Δt = 7.5·10⁻⁴), seeds 1–3, averaged over t ∈ [9 λ, 27 λ] (Wi = 4) and [9 λ, 18 λ]
+    (Wi = 2): the momentum-flux η and N₁ against Oldroyd-B (η = η_s + η_p = 1, N₁ = 2η_pλγ̇² = Wi²).
+    Tolerances: η 1 %, N₁ 1.3 % on every seed. The seeds measured on 2026-11-27 read, mean ± seed
+    standard deviation, Wi = 2: η −0.54 ± 0.05 %, N₁ −0.68 ± 0.07 %; Wi = 4: η +0.32 ± 0.07 %,
+    N₁ +0.52 ± 0.17 %; the bounds are the largest |mean| + 4.5 sd of the two (η: 0.77 %, N₁:
+    1.29 %), rounded up. A sign error or a lost factor of the polymer force moves η by ≈ 50 %;
+    p_t = 50 at Wi = 4 (3 τ_xx, below check's 12 τ_xx rule) reads η +5 %, and misses."""
+    settings = {
+        2: ["box.shear_rate=2.0", "fluid.sound_speed=10.0", "integrator.dt=1.5e-3",
+            "fluid.transport_pressure=50.0", "run.equilibration=6000", "run.steps=18000"],
+        4: ["box.shear_rate=4.0", "fluid.sound_speed=20.0", "integrator.dt=7.5e-4",
+            "fluid.transport_pressure=200.0", "run.equilibration=12000", "run.steps=36000"],
+    }
+    pinned = ["fluid.smoothing_length=0.2", "fluid.background_pressure=0.0",
+              "fluid.polymer.per_particle=1000", "fluid.polymer.relaxation_time=1.0",
+              "fluid.polymer.viscosity=0.5", "fluid.viscosity=0.5", "diagnostics.blocks=5"]
+    print("### The default scene at Wi = 2 and 4 (`./run validate default_weissenberg`)\n")
+    print("Relative errors of the momentum flux (`viscosity`, `first_normal_stress_difference`) "
+          "and of the particles' own stress (`_constitutive`) against η = 1, N₁ = 2η_pλγ̇² = Wi², "
+          "± the run's block error; one rank × 2 threads. Bounds: |η error| ≤ 1 %, "
+          "|N₁ error| ≤ 1.3 % per seed.\n")
+    print("| Wi | p_t/τ_xx | seed | flux η | flux N₁ | particles' η | particles' N₁ | wall s |")
+    print("|---|---|---|---|---|---|---|---|")
+    for wi, sets in settings.items():
+        n1 = float(wi * wi)
+        tension = 2 * 0.5 * 1.0 * wi * wi
+        pt = float(sets[3].split("=")[1])
+        for seed in (1, 2, 3):
+            s = run("default.toml", sets + pinned + [f"seed={seed}"])
+            o = s["observables"]
+
+            def rel(name, want):
+                e = o[name]
+                return 100 * (e["mean"] / want - 1), 100 * e["stderr"] / want
+
+            cells = [rel("viscosity", 1.0), rel("first_normal_stress_difference", n1),
+                     rel("viscosity_constitutive", 1.0),
+                     rel("first_normal_stress_difference_constitutive", n1)]
+            text = " | ".join(f"{m:+.2f} ± {e:.2f} %" for m, e in cells)
+            print(f"| {wi} | {pt / tension:.1f} | {seed} | {text} | {s['wall_seconds']:.0f} |",
+                  flush=True)
+            verdict(f"Wi = {wi} seed {seed}: flux η within 1 %", abs(cells[0][0]) <= 1.0,
+                    f"{cells[0][0]:+.2f} %")
+            verdict(f"Wi = {wi} seed {seed}: flux N₁ within 1.3 %", abs(cells[1][0]) <= 1.3,
+                    f"{cells[1][0]:+.2f} %")
+    print()
+
+
 def launch_text(text, sets=(), ranks=1, threads=2):
     """launch() on a case given as text."""
     with tempfile.NamedTemporaryFile("w", suffix=".toml", delete=False) as f:
@@ -1830,7 +1888,7 @@ if __name__ == "__main__":
                             "inclusion", "maxwell_convergence", "maxwell_stability", "connffessit_shear",
                             "msph_channel", "connffessit_channel_seeds", "weak_order", "fene_table", "transverse_current",
                             "kt_vs_dt_low_mass", "dpd_stability", "dpd_held_out4", "fuzz", "maxwell_couette_causes", "maxwell_couette",
-                            "coupled_configuration_fields", "bddfs_t2"]
+                            "coupled_configuration_fields", "bddfs_t2", "default_weissenberg"]
     targets = {"kt_vs_dt": kt_vs_dt, "viscosity": viscosity, "stock": stock,
                "viscometric": viscometric, "sph": sph, "sph_convergence": sph_convergence,
                "maxwell": maxwell, "inclusion": inclusion,
@@ -1842,7 +1900,8 @@ if __name__ == "__main__":
                "connffessit_channel_seeds": connffessit_channel_seeds, "fuzz": fuzz,
                "bddfs_t2": bddfs_t2, "maxwell_couette": maxwell_couette,
                "maxwell_couette_causes": maxwell_couette_causes,
-               "coupled_configuration_fields": coupled_configuration_fields}
+               "coupled_configuration_fields": coupled_configuration_fields,
+               "default_weissenberg": default_weissenberg}
     if todo == ["report"]:
         report()
         sys.exit(0)

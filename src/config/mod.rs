@@ -568,7 +568,7 @@ pub fn load(path: &Path) -> Result<LoadedCase, CaseError> {
 /// Reads a case file of any kind of scene, applies `--set` overrides, parses and validates it.
 pub fn load_scene(path: &Path, overrides: &[String]) -> Result<LoadedScene, CaseError> {
     let (source, shown) = read_with_overrides(path, overrides)?;
-    let scene = parse_scene(&source, &shown)?;
+    let scene = parse_scene(&source, &shown).map_err(|e| locate_override(e, path, overrides))?;
     Ok(LoadedScene {
         scene,
         path: path.to_path_buf(),
@@ -604,7 +604,7 @@ pub fn parse_scene(source: &str, path: &Path) -> Result<CaseScene, CaseError> {
 /// the result, so an override is checked like any other key.
 pub fn load_with_overrides(path: &Path, overrides: &[String]) -> Result<LoadedCase, CaseError> {
     let (source, shown) = read_with_overrides(path, overrides)?;
-    let case = parse(&source, &shown)?;
+    let case = parse(&source, &shown).map_err(|e| locate_override(e, path, overrides))?;
     Ok(LoadedCase {
         case,
         path: path.to_path_buf(),
@@ -629,6 +629,42 @@ fn read_with_overrides(path: &Path, overrides: &[String]) -> Result<(String, Pat
         shown = PathBuf::from(format!("{} (with --set overrides)", path.display()));
     }
     Ok((source, shown))
+}
+
+/// An error found in the case text with `--set` overrides applied, pointed at what the user
+/// wrote: at the override when the error's key is one it set (or lies under it), otherwise at
+/// the key's line in the file as it is on disk (an override that adds a key shifts the lines
+/// of the edited text, so those line numbers would mislead).
+fn locate_override(mut err: CaseError, path: &Path, overrides: &[String]) -> CaseError {
+    if overrides.is_empty() {
+        return err;
+    }
+    let under = |key: &str| {
+        err.key == key
+            || (err.key.starts_with(key)
+                && matches!(err.key.as_bytes().get(key.len()), Some(b'.') | Some(b'[')))
+    };
+    if let Some(o) = overrides
+        .iter()
+        .find(|o| o.split_once('=').is_some_and(|(k, _)| under(k.trim())))
+    {
+        err.file = format!("{} (--set {o})", path.display());
+        err.line = 0;
+        err.column = 0;
+        return err;
+    }
+    err.file = path.display().to_string();
+    let original = std::fs::read_to_string(path).unwrap_or_default();
+    match spans::SpanIndex::new(&original, path) {
+        Ok(index) if !err.key.is_empty() => {
+            (err.line, err.column) = index.locate(&spans::parse_key_path(&err.key));
+        }
+        _ => {
+            err.line = 0;
+            err.column = 0;
+        }
+    }
+    err
 }
 
 /// Case text with `key.path=value` overrides applied (what `--set` does; values are TOML
