@@ -100,14 +100,14 @@ def main():
     a.set_title("The grid's bias against r: one line whichever of n_c, Δt sets r", fontsize=9)
     a.legend(fontsize=5, ncol=2)
     for i, nc in enumerate([None] + cells):
-        sel = sorted((p["n_d"], p["bytes"]) for p in pts if p["cells"] == nc and p["dt"] == 0.01)
+        sel = sorted((p["n_d"], p["bytes"]) for p in pts if p["cells"] == nc and p["dt"] == 0.04)
         if sel:
             m.plot(*zip(*sel), "o-", color="k" if nc is None else f"C{i - 1}",
                    label="BD" if nc is None else f"BDDFS n_c = {nc}")
     m.set_xscale("log")
     m.set_yscale("log")
     m.set_xlabel("N_d (dumbbells per particle)")
-    m.set_ylabel("stored bytes per particle (end of run, Δt = 0.01)")
+    m.set_ylabel("stored bytes per particle (end of run, Δt = 0.04)")
     m.set_title("Memory per particle", fontsize=9)
     m.legend(fontsize=7)
     fig.tight_layout()
