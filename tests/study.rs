@@ -108,7 +108,22 @@ value = 1.0
             row["polymer.per_particle"]
         );
         assert!(num(row, "core_seconds") > 0.0);
+        // The memory column: the stored connectors of plain dumbbells, N_d × D × 8 B (3D,
+        // double precision), as the run reports them.
+        let n_d: f64 = row["polymer.per_particle"].parse().unwrap();
+        assert_eq!(num(row, "bytes_per_particle"), n_d * 3.0 * 8.0, "{row:?}");
     }
+    // Memory/error front: the smallest N_d stores least, so it is on it whatever its error;
+    // another point is on it exactly when no point stores at most as much with at most its error.
+    for (i, row) in rows.iter().enumerate() {
+        let dominated = (0..3).any(|j| {
+            j != i
+                && num(&rows[j], "bytes_per_particle") <= num(row, "bytes_per_particle")
+                && num(&rows[j], "error") <= num(row, "error")
+        });
+        assert_eq!(row["pareto_memory"] == "1", !dominated, "{rows:?}");
+    }
+    assert_eq!(rows[0]["pareto_memory"], "1");
     // More dumbbells, smaller error bars: 20× the dumbbells should give about √20 ≈ 4.5× less
     // noise; at least 2× (the stderr estimates themselves scatter by ~25 % with 10 blocks).
     assert!(

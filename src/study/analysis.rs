@@ -27,7 +27,13 @@ pub struct Analysis {
     pub errors: Vec<Option<Vec<ErrorParts>>>,
     /// Per point: core-seconds (NaN unless done).
     pub core_seconds: Vec<f64>,
+    /// Per point: stored ensemble bytes per particle (NaN unless done and reported).
+    pub bytes_per_particle: Vec<f64>,
+    /// On the cost (core-seconds) / error front.
     pub pareto: Vec<bool>,
+    /// On the memory (bytes per particle) / error front; all false when no point reports its
+    /// memory.
+    pub pareto_memory: Vec<bool>,
     /// The point serving as the reference (converged / Richardson), if any.
     pub reference_point: Option<usize>,
     /// Index of the recommended point.
@@ -42,6 +48,7 @@ fn done(p: &PointResult) -> Option<(&[(f64, f64)], f64)> {
         Status::Done {
             values,
             wall_seconds,
+            ..
         } => Some((values, *wall_seconds)),
         _ => None,
     }
@@ -78,6 +85,24 @@ fn cheap_edges(
         }
     }
     out
+}
+
+/// The points no other point beats on both cost and error (at most as costly and as wrong,
+/// strictly better in one); points with a non-finite cost or error are off the front.
+pub fn pareto_front(cost: &[f64], error: &[f64]) -> Vec<bool> {
+    let ok = |i: usize| cost[i].is_finite() && error[i].is_finite();
+    (0..cost.len())
+        .map(|i| {
+            ok(i)
+                && !(0..cost.len()).any(|j| {
+                    j != i
+                        && ok(j)
+                        && cost[j] <= cost[i]
+                        && error[j] <= error[i]
+                        && (cost[j] < cost[i] || error[j] < error[i])
+                })
+        })
+        .collect()
 }
 
 /// Errors, Pareto front and recommendation from the points' results.
@@ -148,18 +173,18 @@ pub fn analyse(
             })
         })
         .collect();
-    let pareto: Vec<bool> = (0..results.len())
-        .map(|i| {
-            combined[i].is_finite()
-                && !(0..results.len()).any(|j| {
-                    j != i
-                        && combined[j].is_finite()
-                        && core_seconds[j] <= core_seconds[i]
-                        && combined[j] <= combined[i]
-                        && (core_seconds[j] < core_seconds[i] || combined[j] < combined[i])
-                })
+    let pareto = pareto_front(&core_seconds, &combined);
+    let bytes_per_particle: Vec<f64> = results
+        .iter()
+        .map(|p| match &p.status {
+            Status::Done {
+                bytes_per_particle: Some(b),
+                ..
+            } => *b,
+            _ => f64::NAN,
         })
         .collect();
+    let pareto_memory = pareto_front(&bytes_per_particle, &combined);
     let recommended = target.and_then(|t| {
         (0..results.len())
             // The reference point's error against itself is 0 by construction: it is no
@@ -245,6 +270,33 @@ pub fn analyse(
             );
         }
     }
+    // The memory knob: of the points that meet the tolerance as the recommendation must, the
+    // one that stores the fewest bytes per particle (ties: the cheaper).
+    if let Some(t) = target {
+        let leanest = (0..results.len())
+            .filter(|&i| Some(i) != reference_point && bytes_per_particle[i].is_finite())
+            .filter(|&i| {
+                errors[i]
+                    .as_ref()
+                    .is_some_and(|e| e.iter().all(|p| p.error + 2.0 * p.statistical <= t))
+            })
+            .min_by(|&a, &b| {
+                bytes_per_particle[a]
+                    .total_cmp(&bytes_per_particle[b])
+                    .then(core_seconds[a].total_cmp(&core_seconds[b]))
+            });
+        if let Some(i) = leanest {
+            let _ = writeln!(
+                text,
+                "least memory for a tolerance of {t}: {} — {:.0} B per particle, {:.1} core-s, \
+                 error {:.3e}",
+                show(i),
+                bytes_per_particle[i],
+                core_seconds[i],
+                combined[i]
+            );
+        }
+    }
     let unstable = results
         .iter()
         .filter(|p| matches!(p.status, Status::Unstable(_)))
@@ -265,7 +317,9 @@ pub fn analyse(
         references,
         errors,
         core_seconds,
+        bytes_per_particle,
         pareto,
+        pareto_memory,
         reference_point,
         recommended,
         target,

@@ -25,6 +25,20 @@
 //! # reference = "richardson" # or: Richardson extrapolation in integrator.dt (order = 1 or 2)
 //! ```
 //!
+//! A knob value may be a table, a *bundle* of case keys set together; the knob's `key` then only
+//! names its column. So plain Brownian dynamics and BDDFS grids share one sweep, and N_d varies
+//! at a fixed total of dumbbells:
+//!
+//! ```toml
+//! [[knob]]
+//! key = "method"
+//! values = [{ polymer = { kind = "dumbbells" } }, { polymer = { kind = "bddfs", cells = 200 } }]
+//! [[knob]]
+//! key = "ensemble"
+//! values = [{ "flow.particles" = 200, "polymer.per_particle" = 1000 },
+//!           { "flow.particles" = 20, "polymer.per_particle" = 10000 }]
+//! ```
+//!
 //! Every point of the Cartesian product of the knobs is an ordinary `mesorheo run` (a child
 //! process, under `mpirun` when `ranks > 1`) in `OUT/points/NNN/`. A point whose `point.json`
 //! records the same overrides is not run again, so an interrupted study resumes where it
@@ -39,7 +53,10 @@
 //!
 //! The study's error of a point is the largest e over its observables; its cost is the run's
 //! wall time × ranks × threads (core-seconds). A point is on the Pareto front when no other
-//! point is both cheaper and more accurate. The recommendation for a target tolerance τ is the
+//! point is both cheaper and more accurate. Its memory is the stored ensemble bytes per
+//! particle the run reports (summary.json `ensemble_bytes_per_particle`: the connectors of
+//! plain dumbbells, the occupied histogram cells of BDDFS), with its own memory/error front
+//! (CSV `pareto_memory`) and the leanest point that meets the target. The recommendation for a target tolerance τ is the
 //! cheapest point whose every observable has e + 2s ≤ τ (its true error is below τ with about
 //! 95 % confidence), so a point that is accurate only by luck of its noise is not picked.
 //!
@@ -130,10 +147,36 @@ pub struct ObservableSpec {
 }
 
 /// A knob: a case key and its values (TOML text, as given to `--set`).
+///
+/// A value may instead be a table of several case keys set together (a "bundle"), e.g.
+/// `{ polymer = { kind = "bddfs", cells = 200 } }` or `{ "flow.particles" = 20,
+/// "polymer.per_particle" = 10000 }`: its entries, flattened to dotted keys, are the point's
+/// overrides, and the knob's `key` only names its column (so plain Brownian dynamics and BDDFS
+/// at several grids can share one sweep, and N_d can vary at a fixed total of dumbbells).
 #[derive(Clone, Debug)]
 pub struct Knob {
     pub key: String,
+    /// Per value, its label in the CSV, the plot and the recommendation (the TOML text of a
+    /// plain value; `cells=200 kind=bddfs` for a bundle: its entries in key order, keys
+    /// shortened to their last part).
     pub values: Vec<String>,
+    /// Per value, the `key=value` overrides it sets.
+    pub settings: Vec<Vec<String>>,
+}
+
+/// A bundle's entries as (dotted key, TOML text), nested tables flattened in order.
+fn flatten_bundle(prefix: &str, table: &toml::Table, out: &mut Vec<(String, String)>) {
+    for (k, v) in table {
+        let key = if prefix.is_empty() {
+            k.clone()
+        } else {
+            format!("{prefix}.{k}")
+        };
+        match v {
+            toml::Value::Table(t) => flatten_bundle(&key, t, out),
+            other => out.push((key, toml_text(other))),
+        }
+    }
 }
 
 /// A validated sweep.
@@ -235,9 +278,45 @@ pub fn parse_sweep(text: &str, here: &Path) -> Result<Sweep, String> {
         if knobs.iter().any(|o: &Knob| o.key == k.key) {
             return Err(format!("knob[{i}]: the key {} is varied twice", k.key));
         }
+        let mut values = Vec::new();
+        let mut settings = Vec::new();
+        for (j, v) in k.values.iter().enumerate() {
+            if let toml::Value::Table(t) = v {
+                let mut entries = Vec::new();
+                flatten_bundle("", t, &mut entries);
+                if entries.is_empty() {
+                    return Err(format!(
+                        "knob[{i}] ({}): value {j} is an empty table; a bundle sets case keys, \
+                         e.g. {{ polymer = {{ kind = \"bddfs\", cells = 200 }} }}",
+                        k.key
+                    ));
+                }
+                values.push(
+                    entries
+                        .iter()
+                        .map(|(key, v)| {
+                            let short = key.rsplit('.').next().unwrap_or(key);
+                            format!("{short}={}", v.trim_matches('"'))
+                        })
+                        .collect::<Vec<_>>()
+                        .join(" "),
+                );
+                settings.push(
+                    entries
+                        .iter()
+                        .map(|(key, v)| format!("{key}={v}"))
+                        .collect(),
+                );
+            } else {
+                let text = toml_text(v);
+                settings.push(vec![format!("{}={text}", k.key)]);
+                values.push(text);
+            }
+        }
         knobs.push(Knob {
             key: k.key.clone(),
-            values: k.values.iter().map(toml_text).collect(),
+            values,
+            settings,
         });
     }
     let count = knobs
@@ -349,16 +428,29 @@ pub fn parse_sweep(text: &str, here: &Path) -> Result<Sweep, String> {
 }
 
 /// The points of a sweep: the Cartesian product of the knob values (the first knob varies
-/// slowest), each as its list of `key=value` overrides.
+/// slowest), each as its list of `key=value` overrides (a bundle contributes all of its keys).
 pub fn points(sweep: &Sweep) -> Vec<Vec<String>> {
-    let mut out: Vec<Vec<String>> = vec![Vec::new()];
+    point_values(sweep)
+        .into_iter()
+        .map(|p| {
+            p.iter()
+                .enumerate()
+                .flat_map(|(k, &j)| sweep.knobs[k].settings[j].iter().cloned())
+                .collect()
+        })
+        .collect()
+}
+
+/// The points of a sweep as the index of each knob's value, in the order of [`points`].
+pub fn point_values(sweep: &Sweep) -> Vec<Vec<usize>> {
+    let mut out: Vec<Vec<usize>> = vec![Vec::new()];
     for k in &sweep.knobs {
         out = out
             .into_iter()
             .flat_map(|p| {
-                k.values.iter().map(move |v| {
+                (0..k.values.len()).map(move |j| {
                     let mut q = p.clone();
-                    q.push(format!("{}={v}", k.key));
+                    q.push(j);
                     q
                 })
             })
@@ -386,7 +478,11 @@ pub fn point_overrides(
         && dt > 0.0
     {
         let scale = dt0 / dt;
-        let varied = |key: &str| sweep.knobs.iter().any(|k| k.key == key);
+        let varied = |key: &str| {
+            let prefix = format!("{key}=");
+            sweep.knobs.iter().any(|k| k.key == key)
+                || knob_overrides.iter().any(|o| o.starts_with(&prefix))
+        };
         let scaled = |n: u64| (n as f64 * scale).round() as u64;
         for (key, value) in [
             ("run.steps", scaled(run.steps).max(1)),
@@ -498,8 +594,106 @@ mod tests {
             status: Status::Done {
                 values: vec![(mean, stderr)],
                 wall_seconds: wall,
+                bytes_per_particle: None,
             },
         }
+    }
+
+    /// Plain Brownian dynamics and BDDFS in one sweep: a bundle sets several keys as one knob
+    /// value, labelled by its entries.
+    #[test]
+    fn a_bundle_value_sets_several_keys_and_is_labelled_by_them() {
+        let s = sweep(
+            r#"
+            case = "../cases/bddfs_fene_shear_2d.toml"
+            [[knob]]
+            key = "method"
+            values = [{ polymer = { kind = "dumbbells" } },
+                      { polymer = { kind = "bddfs", cells = 200 } }]
+            [[knob]]
+            key = "ensemble"
+            values = [{ "flow.particles" = 20, "polymer.per_particle" = 10000 }]
+            [[observable]]
+            name = "polymer_viscosity"
+            value = 0.613257
+            "#,
+        )
+        .unwrap();
+        // A bundle's entries in key order (a TOML table is unordered).
+        assert_eq!(
+            s.knobs[0].values,
+            ["kind=dumbbells", "cells=200 kind=bddfs"]
+        );
+        assert_eq!(s.knobs[1].values, ["particles=20 per_particle=10000"]);
+        let p = points(&s);
+        assert_eq!(
+            p[1],
+            [
+                "polymer.cells=200",
+                "polymer.kind=\"bddfs\"",
+                "flow.particles=20",
+                "polymer.per_particle=10000"
+            ]
+        );
+        assert_eq!(point_values(&s), [[0, 0], [1, 0]]);
+        let e = sweep(
+            r#"
+            case = "../cases/bddfs_fene_shear_2d.toml"
+            [[knob]]
+            key = "method"
+            values = [{}]
+            [[observable]]
+            name = "polymer_viscosity"
+            value = 0.6
+            "#,
+        )
+        .unwrap_err();
+        assert!(e.contains("empty table"), "{e}");
+    }
+
+    /// The memory axis: the memory/error front and the leanest point meeting the tolerance.
+    #[test]
+    fn the_memory_front_and_the_leanest_point_that_meets_the_tolerance() {
+        let s = one_knob("value = 1.0");
+        let with_bytes = |dt: f64, mean: f64, wall: f64, bytes: f64| {
+            let mut p = result(dt, mean, 0.001, wall);
+            if let Status::Done {
+                bytes_per_particle, ..
+            } = &mut p.status
+            {
+                *bytes_per_particle = Some(bytes);
+            }
+            p
+        };
+        let r = vec![
+            with_bytes(0.04, 1.005, 1.0, 16000.0), // cheapest in CPU, most memory
+            with_bytes(0.02, 1.004, 2.0, 300.0),   // leanest that meets 0.01: on both fronts
+            with_bytes(0.01, 1.060, 3.0, 100.0),   // leanest of all but 6 % off: memory front
+            with_bytes(0.005, 1.005, 4.0, 400.0),  // beaten by the second on everything
+        ];
+        let a = analyse(&s, &r, Some(0.01)).unwrap();
+        assert_eq!(a.pareto, [true, true, false, false]);
+        assert_eq!(a.pareto_memory, [false, true, true, false]);
+        assert_eq!(a.recommended, Some(0));
+        assert!(
+            a.recommendation.contains(
+                "least memory for a tolerance of 0.01: integrator.dt=0.02 — 300 B per particle"
+            ),
+            "{}",
+            a.recommendation
+        );
+        let csv = a.csv(&s);
+        assert!(
+            csv.lines()
+                .next()
+                .unwrap()
+                .contains("bytes_per_particle,pareto_memory,pareto"),
+            "{csv}"
+        );
+        assert!(
+            csv.lines().nth(2).unwrap().ends_with(",300.0,1,1,0,0"),
+            "{csv}"
+        );
     }
 
     fn one_knob(reference: &str) -> Sweep {

@@ -1,7 +1,8 @@
 # Error against cost of a `mesorheo study` (embedded in the binary; run as
 # python -c SCRIPT study.csv study.png TITLE [TARGET]). Every completed point with its
 # statistical error bar, the Pareto front as a line, the recommended point ringed, the target
-# tolerance dashed.
+# tolerance dashed. When the points report their stored ensemble bytes per particle, a second
+# panel draws the same errors against memory with the memory/error front.
 import csv
 import sys
 
@@ -20,40 +21,44 @@ knobs = head[: head.index("status")]
 observables = [h[: -len(":mean")] for h in head if h.endswith(":mean")]
 # The reference point itself (error 0) has no place on a log axis.
 done = [r for r in rows if r["status"] == "done" and float(r["error"]) > 0]
-fig, ax = plt.subplots(figsize=(7, 5))
-for r in done:
-    cost = float(r["core_seconds"])
-    err = float(r["error"])
-    # The statistical part of the observable that sets the point's error.
-    worst = max(observables, key=lambda o: float(r[o + ":error"]))
-    stat = float(r[worst + ":statistical"])
-    floor = err
-    lower = min(stat, floor * 0.999)
-    ax.errorbar(
-        cost,
-        floor,
-        yerr=[[lower], [stat]],
-        fmt="o",
-        color="C1" if r["pareto"] == "1" else "C0",
-        ms=5,
-        capsize=2,
+with_memory = bool(done) and all(r.get("bytes_per_particle") for r in done)
+axes_spec = [("core_seconds", "pareto", "cost (core-seconds)")]
+if with_memory:
+    axes_spec.append(("bytes_per_particle", "pareto_memory", "stored ensemble bytes per particle"))
+fig, axes = plt.subplots(1, len(axes_spec), figsize=(7 * len(axes_spec), 5), squeeze=False)
+for ax, (cost_col, front_col, xlabel) in zip(axes[0], axes_spec):
+    for r in done:
+        cost = float(r[cost_col])
+        err = float(r["error"])
+        # The statistical part of the observable that sets the point's error.
+        worst = max(observables, key=lambda o: float(r[o + ":error"]))
+        stat = float(r[worst + ":statistical"])
+        lower = min(stat, err * 0.999)
+        ax.errorbar(
+            cost,
+            err,
+            yerr=[[lower], [stat]],
+            fmt="o",
+            color="C1" if r[front_col] == "1" else "C0",
+            ms=5,
+            capsize=2,
+        )
+        label = " ".join(r[k] for k in knobs)
+        ax.annotate(label, (cost, err), fontsize=5, xytext=(3, 3), textcoords="offset points")
+        if r["recommended"] == "1":
+            ax.plot(cost, err, "o", ms=14, mfc="none", mec="C3", mew=1.5, label="recommended")
+    front = sorted(
+        (float(r[cost_col]), float(r["error"])) for r in done if r[front_col] == "1"
     )
-    label = " ".join(r[k] for k in knobs)
-    ax.annotate(label, (cost, floor), fontsize=6, xytext=(3, 3), textcoords="offset points")
-    if r["recommended"] == "1":
-        ax.plot(cost, floor, "o", ms=14, mfc="none", mec="C3", mew=1.5, label="recommended")
-front = sorted(
-    ((float(r["core_seconds"]), float(r["error"])) for r in done if r["pareto"] == "1"),
-)
-if front:
-    ax.plot(*zip(*front), "-", color="C1", lw=1, label="Pareto front")
-if target is not None:
-    ax.axhline(target, ls="--", color="C3", lw=1, label=f"target {target:g}")
-ax.set_xscale("log")
-ax.set_yscale("log")
-ax.set_xlabel("cost (core-seconds)")
-ax.set_ylabel("error (" + ", ".join(observables) + "; largest)")
-ax.set_title(title + "\npoints: " + ", ".join(knobs), fontsize=9)
-ax.legend(fontsize=7)
+    if front:
+        ax.plot(*zip(*front), "-", color="C1", lw=1, label="Pareto front")
+    if target is not None:
+        ax.axhline(target, ls="--", color="C3", lw=1, label=f"target {target:g}")
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel("error (" + ", ".join(observables) + "; largest)")
+    ax.set_title(title + "\npoints: " + ", ".join(knobs), fontsize=9)
+    ax.legend(fontsize=7)
 fig.tight_layout()
 fig.savefig(png_path, dpi=110)

@@ -5,7 +5,8 @@ use super::*;
 
 impl Analysis {
     /// The CSV: knob values, status, per observable mean ± stderr, error, statistical and
-    /// systematic parts, the study error, wall time, core-seconds, Pareto and recommendation.
+    /// systematic parts, the study error, wall time, core-seconds, stored bytes per particle,
+    /// the memory/error and cost/error Pareto flags, reference and recommendation.
     pub fn csv(&self, sweep: &Sweep) -> String {
         let mut s = String::new();
         let mut head: Vec<String> = sweep.knobs.iter().map(|k| k.key.clone()).collect();
@@ -20,6 +21,8 @@ impl Analysis {
                 "error",
                 "wall_seconds",
                 "core_seconds",
+                "bytes_per_particle",
+                "pareto_memory",
                 "pareto",
                 "reference",
                 "recommended",
@@ -49,13 +52,20 @@ impl Analysis {
                     row.push(format!("{worst:.10e}"));
                     row.push(format!("{:.3}", self.core_seconds[i] / cores));
                     row.push(format!("{:.3}", self.core_seconds[i]));
+                    let b = self.bytes_per_particle[i];
+                    row.push(if b.is_finite() {
+                        format!("{b:.1}")
+                    } else {
+                        String::new()
+                    });
                 }
                 None => {
-                    for _ in 0..sweep.observables.len() * 5 + 3 {
+                    for _ in 0..sweep.observables.len() * 5 + 4 {
                         row.push(String::new());
                     }
                 }
             }
+            row.push(u8::from(self.pareto_memory[i]).to_string());
             row.push(u8::from(self.pareto[i]).to_string());
             row.push(u8::from(self.reference_point == Some(i)).to_string());
             row.push(u8::from(self.recommended == Some(i)).to_string());

@@ -11,6 +11,10 @@ pub enum Status {
     Done {
         values: Vec<(f64, f64)>,
         wall_seconds: f64,
+        /// Stored ensemble bytes per carrying particle at the end of the run (summary.json's
+        /// `ensemble_bytes_per_particle`: N_d × D × 8 B for dumbbells, 8 B per occupied
+        /// histogram cell for BDDFS); None for scenes without ensembles.
+        bytes_per_particle: Option<f64>,
     },
     /// Refused by the case validation (the message says why).
     Refused(String),
@@ -53,6 +57,15 @@ struct PointRecord {
 /// Runs (or resumes) every point of the sweep, then analyses and writes the outputs.
 pub fn run_study(sweep: &Sweep, opts: &StudyOptions) -> Result<Analysis, String> {
     let pts = points(sweep);
+    let labels: Vec<Vec<String>> = point_values(sweep)
+        .iter()
+        .map(|p| {
+            p.iter()
+                .enumerate()
+                .map(|(k, &j)| sweep.knobs[k].values[j].clone())
+                .collect()
+        })
+        .collect();
     let base = crate::config::load_scene(&sweep.case, &sweep.set)
         .map_err(|e| format!("the sweep's case with its `set` overrides: {e}"))?;
     let base = base.scene.dt_and_run();
@@ -78,10 +91,7 @@ pub fn run_study(sweep: &Sweep, opts: &StudyOptions) -> Result<Analysis, String>
     std::fs::create_dir_all(&dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
     let mut results = Vec::with_capacity(pts.len());
     for (i, p) in pts.iter().enumerate() {
-        let knob_values: Vec<String> = p
-            .iter()
-            .map(|o| o.split_once('=').map_or("", |(_, v)| v).to_string())
-            .collect();
+        let knob_values = labels[i].clone();
         let label = p.join(" ");
         let point_dir = dir.join(format!("{i:03}"));
         let status = if let Some(msg) = refused.get(&i) {
@@ -136,6 +146,7 @@ fn describe(status: &Status, obs: &[ObservableSpec]) -> String {
         Status::Done {
             values,
             wall_seconds,
+            ..
         } => {
             let v: Vec<String> = obs
                 .iter()
@@ -175,6 +186,7 @@ fn read_summary(point_dir: &Path, obs: &[ObservableSpec]) -> Result<Status, Stri
     let available = v["observables"]
         .as_object()
         .ok_or_else(|| format!("{}: no observables", path.display()))?;
+    let bytes_per_particle = v["ensemble_bytes_per_particle"].as_f64();
     let mut values = Vec::new();
     for o in obs {
         let e = available.get(&o.name).ok_or_else(|| {
@@ -192,6 +204,7 @@ fn read_summary(point_dir: &Path, obs: &[ObservableSpec]) -> Result<Status, Stri
     Ok(Status::Done {
         values,
         wall_seconds,
+        bytes_per_particle,
     })
 }
 
