@@ -1854,17 +1854,19 @@ def suspension_viscosity():
     with open(os.path.join(ROOT, "cases", case)) as f:
         stock_text = f.read()
     reuse = os.environ.get("MESORHEO_SUSPENSION_RUNS")
-    counts = (19, 38, 85)
-    drag_force = 0.07
+    counts = (38, 85)
+    drag_force, drag_cell, drag_solvent = 0.15, 6.0, 864
     runs = {}
     for n in counts:
         runs[f"rigid_{n}"] = [f"fluid.colloids.count={n}"]
         runs[f"free_{n}"] = [f"fluid.colloids.count={n}", "fluid.colloids.spring_stiffness=1e-9"]
-    # One fixed body in the resting periodic cell, the solvent driven by g = 0.07 (Re = ρUa/η ≈ 0.1);
-    # the fluid's momentum relaxes in M_fluid/ζ ≈ 14 time units, hence 4000 steps before sampling.
-    runs["drag"] = ["box.shear_rate=0.0", f"fluid.body_force=[{drag_force}, 0.0, 0.0]",
-                    "fluid.colloids.count=1", "fluid.colloids.fixed=true", "run.steps=20000",
-                    "run.equilibration=4000", 'diagnostics.observables=["momentum", "temperature"]']
+    # One fixed body in a resting periodic 6³ cell, the solvent driven by g = 0.15 (Re = ρUa/η ≈ 0.1);
+    # the fluid's momentum relaxes in M_fluid/ζ ≈ 6.4 time units, hence 30 (6000 steps) before
+    # sampling.
+    runs["drag"] = ["box.shear_rate=0.0", f"box.lengths=[{drag_cell}, {drag_cell}, {drag_cell}]",
+                    f"fluid.body_force=[{drag_force}, 0.0, 0.0]",
+                    "fluid.colloids.count=1", "fluid.colloids.fixed=true", "run.steps=30000",
+                    "run.equilibration=6000", 'diagnostics.observables=["momentum", "temperature"]']
 
     def one(name):
         keep = os.path.join(reuse, name) if reuse else None
@@ -1887,27 +1889,26 @@ def suspension_viscosity():
         with tempfile.NamedTemporaryFile("w", suffix=".toml", delete=False) as f:
             f.write(solvent_text)
         try:
-            solvent = run(f.name, ["run.steps=20000"], threads=1, keep=solvent_keep)
+            solvent = run(f.name, [], threads=1, keep=solvent_keep)
         finally:
             os.unlink(f.name)
     eta_s, eta_s_se = solvent["observables"]["viscosity"]["mean"], solvent["observables"]["viscosity"]["stderr"]
     d = results["drag"]
     n_solvent = 2048
-    cell = 8.0
-    volume = cell**3
-    u = d["observables"]["momentum_x"]["mean"] / n_solvent
-    u_se = d["observables"]["momentum_x"]["stderr"] / n_solvent
-    force = n_solvent * drag_force  # steady state: the body holds the whole body force
-    a_h = stokes_radius_in_cubic_cell(force / u, eta_s, cell)
+    volume = 8.0**3
+    u = d["observables"]["momentum_x"]["mean"] / drag_solvent
+    u_se = d["observables"]["momentum_x"]["stderr"] / drag_solvent
+    force = drag_solvent * drag_force  # steady state: the body holds the whole body force
+    a_h = stokes_radius_in_cubic_cell(force / u, eta_s, drag_cell)
     # Its error: U and η_S perturbed by one standard error each, added in quadrature.
-    a_u = stokes_radius_in_cubic_cell(force / (u + u_se), eta_s, cell) - a_h
-    a_e = stokes_radius_in_cubic_cell(force / u, eta_s + eta_s_se, cell) - a_h
+    a_u = stokes_radius_in_cubic_cell(force / (u + u_se), eta_s, drag_cell) - a_h
+    a_e = stokes_radius_in_cubic_cell(force / u, eta_s + eta_s_se, drag_cell) - a_h
     a_h_se = math.hypot(a_u, a_e)
     print("### Suspension viscosity against φ (`./run validate suspension_viscosity`)\n")
     print(f"Solvent alone (γ̇ = 1): η_S = {eta_s:.3f} ± {eta_s_se:.3f}. Drag on one fixed octahedron, "
           f"g = {drag_force}: U = {u:.4f} ± {u_se:.4f}, F = N_S m g = {force:.2f}, ζ = F/U = {force / u:.2f}; "
           f"Stokes radius with Hasimoto's K(c): a_h = {a_h:.4f} ± {a_h_se:.4f} "
-          f"(K = {hasimoto_cubic_k(4 * math.pi / 3 * a_h**3 / volume):.4f}, Re = ρUa_h/η = {4 * u * a_h / eta_s:.3f}).\n")
+          f"(K = {hasimoto_cubic_k(4 * math.pi / 3 * a_h**3 / drag_cell**3):.4f}, Re = ρUa_h/η = {4 * u * a_h / eta_s:.3f}).\n")
     print("| bodies | φ_p = N_C/(N_C+N_S) | φ_h | η (rigid) | η_free | η_r − 1 | (η_r − 1)/φ_h | Einstein 2.5φ_h | + Batchelor 6.2φ_h² | k_BT rigid | wall s |")
     print("|---|---|---|---|---|---|---|---|---|---|---|")
     rows = []
@@ -1960,7 +1961,8 @@ def hasimoto_square_drag(a, cell):
 def exclusion_radius(snapshots, n_fluid, centre, cell, first_step, threshold=0.01, width=0.02):
     """The cylinder–fluid RDF about a fixed centre from the H5MD positions of `snapshots`
     (frames after `first_step`, fluid ids < n_fluid), g(r) = s/(2πrΔr)/(N/A), and the exclusion
-    radius: the inner edge of the first bin where g ≥ threshold (Nguyen 2021 L877). Returns
+    radius: the r below which g < threshold (Nguyen 2021 L877), read as the outer edge of the
+    last bin with g < threshold. Returns
     (radius, [(r, g)], frames)."""
     import h5py
     import numpy as np
@@ -1979,8 +1981,10 @@ def exclusion_radius(snapshots, n_fluid, centre, cell, first_step, threshold=0.0
     edges = np.arange(len(counts) + 1) * width
     shell = np.pi * (edges[1:] ** 2 - edges[:-1] ** 2)
     g = counts / (len(frames) * shell * n_fluid / cell**2)
-    inside = np.nonzero(g >= threshold)[0]
-    radius = edges[inside[0]] if len(inside) else float("nan")
+    # The outer edge of the last bin below the threshold: a lone visitor deep inside (one count
+    # in a small inner shell already reads g ≈ 0.02) does not end the excluded region.
+    below = np.nonzero(g < threshold)[0]
+    radius = edges[below[-1] + 1] if len(below) else float("nan")
     return radius, list(zip(0.5 * (edges[1:] + edges[:-1]), g)), len(frames)
 
 
@@ -1998,10 +2002,11 @@ def cylinder_array():
     reuse = os.environ.get("MESORHEO_CYLINDER_RUNS")
     n_fluid, mass, cell, dt, equilibration = 800, 0.5, 10.0, 0.004, 2000
     forces = {"array": 0.6, "array_g0.2": 0.2}
-    # The fluid alone in Lees–Edwards shear at γ̇ = 0.2 (the thesis's Couette rate), for η.
+    # The fluid alone in Lees–Edwards shear at γ̇ = 1 (the local rates about the cylinder are ~U/a ≈ 1;
+    # at the thesis's Couette rate 0.2 the stress is 5 times closer to the noise), for η.
     shear_text = text.split("[fluid.colloids]")[0] + "[integrator]" + text.split("[integrator]")[1]
     shear_text = shear_text.replace("body_force = [0.6, 0.0]\n", "").replace(
-        "lengths = [10.0, 10.0]", "lengths = [10.0, 10.0]\nshear_rate = 0.2").replace(
+        "lengths = [10.0, 10.0]", "lengths = [10.0, 10.0]\nshear_rate = 1.0").replace(
         'observables = ["momentum", "temperature"]', 'observables = ["viscosity", "temperature"]').replace(
         '[output]\nsnapshot_every = 100\nsnapshot_fields = ["position"]\n', "")
 
@@ -2026,7 +2031,7 @@ def cylinder_array():
     sh = results["shear"][0]["observables"]
     eta, eta_se = sh["viscosity"]["mean"], sh["viscosity"]["stderr"]
     print("### Cylinder array against Hasimoto (`./run validate cylinder_array`)\n")
-    print(f"Fluid alone, Lees–Edwards γ̇ = 0.2: η = {eta:.2f} ± {eta_se:.2f} (input 100), "
+    print(f"Fluid alone, Lees–Edwards γ̇ = 1: η = {eta:.2f} ± {eta_se:.2f} (input 100), "
           f"k_BT = {fmt(sh['temperature'])}.\n")
     print("| F_e = m g | U | F = N_f F_e | F/(ηU) | exclusion radius (g < 0.01) | Hasimoto F/(ηU) at that radius | measured/Hasimoto − 1 | Stokes radius from F/(ηU) | k_BT | frames | wall s |")
     print("|---|---|---|---|---|---|---|---|---|---|---|")
