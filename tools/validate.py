@@ -1879,8 +1879,9 @@ def suspension_viscosity():
     with ThreadPoolExecutor(2) as pool:
         results = dict(pool.map(one, list(runs)))
     # The solvent alone (the stock case without [fluid.colloids]), for the drag's η.
-    solvent_text = stock_text.split("[fluid.colloids]")[0] + "[integrator]" + \
-        stock_text.split("[integrator]")[1]
+    solvent_text = (stock_text.split("[fluid.colloids]")[0] + "[integrator]"
+                    + stock_text.split("[integrator]")[1]).replace(
+        '"colloid_velocity_variance"', "").replace('"temperature", ]', '"temperature"]')
     solvent_keep = os.path.join(reuse, "solvent") if reuse else None
     if solvent_keep and os.path.exists(os.path.join(solvent_keep, "summary.json")):
         with open(os.path.join(solvent_keep, "summary.json")) as f:
