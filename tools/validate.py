@@ -1959,7 +1959,8 @@ def hasimoto_square_drag(a, cell):
     return 4 * math.pi / (-0.5 * math.log(c) - 0.738 + c - 0.887 * c**2 + 2.039 * c**3)
 
 
-def exclusion_radius(snapshots, n_fluid, centre, cell, first_step, threshold=0.01, width=0.02):
+def exclusion_radius(snapshots, n_fluid, centre, cell, first_step, threshold=0.01, width=0.02,
+                     about_constituents=True):
     """The cylinder–fluid RDF about a fixed centre from the H5MD positions of `snapshots`
     (frames after `first_step`, fluid ids < n_fluid), g(r) = s/(2πrΔr)/(N/A), and the exclusion
     radius: the r below which g < threshold (Nguyen 2021 L877), read as the outer edge of the
@@ -1974,8 +1975,18 @@ def exclusion_radius(snapshots, n_fluid, centre, cell, first_step, threshold=0.0
         frames = [k for k, st in enumerate(steps) if st > first_step]
         counts = np.zeros(int(cell / 2 / width))
         for k in frames:
-            x = f["particles/fluid/position/value"][k][fluid]
-            d = x - np.asarray(centre)
+            frame = f["particles/fluid/position/value"][k]
+            x = frame[fluid]
+            middle = np.asarray(centre, dtype=float)
+            if about_constituents:
+                # The cloud's own centre: the constituents' mean position (minimum image about
+                # the site centre). Under drag the ties stretch, the cloud sits F/(n_cp H)
+                # downstream of its sites, and an RDF about the sites would see the fluid
+                # closer on the upstream side by that much.
+                c = frame[~fluid] - middle
+                c -= cell * np.round(c / cell)
+                middle = middle + c.mean(axis=0)
+            d = x - middle
             d -= cell * np.round(d / cell)
             r = np.hypot(d[:, 0], d[:, 1])
             counts += np.histogram(r, bins=len(counts), range=(0.0, len(counts) * width))[0]
