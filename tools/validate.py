@@ -64,7 +64,7 @@ and writes plots to docs/ when matplotlib is available. Exits 1 when any recorde
                  γ̇ = 5 and 0.01, BDDFS at n_c = 40, 80, 200, 1000 against Brownian dynamics with
                  the same N_d; the error against n_c and against Δt (the ΔQ²/Δt law), memory
                  per particle and CPU per dumbbell-step (~10 min on 2 cores)
-  suspension_viscosity  rigid octahedral colloids in DPD Lees–Edwards shear at 19, 38, 85 bodies
+  suspension_viscosity  rigid octahedral colloids in DPD Lees–Edwards shear at 38, 85 bodies
                  beside their free twins (springs cut): η_r against Einstein's 2.5 φ_h with the
                  Stokes radius from the drag on a fixed body (Hasimoto's cubic array), and the
                  φ² coefficient beside Batchelor's 6.2 (~45 CPU-min; MESORHEO_SUSPENSION_RUNS=DIR)
@@ -1844,7 +1844,7 @@ def stokes_radius_in_cubic_cell(zeta, eta, cell):
 def suspension_viscosity():
     """Relative viscosity of rigid colloids in physical-parameter DPD against φ (issue #44, T12–T14;
     cases/dpd_suspension_viscosity_3d.toml with --set): Lees–Edwards shear of octahedral bodies at
-    body counts 19, 38, 85 beside their free twins (tie springs cut, H = 10⁻⁹: the thesis's "free"
+    body counts 38, 85 beside their free twins (tie springs cut, H = 10⁻⁹: the thesis's "free"
     system of ch. 5 §2.2), η_r = η/η_free; the hydrodynamic radius a_h from the drag on one fixed
     body in the periodic cell (Hasimoto 1959, simple cubic) and the solvent's η; φ_h = n_b (4π/3)a_h³.
     Checks: the intrinsic viscosity (η_r − 1)/φ_h at the dilute point against Einstein's 2.5 within
