@@ -70,6 +70,14 @@ and writes plots to docs/ when matplotlib is available. Exits 1 when any recorde
   bddfs_memory   the issue's "at equal accuracy (η within 1 %), ≥ 50× less memory per particle,
                  ≤ +20 % CPU" at N_d = 10⁶: T2 with 4 particles × 10⁶ dumbbells, BD against
                  BDDFS at Δt = 0.04, 0.08 λ and n_c = 200–400 (~4 min CPU on 1 core)
+  suspension_viscosity  rigid octahedral colloids in DPD Lees–Edwards shear at 38, 85 bodies
+                 beside their free twins (springs cut): η_r against Einstein's 2.5 φ_h with the
+                 Stokes radius from the drag on a fixed body (Hasimoto's cubic array), and the
+                 φ² coefficient beside Batchelor's 6.2 (~45 CPU-min; MESORHEO_SUSPENSION_RUNS=DIR)
+  cylinder_array  fixed cylinders in a driven 2D flow (cases/dpd_cylinder_array_2d.toml at
+                 F_e = 0.3 and 0.1): F/(ηU) against Hasimoto's square array at the exclusion
+                 radius from the RDF, η from Lees–Edwards shear (~40 CPU-min;
+                 MESORHEO_CYLINDER_RUNS=DIR)
   report         docs/validation_results/verdicts.md from the per-target records that every
                  target with checks writes to docs/validation_results/<target>.json
   dpd_held_out4  the held-out DPD maps, docs/stability/dpd_held_out4.txt (14 maps × seeds 1–3,
@@ -1903,10 +1911,9 @@ def dpd_held_out4():
 def default_weissenberg():
     """The default scene (cases/default.toml, Lucy 4Δ, 1 000 dumbbells per particle, p_b = 0) at
     Wi = 2 (p_t = 50 = 12.5 τ_xx, c₀ = 10, Δt = 1.5·10⁻³) and Wi = 4 (p_t = 200 = 12.5 τ_xx,
-    c₀ = 20, Δt = 7.5·10⁻⁴), seeds 1–3, averaged over t ∈ [9 λ, 27 λ] (Wi = 4) and [9 λ, 18 λ]
-    (Wi = 2): the momentum-flux η and N₁ against Oldroyd-B (η = η_s + η_p = 1, N₁ = 2η_pλγ̇² = Wi²).
+    c₀ = 20, Δt = 7.5·10⁻⁴), seeds 1–3, averaged over t ∈ [9 λ, 27 λ]: the momentum-flux η and N₁ against Oldroyd-B (η = η_s + η_p = 1, N₁ = 2η_pλγ̇² = Wi²).
     Tolerances: η 1 %, N₁ 1.3 % on every seed. The seeds measured on 2026-11-27 read, mean ± seed
-    standard deviation, Wi = 2: η −0.54 ± 0.05 %, N₁ −0.68 ± 0.07 %; Wi = 4: η +0.32 ± 0.07 %,
+    standard deviation, Wi = 2 (over [9 λ, 18 λ]): η −0.54 ± 0.05 %, N₁ −0.68 ± 0.07 %; Wi = 4: η +0.32 ± 0.07 %,
     N₁ +0.52 ± 0.17 %; the bounds are the largest |mean| + 4.5 sd of the two (η: 0.77 %, N₁:
     1.29 %), rounded up. A sign error or a lost factor of the polymer force moves η by ≈ 50 %;
     p_t = 50 at Wi = 4 (3 τ_xx, below check's 12 τ_xx rule) reads η +5 %, and misses."""
@@ -1950,6 +1957,263 @@ def default_weissenberg():
                     f"{cells[1][0]:+.2f} %")
     print()
 
+# Hasimoto (1959), simple cubic array of spheres, with Sangani & Acrivos (1982, Int. J.
+# Multiphase Flow 8, 193, Table 1) extending the series: the drag F = 6πηaU / K(c) on each sphere
+# of a periodic cubic array of cell side L, c = (4π/3)a³/L³ the spheres' volume fraction, U the
+# mean velocity of the fluid relative to the spheres.
+def hasimoto_cubic_k(c):
+    x = c ** (1.0 / 3.0)
+    return 1.0 - 1.7601 * x + c - 1.5593 * c**2 + 3.9799 * x**8 - 3.0734 * x**10
+
+
+def stokes_radius_in_cubic_cell(zeta, eta, cell):
+    """The radius a of the sphere whose drag coefficient ζ = F/U in a periodic cube of side
+    `cell` is 6πηa/K(c) (hasimoto_cubic_k), by fixed-point iteration a = ζK(c(a))/(6πη)."""
+    a = zeta / (6 * math.pi * eta)
+    for _ in range(200):
+        a = zeta * hasimoto_cubic_k(4 * math.pi / 3 * a**3 / cell**3) / (6 * math.pi * eta)
+    return a
+
+
+def suspension_viscosity():
+    """Relative viscosity of rigid colloids in physical-parameter DPD against φ (issue #44, T12–T14;
+    cases/dpd_suspension_viscosity_3d.toml with --set): Lees–Edwards shear of octahedral bodies at
+    body counts 38, 85 beside their free twins (tie springs cut, H = 10⁻⁹: the thesis's "free"
+    system of ch. 5 §2.2), η_r = η/η_free; the hydrodynamic radius a_h from the drag on one fixed
+    body in the periodic cell (Hasimoto 1959, simple cubic) and the solvent's η; φ_h = n_b (4π/3)a_h³.
+    Checks: the intrinsic viscosity (η_r − 1)/φ_h at the dilute point against Einstein's 2.5 within
+    4σ. Prints the φ² coefficient of a fit of (η_r − 1)/φ_h = A + Bφ_h beside Batchelor's 6.2
+    (~45 CPU-min; MESORHEO_SUSPENSION_RUNS=DIR keeps each run in DIR/<name>/ and reuses it)."""
+    case = "dpd_suspension_viscosity_3d.toml"
+    with open(os.path.join(ROOT, "cases", case)) as f:
+        stock_text = f.read()
+    reuse = os.environ.get("MESORHEO_SUSPENSION_RUNS")
+    counts = (38, 85)
+    drag_force, drag_cell, drag_solvent = 0.15, 6.0, 864
+    runs = {}
+    for n in counts:
+        runs[f"rigid_{n}"] = [f"fluid.colloids.count={n}"]
+        runs[f"free_{n}"] = [f"fluid.colloids.count={n}", "fluid.colloids.spring_stiffness=1e-9"]
+    # One fixed body in a resting periodic 6³ cell, the solvent driven by g = 0.15 (Re = ρUa/η ≈ 0.1);
+    # the fluid's momentum relaxes in M_fluid/ζ ≈ 6.4 time units, hence 30 (6000 steps) before
+    # sampling.
+    runs["drag"] = ["box.shear_rate=0.0", f"box.lengths=[{drag_cell}, {drag_cell}, {drag_cell}]",
+                    f"fluid.body_force=[{drag_force}, 0.0, 0.0]",
+                    "fluid.colloids.count=1", "fluid.colloids.fixed=true", "run.steps=30000",
+                    "run.equilibration=6000", 'diagnostics.observables=["momentum", "temperature"]']
+
+    def one(name):
+        keep = os.path.join(reuse, name) if reuse else None
+        if keep and os.path.exists(os.path.join(keep, "summary.json")):
+            with open(os.path.join(keep, "summary.json")) as f:
+                return name, json.load(f)
+        return name, run(case, runs[name], threads=1, keep=keep)
+
+    from concurrent.futures import ThreadPoolExecutor
+    with ThreadPoolExecutor(2) as pool:
+        results = dict(pool.map(one, list(runs)))
+    # The solvent alone (the stock case without [fluid.colloids]), for the drag's η.
+    solvent_text = (stock_text.split("[fluid.colloids]")[0] + "[integrator]"
+                    + stock_text.split("[integrator]")[1]).replace(
+        '"colloid_velocity_variance"', "").replace('"temperature", ]', '"temperature"]')
+    solvent_keep = os.path.join(reuse, "solvent") if reuse else None
+    if solvent_keep and os.path.exists(os.path.join(solvent_keep, "summary.json")):
+        with open(os.path.join(solvent_keep, "summary.json")) as f:
+            solvent = json.load(f)
+    else:
+        with tempfile.NamedTemporaryFile("w", suffix=".toml", delete=False) as f:
+            f.write(solvent_text)
+        try:
+            solvent = run(f.name, [], threads=1, keep=solvent_keep)
+        finally:
+            os.unlink(f.name)
+    eta_s, eta_s_se = solvent["observables"]["viscosity"]["mean"], solvent["observables"]["viscosity"]["stderr"]
+    d = results["drag"]
+    n_solvent = 2048
+    volume = 8.0**3
+    u = d["observables"]["momentum_x"]["mean"] / drag_solvent
+    u_se = d["observables"]["momentum_x"]["stderr"] / drag_solvent
+    force = drag_solvent * drag_force  # steady state: the body holds the whole body force
+    a_h = stokes_radius_in_cubic_cell(force / u, eta_s, drag_cell)
+    # Its error: U and η_S perturbed by one standard error each, added in quadrature.
+    a_u = stokes_radius_in_cubic_cell(force / (u + u_se), eta_s, drag_cell) - a_h
+    a_e = stokes_radius_in_cubic_cell(force / u, eta_s + eta_s_se, drag_cell) - a_h
+    a_h_se = math.hypot(a_u, a_e)
+    print("### Suspension viscosity against φ (`./run validate suspension_viscosity`)\n")
+    print(f"Solvent alone (γ̇ = 1): η_S = {eta_s:.3f} ± {eta_s_se:.3f}. Drag on one fixed octahedron, "
+          f"g = {drag_force}: U = {u:.4f} ± {u_se:.4f}, F = N_S m g = {force:.2f}, ζ = F/U = {force / u:.2f}; "
+          f"Stokes radius with Hasimoto's K(c): a_h = {a_h:.4f} ± {a_h_se:.4f} "
+          f"(K = {hasimoto_cubic_k(4 * math.pi / 3 * a_h**3 / drag_cell**3):.4f}, Re = ρUa_h/η = {4 * u * a_h / eta_s:.3f}).\n")
+    print("| bodies | φ_p = N_C/(N_C+N_S) | φ_h | η (rigid) | η_free | η_r − 1 | (η_r − 1)/φ_h | Einstein 2.5φ_h | + Batchelor 6.2φ_h² | k_BT rigid | wall s |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
+    rows = []
+    for n in counts:
+        r, f = results[f"rigid_{n}"]["observables"], results[f"free_{n}"]["observables"]
+        er, er_se = r["viscosity"]["mean"], r["viscosity"]["stderr"]
+        ef, ef_se = f["viscosity"]["mean"], f["viscosity"]["stderr"]
+        x = er / ef - 1.0
+        x_se = (er / ef) * math.hypot(er_se / er, ef_se / ef)
+        phi_h = n * 4 * math.pi / 3 * a_h**3 / volume
+        phi_h_se = 3 * phi_h * a_h_se / a_h
+        intrinsic = x / phi_h
+        intrinsic_se = abs(intrinsic) * math.hypot(x_se / x if x else 0.0, phi_h_se / phi_h)
+        phi_p = 6 * n / (6 * n + n_solvent)
+        rows.append((n, phi_h, x, x_se, intrinsic, intrinsic_se))
+        print(f"| {n} | {phi_p:.4f} | {phi_h:.4f} ± {phi_h_se:.4f} | {er:.3f} ± {er_se:.3f} | {ef:.3f} ± {ef_se:.3f} | "
+              f"{x:.4f} ± {x_se:.4f} | {intrinsic:.2f} ± {intrinsic_se:.2f} | {2.5 * phi_h:.4f} | "
+              f"{2.5 * phi_h + 6.2 * phi_h**2:.4f} | {r['temperature']['mean']:.4f} | "
+              f"{results[f'rigid_{n}']['wall_seconds']:.0f} + {results[f'free_{n}']['wall_seconds']:.0f} |")
+    # Weighted least squares of (η_r − 1)/φ_h = A + B φ_h.
+    w = [1 / e**2 for (_, _, _, _, _, e) in rows]
+    xs = [p for (_, p, _, _, _, _) in rows]
+    ys = [i for (_, _, _, _, i, _) in rows]
+    sw, sx, sy = sum(w), sum(wi * xi for wi, xi in zip(w, xs)), sum(wi * yi for wi, yi in zip(w, ys))
+    sxx = sum(wi * xi * xi for wi, xi in zip(w, xs))
+    sxy = sum(wi * xi * yi for wi, xi, yi in zip(w, xs, ys))
+    det = sw * sxx - sx * sx
+    a_fit, b_fit = (sxx * sy - sx * sxy) / det, (sw * sxy - sx * sy) / det
+    a_se, b_se = math.sqrt(sxx / det), math.sqrt(sw / det)
+    print(f"\nFit (η_r − 1)/φ_h = A + B φ_h over the three points (weights 1/σ²): A = {a_fit:.2f} ± {a_se:.2f} "
+          f"(Einstein 2.5), B = {b_fit:.1f} ± {b_se:.1f} (Batchelor 1977: 6.2 for Brownian hard spheres, "
+          "5.2 without the Brownian stress). The φ_h errors are shared through a_h, which the fit's "
+          "errors leave out; they scale A and B together.")
+    _, phi0, _, _, i0, i0_se = rows[0]
+    verdict(f"intrinsic viscosity (η_r − 1)/φ_h at the most dilute point (φ_h = {phi0:.4f}) within 4σ of Einstein's 2.5",
+            abs(i0 - 2.5) < 4 * i0_se, f"({i0:.3f} ± {i0_se:.3f})")
+    verdict("fitted dilute slope A within 4σ of Einstein's 2.5", abs(a_fit - 2.5) < 4 * a_se,
+            f"(A = {a_fit:.3f} ± {a_se:.3f})")
+
+
+# Hasimoto (1959, J. Fluid Mech. 5, 317) for a square array of cylinders, extended to O(c³) by
+# Sangani & Acrivos (1982, Int. J. Multiphase Flow 8, 193): the drag per unit length on each
+# cylinder F = 4πηU / (−½ ln c − 0.738 + c − 0.887c² + 2.039c³), c = πa²/L² the cylinders' area
+# fraction, U the mean fluid velocity relative to the array.
+def hasimoto_square_drag(a, cell):
+    c = math.pi * a * a / cell**2
+    return 4 * math.pi / (-0.5 * math.log(c) - 0.738 + c - 0.887 * c**2 + 2.039 * c**3)
+
+
+def exclusion_radius(snapshots, n_fluid, centre, cell, first_step, threshold=0.01, width=0.02,
+                     about_constituents=True):
+    """The cylinder–fluid RDF about a fixed centre from the H5MD positions of `snapshots`
+    (frames after `first_step`, fluid ids < n_fluid), g(r) = s/(2πrΔr)/(N/A), and the exclusion
+    radius: the r below which g < threshold (Nguyen 2021 L877), read as the outer edge of the
+    last bin with g < threshold. Returns
+    (radius, [(r, g)], frames)."""
+    import h5py
+    import numpy as np
+    with h5py.File(snapshots, "r") as f:
+        steps = f["particles/fluid/position/step"][:]
+        ids = f["particles/fluid/id"][:]
+        fluid = ids < n_fluid
+        frames = [k for k, st in enumerate(steps) if st > first_step]
+        counts = np.zeros(int(cell / 2 / width))
+        for k in frames:
+            frame = f["particles/fluid/position/value"][k]
+            x = frame[fluid]
+            middle = np.asarray(centre, dtype=float)
+            if about_constituents:
+                # The cloud's own centre: the constituents' mean position (minimum image about
+                # the site centre). Under drag the ties stretch, the cloud sits F/(n_cp H)
+                # downstream of its sites, and an RDF about the sites would see the fluid
+                # closer on the upstream side by that much.
+                c = frame[~fluid] - middle
+                c -= cell * np.round(c / cell)
+                middle = middle + c.mean(axis=0)
+            d = x - middle
+            d -= cell * np.round(d / cell)
+            r = np.hypot(d[:, 0], d[:, 1])
+            counts += np.histogram(r, bins=len(counts), range=(0.0, len(counts) * width))[0]
+    edges = np.arange(len(counts) + 1) * width
+    shell = np.pi * (edges[1:] ** 2 - edges[:-1] ** 2)
+    g = counts / (len(frames) * shell * n_fluid / cell**2)
+    # The outer edge of the last bin below the threshold: a lone visitor deep inside (one count
+    # in a small inner shell already reads g ≈ 0.02) does not end the excluded region.
+    below = np.nonzero(g < threshold)[0]
+    radius = edges[below[-1] + 1] if len(below) else float("nan")
+    return radius, list(zip(0.5 * (edges[1:] + edges[:-1]), g)), len(frames)
+
+
+def cylinder_array():
+    """Flow past a periodic square array of fixed cylinders (issue #44, T6–T7;
+    cases/dpd_cylinder_array_2d.toml): the drag F = N_f m g against the mean fluid velocity U at
+    F_e = m g = 0.3 and 0.1, against Hasimoto's F/(ηU) for the exclusion radius measured from the
+    cylinder–fluid RDF (g < 0.01) and the fluid's η measured by Lees–Edwards shear of the same
+    fluid. Checks: the measured F/(ηU) within 10 % of Hasimoto's (the issue's bound), and the
+    drag linear in U (the two forces' F/(ηU) within 4σ) (~40 CPU-min;
+    MESORHEO_CYLINDER_RUNS=DIR keeps each run in DIR/<name>/ and reuses it)."""
+    case = "dpd_cylinder_array_2d.toml"
+    with open(os.path.join(ROOT, "cases", case)) as f:
+        text = f.read()
+    reuse = os.environ.get("MESORHEO_CYLINDER_RUNS")
+    n_fluid, mass, cell, dt, equilibration = 800, 0.5, 10.0, 0.004, 2000
+    forces = {"array": 0.6, "array_g0.2": 0.2}
+    # The fluid alone in Lees–Edwards shear at γ̇ = 1 (the local rates about the cylinder are ~U/a ≈ 1;
+    # at the thesis's Couette rate 0.2 the stress is 5 times closer to the noise), for η.
+    shear_text = text.split("[fluid.colloids]")[0] + "[integrator]" + text.split("[integrator]")[1]
+    shear_text = shear_text.replace("body_force = [0.6, 0.0]\n", "").replace(
+        "lengths = [10.0, 10.0]", "lengths = [10.0, 10.0]\nshear_rate = 1.0").replace(
+        'observables = ["momentum", "temperature"]', 'observables = ["viscosity", "temperature"]').replace(
+        '[output]\nsnapshot_every = 100\nsnapshot_fields = ["position"]\n', "")
+
+    def one(name):
+        keep = os.path.join(reuse, name) if reuse else tempfile.mkdtemp(prefix=f"cyl_{name}_")
+        if os.path.exists(os.path.join(keep, "summary.json")):
+            with open(os.path.join(keep, "summary.json")) as f:
+                return name, (json.load(f), keep)
+        if name == "shear":
+            with tempfile.NamedTemporaryFile("w", suffix=".toml", delete=False) as f:
+                f.write(shear_text)
+            try:
+                return name, (run(f.name, [], threads=1, keep=keep), keep)
+            finally:
+                os.unlink(f.name)
+        g = forces[name]
+        return name, (run(case, [f"fluid.body_force=[{g}, 0.0]"], threads=1, keep=keep), keep)
+
+    from concurrent.futures import ThreadPoolExecutor
+    with ThreadPoolExecutor(2) as pool:
+        results = dict(pool.map(one, ["array", "array_g0.2", "shear"]))
+    sh = results["shear"][0]["observables"]
+    eta, eta_se = sh["viscosity"]["mean"], sh["viscosity"]["stderr"]
+    print("### Cylinder array against Hasimoto (`./run validate cylinder_array`)\n")
+    print(f"Fluid alone, Lees–Edwards γ̇ = 1: η = {eta:.2f} ± {eta_se:.2f} (input 100), "
+          f"k_BT = {fmt(sh['temperature'])}.\n")
+    print("| F_e = m g | U | F = N_f F_e | F/(ηU) | exclusion radius (g < 0.01) | Hasimoto F/(ηU) at that radius | measured/Hasimoto − 1 | Stokes radius from F/(ηU) | k_BT | frames | wall s |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
+    rows = {}
+    for name, g in forces.items():
+        s, keep = results[name]
+        o = s["observables"]
+        u = o["momentum_x"]["mean"] / (n_fluid * mass)
+        u_se = o["momentum_x"]["stderr"] / (n_fluid * mass)
+        force = n_fluid * mass * g
+        k = force / (eta * u)
+        k_se = k * math.hypot(u_se / u, eta_se / eta)
+        radius, rdf, frames = exclusion_radius(os.path.join(keep, "snapshots.h5"), n_fluid,
+                                               (cell / 2, cell / 2), cell, equilibration)
+        ref = hasimoto_square_drag(radius, cell)
+        # The radius whose Hasimoto drag is the measured one (bisection on a ∈ (0.01, 3)).
+        lo, hi = 0.01, 3.0
+        for _ in range(100):
+            mid = 0.5 * (lo + hi)
+            lo, hi = (mid, hi) if hasimoto_square_drag(mid, cell) < k else (lo, mid)
+        rows[name] = (k, k_se, radius, ref)
+        print(f"| {mass * g:.2f} | {u:.4f} ± {u_se:.4f} | {force:.1f} | {k:.3f} ± {k_se:.3f} | {radius:.2f} | "
+              f"{ref:.3f} | {100 * (k / ref - 1):+.1f} % | {0.5 * (lo + hi):.3f} | {fmt(o['temperature'])} | "
+              f"{frames} | {s['wall_seconds']:.0f} |")
+        verdict(f"cylinder array F_e = {mass * g:.2f}: F/(ηU) within 10 % of Hasimoto's at the exclusion radius",
+                abs(k / ref - 1) < 0.10, f"({k:.3f} ± {k_se:.3f} against {ref:.3f} at a = {radius:.2f})")
+        if name == "array":
+            print("\nRDF (F_e = 0.3) near the edge: " + ", ".join(f"g({r:.2f}) = {gv:.3f}" for r, gv in rdf if 0.2 < r < 1.0))
+            print()
+    (k1, e1, _, _), (k2, e2, _, _) = rows["array"], rows["array_g0.2"]
+    # η's error is common to both: leave it out of the linearity comparison.
+    e1u = k1 * results["array"][0]["observables"]["momentum_x"]["stderr"] / results["array"][0]["observables"]["momentum_x"]["mean"]
+    e2u = k2 * results["array_g0.2"][0]["observables"]["momentum_x"]["stderr"] / results["array_g0.2"][0]["observables"]["momentum_x"]["mean"]
+    verdict("cylinder array: drag linear in U (F/(ηU) at F_e = 0.1 and 0.3 within 4σ)",
+            abs(k1 - k2) < 4 * math.hypot(e1u, e2u), f"({k2:.3f} and {k1:.3f}, σ = {math.hypot(e1u, e2u):.3f})")
+
 
 def launch_text(text, sets=(), ranks=1, threads=2):
     """launch() on a case given as text."""
@@ -1967,7 +2231,7 @@ if __name__ == "__main__":
                             "msph_channel", "connffessit_channel_seeds", "weak_order", "fene_table", "transverse_current",
                             "kt_vs_dt_low_mass", "dpd_stability", "dpd_held_out4", "fuzz", "maxwell_couette_causes", "maxwell_couette",
                             "coupled_configuration_fields", "bddfs_t2", "bddfs_memory",
-                            "default_weissenberg"]
+                            "default_weissenberg", "suspension_viscosity", "cylinder_array"]
     targets = {"kt_vs_dt": kt_vs_dt, "viscosity": viscosity, "stock": stock,
                "viscometric": viscometric, "sph": sph, "sph_convergence": sph_convergence,
                "maxwell": maxwell, "inclusion": inclusion,
@@ -1981,7 +2245,8 @@ if __name__ == "__main__":
                "maxwell_couette": maxwell_couette,
                "maxwell_couette_causes": maxwell_couette_causes,
                "coupled_configuration_fields": coupled_configuration_fields,
-               "default_weissenberg": default_weissenberg}
+               "default_weissenberg": default_weissenberg,
+               "suspension_viscosity": suspension_viscosity, "cylinder_array": cylinder_array}
     if todo == ["report"]:
         report()
         sys.exit(0)

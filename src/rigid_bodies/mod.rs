@@ -8,14 +8,17 @@
 //!
 //! ```text
 //! constituent:  m dv_i/dt = Σ_j F_ij + F_i,S,      F_i,S = −H (r_i − r̄_i)            (5.2)
-//! body:         M dV/dt = F = Σ_{i∈k} Σ_j F_ij,   I dω/dt = T = Σ_{i∈k} (r_i − R) × Σ_j F_ij
+//! body:         M dV/dt = F = Σ_{i∈k} Σ_j F_ij,   I dω/dt = T = Σ_{i∈k} (r̄_i − R) × H (r_i − r̄_i)
 //!               M = n_cp m (massless sites),  I = (2/3) m Σ|b_i|² (3D),  m Σ|b_i|² (2D)
 //! sites:        dr̄_i/dt = V + ω × (r̄_i − R)
 //! ```
 //!
-//! The springs do not act on the body (the thesis, L590: the body is driven by the pair forces
-//! on its constituents). Every shape's inertia is isotropic, so the gyroscopic term of Euler's
-//! equation vanishes and ω is integrated in the space frame.
+//! The springs do not act on the body's translation (the thesis, L590: the body is driven by the
+//! pair forces on its constituents). Its rotation follows the reaction of its ties instead — a
+//! departure from the thesis, whose pair torque leaves the constituents' rotation against their
+//! sites undamped and pumped, and heats the fluid (docs/theory/colloids.md "The rotational tie
+//! mode"). Every shape's inertia is isotropic, so the gyroscopic term of Euler's equation
+//! vanishes and ω is integrated in the space frame.
 //!
 //! **Time stepping** (velocity Verlet for the bodies, beside the particles' Groot–Warren step):
 //! at the force evaluation of step n+1 the body moves with the force and torque of step n —
@@ -63,7 +66,7 @@ pub struct Body {
     pub angular_velocity: [f64; 3],
     /// Pair force F on the constituents at the last evaluation (springs excluded).
     pub force: [f64; 3],
-    /// Torque T about R at the last evaluation.
+    /// Torque T about R at the last evaluation: the ties' reaction Σ (r̄_i − R) × H (r_i − r̄_i).
     pub torque: [f64; 3],
     /// A fixed body keeps V = 0, ω = 0 (its sites are static); its force is still summed (the
     /// drag).
@@ -394,10 +397,25 @@ impl<const D: usize> RigidBodies<D> {
                 }
             }
             if !repeat {
+                // The body turns with the reaction of its ties, T = Σ_i (r̄_i − R) × H (r_i − r̄_i),
+                // not with the pair torque on its constituents (a departure from the thesis,
+                // docs/theory/colloids.md "The rotational tie mode"): the tie is then an
+                // action–reaction pair between the constituents and a frame of inertia I, the
+                // constituents' rotation against their sites is damped by their own pair
+                // friction, and nothing pumps it.
+                let lever: [f64; 3] = std::array::from_fn(|d| {
+                    if d < D {
+                        site[d] - self.bodies[b].centre[d]
+                    } else {
+                        0.0
+                    }
+                });
+                let tie: [f64; 3] =
+                    std::array::from_fn(|d| if d < D { h * stretch[d] } else { 0.0 });
                 let torque: [f64; 3] = if D == 3 {
-                    cross(&[arm[0], arm[1], arm[2]], &[f[0], f[1], f[2]])
+                    cross(&lever, &tie)
                 } else {
-                    [0.0, 0.0, arm[0] * f[1] - arm[1] * f[0]]
+                    [0.0, 0.0, lever[0] * tie[1] - lever[1] * tie[0]]
                 };
                 let terms = f[..D]
                     .iter()
