@@ -233,6 +233,8 @@ relaxation_time = 0.1
 dumbbell_density = 16.0
 velocity_noise = false
 conformation_drift = "printed_generic"
+transport_pressure = 500.0
+background_pressure = 5.0
 [integrator]
 kind = "kick_drift_kick"
 dt = 0.01

@@ -84,6 +84,11 @@ and writes plots to docs/ when matplotlib is available. Exits 1 when any recorde
                  committed before the current limit was evaluated there; the second and third
                  held-out sets are folded into dpd_stability): the same table and verdicts
                  (~10 min on 2 quiet cores)
+  generic_polymer_t1  the thesis's T1 (cases/generic_polymer_shear_2d.toml, GENERIC polymer
+                 particle with its transport velocity) at the seven rates γ̇λ_H = 10/2^k,
+                 k = 0..6: η_p and Ψ₁ against the Hookean n k_BTλ_H and 2η_pλ_H, within 3 % and
+                 within 4.5σ (~25 min per rate on one loaded core, ~3 h in all;
+                 MESORHEO_GP_RATES=1.25,10 runs only those)
   fuzz           the long fuzz of the stock case files through `mesorheo check` (the ignored test
                  tests/check_fuzz.rs::long_fuzz_through_check; MESORHEO_FUZZ_VARIANTS per case,
                  default here 100 000, ~7 min): no panic, no hang
@@ -2214,6 +2219,39 @@ def cylinder_array():
     verdict("cylinder array: drag linear in U (F/(ηU) at F_e = 0.1 and 0.3 within 4σ)",
             abs(k1 - k2) < 4 * math.hypot(e1u, e2u), f"({k2:.3f} and {k1:.3f}, σ = {math.hypot(e1u, e2u):.3f})")
 
+def generic_polymer_t1():
+    """The thesis's T1 (Ellero 2004 §4.8, docs/theory/generic_polymer_particle.md §5): the stock
+    case at the seven rates γ̇λ_H = 10/2^k, each averaged over t ∈ [8, 16]λ_H after the start-up
+    from equilibrium, against the Hookean η_p = n k_BT λ_H and Ψ₁ = 2η_pλ_H (reduced). A check
+    passes when the error is within 3 % (the issue's bound) and within 4.5 standard errors."""
+    eta, psi = 4.1419e-3, 8.2839e-3
+    rates = [10.0 / 2 ** k for k in range(6, -1, -1)]
+    only = os.environ.get("MESORHEO_GP_RATES")
+    if only:
+        rates = [float(x) for x in only.split(",")]
+    print("### GENERIC polymer particle, thesis T1: η_p and Ψ₁ against γ̇λ_H "
+          "(`./run validate generic_polymer_t1`)\n")
+    print("| γ̇λ_H | η_p | error | Ψ₁ | error | ⟨Q̄²⟩/(4.395·10⁻⁵(1 + γ̇²)) − 1 | wall s |")
+    print("|---|---|---|---|---|---|---|")
+    for rate in rates:
+        s = run("generic_polymer_shear_2d.toml", [f"box.shear_rate={rate}", "reference=[]"],
+                ranks=1, threads=2)
+        o = s["observables"]
+        v, ve = o["viscosity_constitutive"]["mean"], o["viscosity_constitutive"]["stderr"]
+        n1 = o["first_normal_stress_difference_constitutive"]
+        p, pe = n1["mean"] / rate ** 2, n1["stderr"] / rate ** 2
+        q2 = o["conformation_q2"]["mean"] / (4.3947e-5 * (1 + rate ** 2)) - 1
+        row = [f"{rate:g}"]
+        for name, m, e, exact in (("η_p", v, ve, eta), ("Ψ₁", p, pe, psi)):
+            err = m / exact - 1
+            ok = abs(err) <= 0.03 and abs(m - exact) <= 4.5 * e
+            verdict(f"γ̇λ_H = {rate:g}: {name} within 3 % and 4.5σ of {exact}", ok,
+                    f"({m:.5g} ± {e:.2g}, {err:+.2%})")
+            row += [f"{m:.4e} ± {e:.1e}", f"{err:+.2%}"]
+        row += [f"{q2:+.2%}", f"{s['wall_seconds']:.0f}"]
+        print("| " + " | ".join(row) + " |")
+    print()
+
 
 def launch_text(text, sets=(), ranks=1, threads=2):
     """launch() on a case given as text."""
@@ -2231,7 +2269,8 @@ if __name__ == "__main__":
                             "msph_channel", "connffessit_channel_seeds", "weak_order", "fene_table", "transverse_current",
                             "kt_vs_dt_low_mass", "dpd_stability", "dpd_held_out4", "fuzz", "maxwell_couette_causes", "maxwell_couette",
                             "coupled_configuration_fields", "bddfs_t2", "bddfs_memory",
-                            "default_weissenberg", "suspension_viscosity", "cylinder_array"]
+                            "default_weissenberg", "suspension_viscosity", "cylinder_array",
+                            "generic_polymer_t1"]
     targets = {"kt_vs_dt": kt_vs_dt, "viscosity": viscosity, "stock": stock,
                "viscometric": viscometric, "sph": sph, "sph_convergence": sph_convergence,
                "maxwell": maxwell, "inclusion": inclusion,
@@ -2246,7 +2285,8 @@ if __name__ == "__main__":
                "maxwell_couette_causes": maxwell_couette_causes,
                "coupled_configuration_fields": coupled_configuration_fields,
                "default_weissenberg": default_weissenberg,
-               "suspension_viscosity": suspension_viscosity, "cylinder_array": cylinder_array}
+               "suspension_viscosity": suspension_viscosity, "cylinder_array": cylinder_array,
+               "generic_polymer_t1": generic_polymer_t1}
     if todo == ["report"]:
         report()
         sys.exit(0)

@@ -38,6 +38,18 @@
 //! the printed Eq. 4.48 with the entropy of Eq. 4.47 and the printed M_QQ = 2T/ζ, which breaks
 //! the fluctuation–dissipation theorem (⟨Q_aQ_b⟩ = k_BT/(HN^d) δ_ab instead of k_BT/H δ_ab).
 //!
+//! The transport velocity (`fluid.transport_pressure` p_t > 0, the default p_t = c_s²ρ₀; not
+//! in the thesis; docs/theory/generic_polymer_particle.md §2.7): the density is the summation
+//! density, the ideal gas's rest pressure moves out of the momentum equation into the drift,
+//! and the particles move with v + ½Δt a^t (Adami, Hu & Adams 2013):
+//!
+//! ```text
+//! ρ_i = m Σ_j W_ij (self included),   Π_i = (c_s²(ρ_i − ρ₀) + p_b + k_BT n^d) 1 − H n^d Q_i Q_i
+//! dr_i = (v_i + ½Δt a^t_i) dt,        a^t_i = (p_t/m) Σ_j (1/d_i² + 1/d_j²) ω_ij
+//! ```
+//!
+//! `fluid.transport_pressure = 0` is the printed form above (continuity density, P = c_s²ρ).
+//!
 //! The noise enters the rates as increments over Δt (an impulse/Δt). The two-stage Heun and
 //! the kick–drift–kick schemes then apply each step's increments once in total, half in each of
 //! the two steps that share the evaluation keyed by that step (the DPD velocity-Verlet
@@ -67,10 +79,17 @@ pub use units::SiUnitsCfg;
 pub const DENSITY: &str = "generic_density";
 /// Its rate dρ_i/dt.
 pub const DENSITY_RATE: &str = "generic_density_rate";
+/// The transport-velocity shift ṽ_i − v_i = ½Δt a^t_i the particles drift with (D numbers;
+/// only with the transport velocity).
+pub const TRANSPORT_SHIFT: &str = "generic_transport_shift";
 /// The conformation vector Q_i (D numbers).
 pub const CONFORMATION: &str = "conformation";
 /// Its rate dQ_i/dt (drift and the step's noise increment over Δt).
 pub const CONFORMATION_RATE: &str = "conformation_rate";
+
+/// The default background pressure with the transport velocity, as a fraction of the ideal
+/// gas's rest pressure c_s²ρ₀ (docs/theory/generic_polymer_particle.md §2.7: measured on T1).
+pub const DEFAULT_BACKGROUND_FRACTION: f64 = 0.02;
 
 /// The drift of the conformation vector.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
@@ -115,6 +134,16 @@ pub struct GenericPolymerCfg {
     /// The drift of Q.
     #[serde(default)]
     pub conformation_drift: ConformationDrift,
+    /// The transport-velocity background pressure p_t (Adami, Hu & Adams 2013): `None` is the
+    /// default, p_t = c_s²ρ₀ (the ideal gas's rest pressure moved out of the momentum
+    /// equation); 0 is the thesis's printed form (continuity density, P = c_s²ρ in the
+    /// momentum exchange, particles move with v). docs/theory/generic_polymer_particle.md §2.7.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub transport_pressure: Option<f64>,
+    /// With the transport velocity: the background pressure p_b the momentum equation keeps,
+    /// P = c_s²(ρ − ρ₀) + p_b + k_BTn^d (docs/theory/generic_polymer_particle.md §2.7).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub background_pressure: Option<f64>,
     /// The physical inputs the reduced parameters are converted from.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub si: Option<SiUnitsCfg>,
@@ -191,6 +220,24 @@ impl GenericPolymerCfg {
         }
     }
 
+    /// The transport pressure p_t at rest mass density `rest_density` (0: the printed form,
+    /// no transport velocity).
+    pub fn transport_pressure_at(&self, rest_density: f64) -> f64 {
+        self.transport_pressure.unwrap_or_else(|| {
+            let c = self.parameters().sound_speed;
+            c * c * rest_density
+        })
+    }
+
+    /// The momentum equation's background pressure p_b with the transport velocity, at rest
+    /// mass density `rest_density`: given, or [`DEFAULT_BACKGROUND_FRACTION`] c_s²ρ₀.
+    pub fn background_pressure_at(&self, rest_density: f64) -> f64 {
+        self.background_pressure.unwrap_or_else(|| {
+            let c = self.parameters().sound_speed;
+            DEFAULT_BACKGROUND_FRACTION * c * c * rest_density
+        })
+    }
+
     /// The reduced keys with their values, in the order of the reference.
     pub fn reduced_keys(&self) -> [(&'static str, Option<f64>); 6] {
         [
@@ -204,12 +251,20 @@ impl GenericPolymerCfg {
     }
 }
 
-/// The one pair pass: continuity rate, velocity-gradient sum and momentum, per neighbour.
-/// Quantities: [0] dρ_i/dt, [1, 1 + D²) Σ_j ω_a v_b, [1 + D², 1 + D² + D) the force.
+/// The main pair pass: continuity rate, velocity-gradient sum and momentum, per neighbour.
+/// Quantities: [0] dρ_i/dt, [1, 1 + D²) Σ_j ω_a v_b, [1 + D², 1 + D² + D) the force, and with
+/// the transport velocity [1 + D² + D, 1 + D² + 2D) the shift ½Δt a^t_i.
 struct PairKernel<const D: usize> {
     lucy: Lucy,
     mass: f64,
     c2: f64,
+    /// The density subtracted in the momentum equation's pressure c_s²(ρ − ρ_sub): ρ₀ with
+    /// the transport velocity (its background moved into the drift), 0 in the printed form.
+    subtracted_density: f64,
+    /// p_b (transport velocity) or 0.
+    background: f64,
+    /// ½Δt p_t/m: the transport shift's ½Δt a^t per (1/d_i² + 1/d_j²) ω_ij, or 0 (off).
+    transport: f64,
     /// k_BT n^d (the dumbbells' osmotic pressure).
     osmotic: f64,
     /// H n^d.
@@ -233,7 +288,7 @@ impl<const D: usize> PairKernel<D> {
         let q = &p.extra[self.conformation].data[i * D..(i + 1) * D];
         let d = rho / self.mass;
         let inv_d2 = 1.0 / (d * d);
-        let pressure = self.c2 * rho + self.osmotic;
+        let pressure = self.c2 * (rho - self.subtracted_density) + self.background + self.osmotic;
         std::array::from_fn(|a| {
             std::array::from_fn(|b| {
                 let iso = if a == b { pressure } else { 0.0 };
@@ -305,6 +360,43 @@ impl<const D: usize> GatherKernel<D> for PairKernel<D> {
             let viscous = -c * (self.friction_a * v_ij[a] + self.friction_b * e[a] * ev);
             out[1 + D * D + a] = conservative + viscous + traceless_e[a] + trace_e[a];
         }
+        if self.transport != 0.0 {
+            // ½Δt a^t: (½Δt p_t/m)(1/d_i² + 1/d_j²) ω_ij, odd under i ↔ j to the bit (the sum
+            // of the two 1/d² commutes, ω_ji = −ω_ij exactly).
+            let s = self.transport * (1.0 / (d_i * d_i) + 1.0 / (d_j * d_j));
+            for a in 0..D {
+                out[1 + D * D + D + a] = s * omega[a];
+            }
+        }
+    }
+}
+
+/// The summation density pass (transport velocity only): ρ_i = m Σ_j W_ij, the particle
+/// itself included (Español & Revenga 2003; d_i = ρ_i/m is the GENERIC particle's inverse
+/// volume).
+struct SummationDensityKernel {
+    lucy: Lucy,
+    mass: f64,
+    scales: [Scale; 1],
+}
+
+impl<const D: usize> GatherKernel<D> for SummationDensityKernel {
+    fn scales(&self) -> &[Scale] {
+        &self.scales
+    }
+
+    fn cutoff(&self) -> f64 {
+        self.lucy.support()
+    }
+
+    #[inline]
+    fn pair(&self, _: &Particles<D>, _: usize, _: usize, _: &[f64; D], r: f64, out: &mut [f64]) {
+        out[0] = self.mass * self.lucy.w(r);
+    }
+
+    fn self_term(&self, _: &Particles<D>, _: usize, out: &mut [f64]) -> bool {
+        out[0] = self.mass * self.lucy.w(0.0);
+        true
     }
 }
 
@@ -313,6 +405,10 @@ pub struct GenericPolymer<const D: usize> {
     params: Parameters,
     drift: ConformationDrift,
     velocity_noise: bool,
+    /// p_t (0: the printed form: continuity density, no transport velocity).
+    transport_pressure: f64,
+    /// p_b of the momentum equation with the transport velocity.
+    background_pressure: f64,
     lucy: Lucy,
     mass: f64,
     rest_density: f64,
@@ -322,6 +418,7 @@ pub struct GenericPolymer<const D: usize> {
     density_rate: usize,
     conformation: usize,
     conformation_rate: usize,
+    transport_shift: usize,
     sums: Vec<f64>,
 }
 
@@ -340,6 +437,8 @@ impl<const D: usize> GenericPolymer<D> {
             params,
             drift: cfg.conformation_drift,
             velocity_noise: cfg.velocity_noise,
+            transport_pressure: cfg.transport_pressure_at(mass * number_density),
+            background_pressure: cfg.background_pressure_at(mass * number_density),
             lucy: Lucy::new(params.smoothing_length, D),
             mass,
             rest_density: mass * number_density,
@@ -349,8 +448,20 @@ impl<const D: usize> GenericPolymer<D> {
             density_rate: usize::MAX,
             conformation: usize::MAX,
             conformation_rate: usize::MAX,
+            transport_shift: usize::MAX,
             sums: Vec::new(),
         }
+    }
+
+    /// Whether the particles move with the transport velocity (summation density, the rest
+    /// pressure moved out of the momentum equation).
+    fn transported(&self) -> bool {
+        self.transport_pressure > 0.0
+    }
+
+    /// Quantities per particle of the main pass.
+    fn width(&self) -> usize {
+        1 + D * D + D + if self.transported() { D } else { 0 }
     }
 
     fn kernel(&self, step: u64) -> PairKernel<D> {
@@ -381,10 +492,26 @@ impl<const D: usize> GenericPolymer<D> {
         let mut scales = vec![Scale::covering(HEADROOM * rho0 / d0 * gradient)];
         scales.extend(vec![Scale::covering(HEADROOM * gradient); D * D]);
         scales.extend(vec![Scale::covering(HEADROOM * momentum); D]);
+        let transport = if self.transported() {
+            0.5 * self.dt * self.transport_pressure / self.mass
+        } else {
+            0.0
+        };
+        if self.transported() {
+            let shift = transport * 2.0 / (d0 * d0) * dw;
+            scales.extend(vec![Scale::covering(HEADROOM * shift); D]);
+        }
         PairKernel {
             lucy: self.lucy,
             mass: self.mass,
             c2: c * c,
+            subtracted_density: if self.transported() { rho0 } else { 0.0 },
+            background: if self.transported() {
+                self.background_pressure
+            } else {
+                0.0
+            },
+            transport,
             osmotic: elastic,
             spring_n: p.dumbbell_density * p.spring_constant,
             friction_a: a,
@@ -434,19 +561,38 @@ impl<const D: usize> ParticleModel<D> for GenericPolymer<D> {
             kind,
             flags: FieldFlags::STATE,
         };
-        vec![
+        let mut fields = vec![
             field(DENSITY, FieldKind::Scalar),
             field(DENSITY_RATE, FieldKind::Scalar),
             field(CONFORMATION, FieldKind::Vector),
             field(CONFORMATION_RATE, FieldKind::Vector),
-        ]
+        ];
+        if self.transported() {
+            fields.push(field(TRANSPORT_SHIFT, FieldKind::Vector));
+        }
+        fields
     }
 
     fn passes(&self) -> Vec<PassSpec> {
-        vec![PassSpec {
+        let main = PassSpec {
             name: "continuity, conformation and momentum",
             ghost_fields: vec![DENSITY, CONFORMATION],
-        }]
+        };
+        if self.transported() {
+            vec![
+                PassSpec {
+                    name: "summation density",
+                    ghost_fields: vec![],
+                },
+                main,
+            ]
+        } else {
+            vec![main]
+        }
+    }
+
+    fn drift_correction(&self) -> Option<&'static str> {
+        self.transported().then_some(TRANSPORT_SHIFT)
     }
 
     fn uses_full_list(&self) -> bool {
@@ -454,18 +600,23 @@ impl<const D: usize> ParticleModel<D> for GenericPolymer<D> {
     }
 
     fn integrated_fields(&self) -> Vec<Integrated> {
-        vec![
-            Integrated {
-                state: DENSITY,
-                rate: DENSITY_RATE,
-                boundary_particles: false,
-            },
-            Integrated {
-                state: CONFORMATION,
-                rate: CONFORMATION_RATE,
-                boundary_particles: false,
-            },
-        ]
+        let mut fields = vec![Integrated {
+            state: CONFORMATION,
+            rate: CONFORMATION_RATE,
+            boundary_particles: false,
+        }];
+        if !self.transported() {
+            // The printed form's continuity density; the summation density is recomputed.
+            fields.insert(
+                0,
+                Integrated {
+                    state: DENSITY,
+                    rate: DENSITY_RATE,
+                    boundary_particles: false,
+                },
+            );
+        }
+        fields
     }
 
     /// `density`: the particle's density d; `conformation`: Q Q of its conformation vector
@@ -499,6 +650,9 @@ impl<const D: usize> ParticleModel<D> for GenericPolymer<D> {
         self.density_rate = index(p, DENSITY_RATE)?;
         self.conformation = index(p, CONFORMATION)?;
         self.conformation_rate = index(p, CONFORMATION_RATE)?;
+        if self.transported() {
+            self.transport_shift = index(p, TRANSPORT_SHIFT)?;
+        }
         if !restarted {
             let n = p.n_owned;
             p.extra[self.density].data[..n].fill(self.rest_density);
@@ -516,11 +670,29 @@ impl<const D: usize> ParticleModel<D> for GenericPolymer<D> {
         Ok(())
     }
 
-    fn pass(&mut self, _pass: usize, ctx: PassContext<'_, D>) -> Result<PassOutput, Error> {
+    fn pass(&mut self, pass: usize, ctx: PassContext<'_, D>) -> Result<PassOutput, Error> {
         let p = ctx.particles;
         let full: &FullList = ctx.full;
         let step = ctx.step;
         let n = p.n_owned;
+        if self.transported() && pass == 0 {
+            let kernel = SummationDensityKernel {
+                lucy: self.lucy,
+                mass: self.mass,
+                scales: [Scale::covering(1e8 * self.rest_density)],
+            };
+            let mut sums = std::mem::take(&mut self.sums);
+            let result = gather(&kernel, p, full, &mut sums);
+            if let Err(e) = result {
+                self.sums = sums;
+                return Err(e
+                    .at_step(crate::error::Quantity::PairForce, step, "summation density")
+                    .into());
+            }
+            p.extra[self.density].data[..n].copy_from_slice(&sums[..n]);
+            self.sums = sums;
+            return Ok(PassOutput::default());
+        }
         for i in 0..n {
             let rho = p.extra[self.density].data[i];
             if !(rho.is_finite() && rho > 0.0) {
@@ -550,7 +722,7 @@ impl<const D: usize> ParticleModel<D> for GenericPolymer<D> {
                 )
                 .into());
         }
-        let width = 1 + D * D + D;
+        let width = self.width();
         let q_key = HashStream::prefix(self.seed, Purpose::GenericPolymerConformation, step);
         for (i, s) in sums.chunks_exact(width).enumerate() {
             p.extra[self.density_rate].data[i] = s[0];
@@ -558,6 +730,10 @@ impl<const D: usize> ParticleModel<D> for GenericPolymer<D> {
             p.extra[self.conformation_rate].data[i * D..(i + 1) * D].copy_from_slice(&rate);
             for a in 0..D {
                 p.force[i][a] += s[1 + D * D + a];
+            }
+            if self.transported() {
+                p.extra[self.transport_shift].data[i * D..(i + 1) * D]
+                    .copy_from_slice(&s[1 + D * D + D..1 + D * D + 2 * D]);
             }
         }
         self.sums = sums;
@@ -648,6 +824,8 @@ mod tests {
             dumbbell_density: Some(1.5),
             velocity_noise: true,
             conformation_drift: ConformationDrift::SingleDumbbell,
+            transport_pressure: None,
+            background_pressure: None,
             si: None,
         }
     }
@@ -683,6 +861,9 @@ mod tests {
             let kernel = model.kernel(17);
             // The continuity rate and ω_a v_b are even, the force odd.
             let mut parity = vec![Parity::Even; 1 + D * D];
+            parity.extend(vec![Parity::Odd; D]);
+            // The transport shift (on by default): odd.
+            assert!(model.transported());
             parity.extend(vec![Parity::Odd; D]);
             let checked = pair_symmetry(&kernel, &p, &list, &parity).expect("parities");
             assert!(checked > 500, "{checked} pairs");

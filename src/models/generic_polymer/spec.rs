@@ -166,10 +166,55 @@ impl FluidModel for GenericPolymerCfg {
         }
         self.check_reduced(ix)?;
         self.check_units(case, ix)?;
+        if let Some(pt) = self.transport_pressure
+            && !(pt.is_finite() && pt >= 0.0)
+        {
+            return Err(ix.error(
+                &path(&["fluid", "transport_pressure"]),
+                format!(
+                    "found {pt}; the transport-velocity background pressure must be finite and \
+                     ≥ 0 (0: the thesis's printed form, continuity density and no transport \
+                     velocity; leave it out for the default c_s²ρ₀)"
+                ),
+            ));
+        }
+        if let Some(pb) = self.background_pressure {
+            if !(pb.is_finite() && pb >= 0.0) {
+                return Err(ix.error(
+                    &path(&["fluid", "background_pressure"]),
+                    format!(
+                        "found {pb}; the momentum equation's background pressure must be \
+                         finite and ≥ 0 (leave it out for the default {} c_s²ρ₀)",
+                        super::DEFAULT_BACKGROUND_FRACTION
+                    ),
+                ));
+            }
+            if self.transport_pressure == Some(0.0) {
+                return Err(ix.error(
+                    &path(&["fluid", "background_pressure"]),
+                    format!(
+                        "fluid.background_pressure = {pb} is given with fluid.transport_pressure \
+                         = 0: the printed form (continuity density) keeps the whole ideal-gas \
+                         pressure c_s²ρ and takes no background pressure; drop one of the two"
+                    ),
+                ));
+            }
+        }
         Ok(())
     }
 
     fn accepts_integrator(&self, integrator: &IntegratorCfg) -> Result<(), String> {
+        if self.transport_pressure != Some(0.0)
+            && !matches!(integrator, IntegratorCfg::KickDriftKick(_))
+        {
+            return Err(
+                "the GENERIC polymer fluid's transport velocity (fluid.transport_pressure, on by \
+                 default) moves the particles with v + ½Δt a^t, which only kick_drift_kick \
+                 does: use kick_drift_kick, or set fluid.transport_pressure = 0 for the printed \
+                 form (continuity density) with heun"
+                    .to_string(),
+            );
+        }
         match integrator {
             IntegratorCfg::Heun(_) | IntegratorCfg::KickDriftKick(_) => Ok(()),
             _ => Err(
@@ -273,6 +318,25 @@ impl FluidModel for GenericPolymerCfg {
             if self.velocity_noise { "on" } else { "off" },
             self.conformation_drift
         ));
+        let pt = self.transport_pressure_at(rho0);
+        if pt > 0.0 {
+            let pb = self.background_pressure_at(rho0);
+            let c2rho0 = p.sound_speed * p.sound_speed * rho0;
+            line(format!(
+                "  transport velocity: p_t = {pt:.6e} ({:.4} c_s²ρ₀); summation density, \
+                 momentum pressure c_s²(ρ − ρ₀) + p_b + k_BTn^d with p_b = {pb:.6e} ({:.4} \
+                 c_s²ρ₀), particles drift with v + ½Δt a^t \
+                 (docs/theory/generic_polymer_particle.md §2.7)",
+                pt / c2rho0,
+                pb / c2rho0
+            ));
+        } else {
+            line(
+                "  transport velocity off (fluid.transport_pressure = 0): the thesis's printed \
+                 form, continuity density (Eq. 4.60) and P = c_s²ρ + k_BTn^d"
+                    .to_string(),
+            );
+        }
         if let Some(si) = &self.si {
             let ph = si.physical();
             line(format!(
@@ -307,7 +371,7 @@ impl FluidModel for GenericPolymerCfg {
         let d = case.dimension() as f64;
         // ρ, ρ̇, Q, Q̇ (state and a checkpoint copy) and the two-stage scratch.
         ModelMemory {
-            numbers_per_particle: 2.0 * (2.0 + 2.0 * d) + 2.0 * (1.0 + d),
+            numbers_per_particle: 2.0 * (2.0 + 3.0 * d) + 2.0 * (1.0 + d),
             full_lists: 1.0,
             ensemble_bytes: 0.0,
         }

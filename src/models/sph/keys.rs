@@ -68,14 +68,14 @@ pub const KEYS: &[KeyDoc] = &[
     key(
         "fluid.background_pressure",
         "float",
-        "0.0",
-        "Constant p_b added to the equation of state (sph). No continuum pressure gradient changes; it keeps the total stress compressive where a polymer stress pulls (τ_xx > 0 in shear), which the SPH tensile instability feeds on.",
+        "0.0 (sph); 0.02 c_s²ρ₀ (generic_polymer)",
+        "Constant p_b added to the equation of state (sph). No continuum pressure gradient changes; it keeps the total stress compressive where a polymer stress pulls (τ_xx > 0 in shear), which the SPH tensile instability feeds on. generic_polymer (only with its transport velocity, fluid.transport_pressure > 0): the momentum equation's pressure is c_s²(ρ − ρ₀) + p_b + k_BTn^d, the ideal gas's rest pressure c_s²ρ₀ moved into the transport velocity; p_b ≥ 0 keeps the particles' (single-dumbbell, fluctuating) polymer tension and density fluctuations from making the pressure tensile (docs/theory/generic_polymer_particle.md §2.7).",
     ),
     key(
         "fluid.transport_pressure",
         "float ≥ 0",
-        "0.0",
-        "Transport-velocity background pressure p_t (sph; Adami, Hu & Adams, J. Comput. Phys. 241 (2013) 292): particles drift with v + ½Δt a_t, a_t = −m p_t Σ_j (1/ρ_i² + 1/ρ_j²) ∇W_ij, which keeps their arrangement uniform like fluid.background_pressure but exchanges no momentum, so the measured stress carries none of the lattice's pressure virial (in sheared CONNFFESSIT flows: N₁ +2.6 % with background_pressure = 5, see docs/theory/sph_maxwell.md §1.14). Their A = ρv(v̂ − v) term is omitted (order Δt p_t). With dumbbell ensembles in shear use p_t ≥ 12 τ_xx (measured at Wi = 4: 6 τ_xx reads η +4 %, 12.5 τ_xx +0.4 %; `check` notes a smaller one). Needs kick_drift_kick and density = \"summation\".",
+        "0.0 (sph); c_s²ρ₀ (generic_polymer)",
+        "Transport-velocity background pressure p_t (sph; Adami, Hu & Adams, J. Comput. Phys. 241 (2013) 292): particles drift with v + ½Δt a_t, a_t = −m p_t Σ_j (1/ρ_i² + 1/ρ_j²) ∇W_ij, which keeps their arrangement uniform like fluid.background_pressure but exchanges no momentum, so the measured stress carries none of the lattice's pressure virial (in sheared CONNFFESSIT flows: N₁ +2.6 % with background_pressure = 5, see docs/theory/sph_maxwell.md §1.14). Their A = ρv(v̂ − v) term is omitted (order Δt p_t). With dumbbell ensembles in shear use p_t ≥ 12 τ_xx (measured at Wi = 4: 6 τ_xx reads η +4 %, 12.5 τ_xx +0.4 %; `check` notes a smaller one). Needs kick_drift_kick and density = \"summation\". generic_polymer: on by default (p_t = c_s²ρ₀, the ideal gas's rest pressure moved out of the momentum equation; the summation density ρ_i = m Σ_j W_ij replaces the continuity density of Eq. 4.60), because the printed form's pressure c_s²ρ on the sheared, disordering arrangement drives non-thermal velocity fluctuations that the Q·∇v term rectifies (T1 fails); 0 runs the printed form (docs/theory/generic_polymer_particle.md §2.7).",
     ),
     key(
         "fluid.velocity_gradient",
