@@ -205,6 +205,19 @@ impl<const D: usize> BuildModels<D> for DpdCfg {
         }
     }
 
+    /// The soft start ([`super::soft_start`]): `fluid.soft_start_sweeps` sweeps of overlap
+    /// removal on the conservative potential's shape.
+    fn relax_random_start(&self, case: &dyn CaseView, positions: &mut [[f64; D]]) {
+        super::soft_start::relax_random_start(
+            positions,
+            case.lengths(),
+            &case.boundaries(),
+            self.cutoff,
+            self.conservative_exponent,
+            self.soft_start_sweeps(),
+        );
+    }
+
     fn rigid_bodies(
         &self,
         case: &dyn CaseView,

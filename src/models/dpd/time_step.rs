@@ -154,7 +154,8 @@ pub(crate) mod dpd_fit {
 
 /// Limits for the DPD fluid `d` in `dimension` dimensions at number density `n` and particle
 /// mass `m`, integrated by Groot–Warren with `lambda` (`exponential`: the friction integrated
-/// exactly, no dissipative part), from uniformly random positions when `random_start`.
+/// exactly, no dissipative part), from uniformly random positions without a soft start when
+/// `random_start`.
 pub fn dpd_limits(
     d: &DpdCfg,
     dimension: usize,
@@ -293,7 +294,9 @@ pub fn dpd_limits_of(d: &DpdCfg, case: &dyn CaseView) -> DpdLimits {
         case.mass(),
         lambda,
         exponential,
-        case.lattice() == crate::geometry::Lattice::Random,
+        // A soft-started random start is overlap-free: the steady-state limit of a lattice
+        // start applies (module doc, "The soft start").
+        case.lattice() == crate::geometry::Lattice::Random && d.soft_start_sweeps() == 0,
     )
 }
 
