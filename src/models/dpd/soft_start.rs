@@ -37,6 +37,9 @@ use crate::geometry::{Boundary, ball_volume};
 /// (`fluid.soft_start_sweeps`).
 pub const DEFAULT_SWEEPS: u32 = 30;
 
+/// The most sweeps a case may ask for (validation refuses more).
+pub const MAX_SWEEPS: u32 = 10_000;
+
 /// Descent step in units of 1/k (module doc).
 const STEP: f64 = 0.5;
 
