@@ -11,6 +11,8 @@ side L, D = 2 or 3. Prints JSON: the largest Σ_j (1 − r/r_c)^2 over its mean 
 and the relaxed positions.
 
     python3 tools/soft_start_reference.py D L N SEED SWEEPS [S_BAR]
+    python3 tools/soft_start_reference.py --trace D L N SEED   (the ratio after 0, 5, 10, 20,
+        30, 50 sweeps, and the pairs closer than 0.2 r_c per particle: docs/theory/dpd_soft_start.md)
 """
 import json
 import math
@@ -69,7 +71,26 @@ def relax(x, side, sweeps, s_bar=1.0, rc=1.0):
     return x
 
 
+def close_pairs_per_particle(x, side, within=0.2):
+    _, r = pair_vectors(x, side)
+    np.fill_diagonal(r, np.inf)
+    return float((r < within).sum() / 2 / len(x))
+
+
+def trace(dim, side, n, seed):
+    x = uniform_positions(dim, side, n, seed)
+    done = 0
+    for sweeps in (0, 5, 10, 20, 30, 50):
+        x = relax(x, side, sweeps - done)
+        done = sweeps
+        print(f"{sweeps:3d} sweeps: largest Σ w_D / mean {largest_weight_ratio(x, side):.3f}, "
+              f"pairs closer than 0.2 r_c per particle {close_pairs_per_particle(x, side):.4f}")
+
+
 def main():
+    if sys.argv[1] == "--trace":
+        trace(int(sys.argv[2]), float(sys.argv[3]), int(sys.argv[4]), int(sys.argv[5]))
+        return
     dim, side, n, seed, sweeps = int(sys.argv[1]), float(sys.argv[2]), int(sys.argv[3]), \
         int(sys.argv[4]), int(sys.argv[5])
     s_bar = float(sys.argv[6]) if len(sys.argv) > 6 else 1.0

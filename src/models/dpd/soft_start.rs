@@ -19,9 +19,10 @@
 //! the trajectory independent of a (it applies at a = 0 as well: the ideal gas's equilibrium
 //! is the random placement, but the relaxed start makes its limit the lattice start's, which
 //! the fitted maps measure). The cap δ r_c bounds the first sweeps, where overlapping clusters
-//! push hard. Measured on the 3D ρ = 3 box of `cases/dpd_equilibrium_3d.toml`: the largest
-//! Σ_j w_D / mean falls from 3.05 to 1.86, 1.64, 1.39, 1.33 after 5, 10, 20, 30 sweeps (2D
-//! ρ = 4: 2.22 to 1.31 after 30).
+//! push hard. Measured (`python3 tools/soft_start_reference.py --trace 3 8 1536 1`, the 3D
+//! ρ = 3 box of `cases/dpd_equilibrium_3d.toml`, 2026-11-27): the largest Σ_j w_D / mean falls
+//! from 2.84 to 1.86, 1.59, 1.43, 1.38 after 5, 10, 20, 30 sweeps (2D ρ = 4: 2.70 to 1.27
+//! after 30).
 //!
 //! Velocities are not touched (Maxwellian at k_BT, as without the soft start); the sweeps are
 //! no time steps (the step count and time start at 0 afterwards).
