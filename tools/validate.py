@@ -70,6 +70,9 @@ and writes plots to docs/ when matplotlib is available. Exits 1 when any recorde
                  committed before the current limit was evaluated there; the second and third
                  held-out sets are folded into dpd_stability): the same table and verdicts
                  (~10 min on 2 quiet cores)
+  dpd_held_out5  the fifth held-out set, docs/stability/dpd_held_out5.txt (16 maps × seeds 1–3,
+                 soft-started random starts, two raw ones, four lattice maps; committed before
+                 the softstart limit was evaluated there): the same table and verdicts (~10 min)
   fuzz           the long fuzz of the stock case files through `mesorheo check` (the ignored test
                  tests/check_fuzz.rs::long_fuzz_through_check; MESORHEO_FUZZ_VARIANTS per case,
                  default here 100 000, ~7 min): no panic, no hang
@@ -1815,6 +1818,12 @@ def dpd_held_out4():
     dpd_stability("dpd_held_out4.txt")
 
 
+def dpd_held_out5():
+    """The fifth held-out DPD stability set (docs/stability/dpd_held_out5.txt, chosen and
+    committed before the soft start's limit was evaluated there)."""
+    dpd_stability("dpd_held_out5.txt")
+
+
 def launch_text(text, sets=(), ranks=1, threads=2):
     """launch() on a case given as text."""
     with tempfile.NamedTemporaryFile("w", suffix=".toml", delete=False) as f:
@@ -1829,7 +1838,7 @@ if __name__ == "__main__":
     todo = sys.argv[1:] or ["stock", "kt_vs_dt", "viscosity", "viscometric", "sph", "sph_convergence", "maxwell",
                             "inclusion", "maxwell_convergence", "maxwell_stability", "connffessit_shear",
                             "msph_channel", "connffessit_channel_seeds", "weak_order", "fene_table", "transverse_current",
-                            "kt_vs_dt_low_mass", "dpd_stability", "dpd_held_out4", "fuzz", "maxwell_couette_causes", "maxwell_couette",
+                            "kt_vs_dt_low_mass", "dpd_stability", "dpd_held_out4", "dpd_held_out5", "fuzz", "maxwell_couette_causes", "maxwell_couette",
                             "coupled_configuration_fields", "bddfs_t2"]
     targets = {"kt_vs_dt": kt_vs_dt, "viscosity": viscosity, "stock": stock,
                "viscometric": viscometric, "sph": sph, "sph_convergence": sph_convergence,
@@ -1839,6 +1848,7 @@ if __name__ == "__main__":
                "weak_order": weak_order, "fene_table": fene_table,
                "transverse_current": transverse_current, "kt_vs_dt_low_mass": kt_vs_dt_low_mass,
                "dpd_stability": dpd_stability, "dpd_held_out4": dpd_held_out4,
+               "dpd_held_out5": dpd_held_out5,
                "connffessit_channel_seeds": connffessit_channel_seeds, "fuzz": fuzz,
                "bddfs_t2": bddfs_t2, "maxwell_couette": maxwell_couette,
                "maxwell_couette_causes": maxwell_couette_causes,
