@@ -256,29 +256,3 @@ pub fn largest_friction_weight_ratio<const D: usize>(
     let mean = sums.iter().sum::<f64>() / n as f64;
     sums.iter().cloned().fold(0.0, f64::max) / mean
 }
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// Two particles closer than r_c are pushed apart along their axis, symmetrically, and a
-    /// particle alone in its cutoff does not move.
-    #[test]
-    fn a_close_pair_separates_symmetrically() {
-        let lengths = [10.0, 10.0];
-        let b = [Boundary::Periodic; 2];
-        let mut x = vec![[5.0, 5.0], [5.3, 5.0], [1.0, 1.0]];
-        relax_random_start::<2>(&mut x, &lengths, &b, 1.0, 1.0, 50);
-        let gap = x[1][0] - x[0][0];
-        assert!(
-            gap >= 1.0 - 1e-9,
-            "the pair ends {gap} apart, within the cutoff"
-        );
-        assert!(
-            (x[0][0] + x[1][0] - 10.3).abs() < 1e-12,
-            "not symmetric: {x:?}"
-        );
-        assert_eq!(x[2], [1.0, 1.0]);
-        assert_eq!(x[0][1], 5.0);
-    }
-}
