@@ -59,13 +59,13 @@ pub fn relax_random_start<const D: usize>(
     sweeps: u32,
 ) {
     let n = positions.len();
-    if n < 2 || sweeps == 0 || !(cutoff > 0.0) {
+    if n < 2 || sweeps == 0 || cutoff.is_nan() || cutoff <= 0.0 {
         return;
     }
     let volume: f64 = lengths.iter().take(D).product();
     let neighbours = n as f64 / volume * ball_volume(D, cutoff);
     let stiffness = 2.0 * conservative_exponent * neighbours / (D as f64 * cutoff);
-    if !(stiffness > 0.0) {
+    if stiffness.is_nan() || stiffness <= 0.0 {
         return;
     }
     let mobility = STEP / stiffness;
