@@ -423,8 +423,9 @@ fn map_points(manifest: &str) -> (usize, Vec<MapPoint>) {
 /// detectors, independent of the formula; the limit is recomputed here from the library, so a
 /// change of a coefficient is judged against the measurement, and the `check_limit` column the
 /// docs' tables print must be the library's (to 10⁻³; tools/dpd_stability_fit.py, which wrote
-/// it, mirrors the library). Mutation run 2026-11-27 (softstart): the 3D factor of c₀ back at
-/// 1.06 fails at 3D a = 6, γ = 60 (lattice, seed 1), see docs/validation.md "The soft start".
+/// it, mirrors the library). Mutation 2026-11-27 (softstart): the 3D factor of c₀ back at 1.06
+/// (IDEAL_GAS_3D) fails at the first point in order past 0.97 ×, 3D a = 0, γ = 4.5, lattice
+/// (accepts 0.15391, unstable at 0.15322); docs/validation.md "The soft start", "Mutations".
 #[test]
 fn check_refuses_every_measured_unstable_dpd_step() {
     let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
