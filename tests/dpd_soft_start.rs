@@ -38,7 +38,8 @@ fn uniform_positions<const D: usize>(side: f64, n: usize, seed: u64) -> Vec<[f64
 /// ~10⁻¹³; a 1 % change of the step moves coordinates by ~10⁻³), and the largest
 /// Σ_j (1 − r/r_c)² over its mean falls from the raw placement's 2.72 to 1.34 (reference:
 /// 2.7165 → 1.3423, 2026-11-27). Also s̄ = 0.5 (the mapped fluids' softer shape) against the
-/// reference. Mutations run 2026-11-27: see docs/validation.md "The soft start".
+/// reference. Mutation (2026-11-27, computed, see docs/validation.md "The soft start"): a
+/// displacement cap of 10⁻⁶ r_c moves coordinates by 0.71 from the reference.
 #[test]
 fn the_soft_start_agrees_with_an_independent_implementation() {
     let Some(python) = python_or_skip(
@@ -118,7 +119,7 @@ fn the_soft_start_agrees_with_an_independent_implementation() {
 /// A soft-started random start is the same state on 1–4 in-process ranks × 1–2 threads (every
 /// rank relaxes the whole system in id order), differs from the raw placement's, and a restart
 /// from its step-10 checkpoint ends bitwise where the uninterrupted run ends (a restart does
-/// not relax again). Mutation run 2026-11-27: see docs/validation.md "The soft start".
+/// not relax again). Its mutation (relaxing on rank 0 only) was not run (docs/validation.md).
 #[test]
 fn the_soft_start_is_bitwise_across_ranks_threads_and_restart() {
     let text = small_dpd(3, 6.0, 0.5, 20, "");
@@ -179,8 +180,8 @@ fn the_soft_start_is_bitwise_across_ranks_threads_and_restart() {
 /// at steps 9 and 7); soft-started it is stable for 1000 steps up to 0.0248 and 0.0259
 /// (docs/stability/soft_s4_3d_a10_g50 … measured 2026-11-27 on this branch). Here: 200 steps
 /// at seeds 1 and 2, raw must stop with a blow-up before step 50 (the control: the test can
-/// fail) and the soft start must complete. Mutation run 2026-11-27: see docs/validation.md
-/// "The soft start".
+/// fail) and the soft start must complete. Mutation (2026-11-27): with the default at 0 sweeps
+/// the soft run is the raw run, which blows up at steps 4 and 6 (docs/validation.md).
 #[test]
 fn a_soft_started_random_start_survives_where_the_raw_one_blows_up_at_once() {
     for seed in [1, 2] {
