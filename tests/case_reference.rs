@@ -33,6 +33,7 @@ cutoff = 1.0
 weight_exponent = 2.0
 conservative_exponent = 1.0
 noise = "uniform"
+soft_start_sweeps = 30
 [integrator]
 kind = "groot_warren"
 dt = 0.02

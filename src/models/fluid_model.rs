@@ -299,6 +299,12 @@ pub trait BuildModels<const D: usize> {
         Ok(None)
     }
 
+    /// Relaxes the uniformly random positions of a random start (`particles.lattice =
+    /// "random"`: every fluid particle of the system, in id order, before the rank keeps its
+    /// own) before the run proper; the default leaves them. Must depend on nothing but the
+    /// case and the positions (every rank does it alike).
+    fn relax_random_start(&self, _case: &dyn CaseView, _positions: &mut [[f64; D]]) {}
+
     /// The models it needs beside the fluid (attached after the species are known).
     fn build_companions(
         &self,

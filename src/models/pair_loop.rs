@@ -535,6 +535,7 @@ mod tests {
             body_force: Vec::new(),
             body_force_profile: crate::models::dpd::BodyForceProfile::Uniform,
             colloids: None,
+            soft_start_sweeps: None,
         };
         let dpd = Dpd::new(&cfg, 0.04, 5);
         let run = |isa: Isa| {

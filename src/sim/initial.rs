@@ -7,6 +7,10 @@ use super::*;
 /// rank, so nothing depends on the decomposition — and keeps this rank's. Returns them and the
 /// total count.
 ///
+/// A random start's positions are relaxed by the fluid model's soft start
+/// ([`crate::models::fluid_model::BuildModels::relax_random_start`]) before the bodies'
+/// constituents join.
+///
 /// Velocities: Maxwellian at k_BT from Philox keyed by id, centre-of-mass motion removed and
 /// rescaled to exactly k_BT over D(N − 1) degrees of freedom; then the shear profile if asked.
 ///
@@ -38,6 +42,11 @@ pub fn initial_particles<const D: usize>(
                 }
                 positions.push(x);
             }
+            // The model's soft start (DPD: overlap removal, `fluid.soft_start_sweeps`), on the
+            // whole system in id order: the same on every rank.
+            case.fluid
+                .builder::<D>()
+                .relax_random_start(case, &mut positions);
         }
         lattice => {
             // Lattice sites at (k + 0.25) spacings; with walls, at (k + ½) along the wall axis,

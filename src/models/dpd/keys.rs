@@ -84,6 +84,12 @@ pub const KEYS: &[KeyDoc] = &[
         "τ_P = R²/D to impose (3D only): fixes s instead of a Schmidt number.",
     ),
     key(
+        "fluid.soft_start_sweeps",
+        "integer ≥ 0",
+        "30",
+        "Random starts (particles.lattice = \"random\") only: sweeps of overlap removal (capped steepest descent on the shape (1 − r/r_c)^(s̄+1) of the conservative potential) before the run proper, so that the start holds no denser cluster than the fluid does and `check`'s steady-state time-step limit applies (docs/theory/dpd_soft_start.md). Positions only; no steps, done once (a restart does not redo it). 0: the raw uniform placement, for which `check` keeps a margin on the dissipative limit.",
+    ),
+    key(
         "fluid.noise",
         "\"gaussian\" | \"uniform\"",
         "\"gaussian\"",

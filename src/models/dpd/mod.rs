@@ -19,6 +19,7 @@
 pub mod colloids;
 pub mod keys;
 pub mod physical;
+pub mod soft_start;
 pub mod spec;
 pub mod time_step;
 
@@ -78,6 +79,17 @@ pub struct DpdCfg {
     /// Suspended rigid colloids of spring-tied constituents (`[fluid.colloids]`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub colloids: Option<colloids::ColloidsCfg>,
+    /// Sweeps of overlap removal of a random start ([`soft_start`]); `None`: the default
+    /// [`soft_start::DEFAULT_SWEEPS`], 0: off. Lattice starts ignore it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub soft_start_sweeps: Option<u32>,
+}
+
+impl DpdCfg {
+    /// Sweeps of overlap removal a random start gets ([`soft_start`]).
+    pub fn soft_start_sweeps(&self) -> u32 {
+        self.soft_start_sweeps.unwrap_or(soft_start::DEFAULT_SWEEPS)
+    }
 }
 
 /// The y-dependence of a DPD body force.
@@ -425,6 +437,7 @@ mod tests {
             body_force: Vec::new(),
             body_force_profile: BodyForceProfile::Uniform,
             colloids: None,
+            soft_start_sweeps: None,
         };
         let dpd = Dpd::new(&cfg, 0.04, 7);
         let r = [0.3, -0.4, 0.0];
@@ -460,6 +473,7 @@ mod tests {
             body_force: Vec::new(),
             body_force_profile: BodyForceProfile::Uniform,
             colloids: None,
+            soft_start_sweeps: None,
         };
         let dpd = Dpd::new(&cfg, 0.001, 7);
         let (r, v) = ([0.3, -0.4, 0.0], [1.0, 0.5, -0.2]);

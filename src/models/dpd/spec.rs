@@ -205,6 +205,19 @@ impl<const D: usize> BuildModels<D> for DpdCfg {
         }
     }
 
+    /// The soft start ([`super::soft_start`]): `fluid.soft_start_sweeps` sweeps of overlap
+    /// removal on the conservative potential's shape.
+    fn relax_random_start(&self, case: &dyn CaseView, positions: &mut [[f64; D]]) {
+        super::soft_start::relax_random_start(
+            positions,
+            case.lengths(),
+            &case.boundaries(),
+            self.cutoff,
+            self.conservative_exponent,
+            self.soft_start_sweeps(),
+        );
+    }
+
     fn rigid_bodies(
         &self,
         case: &dyn CaseView,
@@ -454,7 +467,14 @@ fn dpd_report(case: &dyn CaseView, d: &DpdCfg, density: f64, line: &mut dyn FnMu
             "expect k_BT errors > few %"
         }
     ));
-    if case.lattice() == crate::geometry::Lattice::Random && phi.is_none() {
+    let sweeps = d.soft_start_sweeps();
+    if case.lattice() == crate::geometry::Lattice::Random && sweeps > 0 {
+        line(format!(
+            "random start: soft start, {sweeps} sweeps of overlap removal before step 0 \
+             (fluid.soft_start_sweeps; docs/theory/dpd_soft_start.md): the start holds no denser \
+             cluster than the fluid, and the steady-state limit applies"
+        ));
+    } else if case.lattice() == crate::geometry::Lattice::Random && phi.is_none() {
         let margin = if dim == 2 {
             super::time_step::dpd_fit::RANDOM_START_FRICTION_2D
         } else {
@@ -463,8 +483,9 @@ fn dpd_report(case: &dyn CaseView, d: &DpdCfg, density: f64, line: &mut dyn FnMu
         line(format!(
             "random start: the dissipative part carries a margin × {margin} (at strong friction \
              the start's densest clusters blow a run up in its first 4–21 steps, at a step that \
-             scatters 1.7× between seeds; docs/validation.md); a lattice start \
-             (particles.lattice = \"cubic\") or thermostat = \"exponential\" does not need it"
+             scatters 1.7× between seeds; docs/validation.md); the soft start \
+             (fluid.soft_start_sweeps > 0, the default), a lattice start or thermostat = \
+             \"exponential\" does not need it"
         ));
     }
 }
@@ -509,6 +530,20 @@ fn validate_dpd(dpd: &DpdCfg, dim: usize, ix: &SpanIndex) -> Result<(), CaseErro
             format!(
                 "found {:?}; give {dim} finite components of the acceleration g",
                 dpd.body_force
+            ),
+        ));
+    }
+    if let Some(sweeps) = dpd.soft_start_sweeps
+        && sweeps > super::soft_start::MAX_SWEEPS
+    {
+        return Err(ix.error(
+            &fl("soft_start_sweeps"),
+            format!(
+                "found {sweeps}; at most {} sweeps of overlap removal (each costs about a time \
+                 step; the default {} removes the random placement's clusters, 0 turns the soft \
+                 start off)",
+                super::soft_start::MAX_SWEEPS,
+                super::soft_start::DEFAULT_SWEEPS
             ),
         ));
     }
