@@ -367,6 +367,8 @@ pub fn run_stability(req: &StabilityRequest) -> Result<Vec<MapRow>, String> {
             .arg(&csv)
             .arg(&png)
             .arg(format!("{}", req.case.display()))
+            .arg(&req.vary)
+            .arg(req.steps.to_string())
             .output();
         match output {
             Ok(o) if o.status.success() => {}
@@ -460,7 +462,7 @@ import csv, sys
 import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
-path, png, title = sys.argv[1], sys.argv[2], sys.argv[3]
+path, png, case, vary, steps = sys.argv[1:6]
 with open(path, newline="") as f:
     r = csv.reader(f); head = next(r); rows = list(r)
 x = [float(v[0]) for v in rows]
@@ -472,8 +474,11 @@ ax.fill_between(x, st, un, color="C3", alpha=0.25, label="boundary bracket")
 ax.plot(x, st, "o-", color="C0", label="largest stable (measured)")
 ax.plot(x, un, "x", color="C3", label="smallest unstable (measured)")
 ax.plot(x, ck, "s--", color="C2", mfc="none", label="check's limit")
-ax.set_xlabel(head[0]); ax.set_ylabel("largest stable value")
-ax.set_yscale("log"); ax.set_title(title, fontsize=9); ax.legend(fontsize=7)
+ax.set_xlabel(head[0]); ax.set_ylabel(vary + " (log scale)")
+ax.set_yscale("log")
+ax.set_title(f"{case}\nstability boundary in {vary} (stable: {steps} steps without a blow-up)",
+             fontsize=8)
+ax.legend(fontsize=7)
 fig.tight_layout(); fig.savefig(png, dpi=110)
 "#;
 

@@ -233,8 +233,7 @@ fn expectation_headers_are_parsed() {
 fn an_error_from_a_set_override_points_at_the_override_and_a_file_error_at_the_file() {
     let stock = Path::new(env!("CARGO_MANIFEST_DIR")).join("cases/default.toml");
     let err = mesorheo::config::load_scene(&stock, &["fluid.viscosity=-1".to_owned()])
-        .err()
-        .expect("a negative viscosity is refused");
+        .expect_err("a negative viscosity is refused");
     let shown = err.to_string();
     assert!(
         shown.starts_with(&format!(
@@ -256,8 +255,7 @@ fn an_error_from_a_set_override_points_at_the_override_and_a_file_error_at_the_f
     let case = dir.path().join("bad_dt.toml");
     std::fs::write(&case, &text).expect("write case");
     let err = mesorheo::config::load_scene(&case, &["fluid.xsph=0.0".to_owned()])
-        .err()
-        .expect("a negative time step is refused");
+        .expect_err("a negative time step is refused");
     assert_eq!(
         (err.file.as_str(), err.line, err.key.as_str()),
         (case.to_str().expect("utf-8"), line, "integrator.dt"),

@@ -57,7 +57,7 @@ fn done(p: &PointResult) -> Option<(&[(f64, f64)], f64)> {
 /// The knobs along which point `i` is the cheapest completed point of its line (the points
 /// that differ from it in that knob alone) while its value is the first or last one the sweep
 /// lists: the recommendation may be limited by the sweep, not by the tolerance. Knobs with one
-/// value are not edges.
+/// value, and categorical knobs (values that are not numbers), are not edges.
 fn cheap_edges(
     sweep: &Sweep,
     results: &[PointResult],
@@ -69,7 +69,9 @@ fn cheap_edges(
         let value = &results[i].knob_values[k];
         let at_end = knob.values.len() > 1
             && (knob.values.first() == Some(value) || knob.values.last() == Some(value));
-        if !at_end {
+        // A categorical knob (a scheme, a bundle of settings) has no "beyond its last value".
+        let numeric = knob.values.iter().all(|v| v.trim().parse::<f64>().is_ok());
+        if !at_end || !numeric {
             continue;
         }
         let line: Vec<usize> = (0..results.len())

@@ -786,6 +786,37 @@ mod tests {
         assert!(!a.recommendation.contains("edge"), "{}", a.recommendation);
     }
 
+    /// A categorical knob (here the dumbbell scheme) has no edge to extend past: the cheapest
+    /// scheme recommended is not flagged. Mutation: the `numeric` guard in `cheap_edges`
+    /// removed flags `polymer.scheme`.
+    #[test]
+    fn a_recommendation_at_the_end_of_a_categorical_knob_is_not_flagged() {
+        let s = sweep(
+            r#"
+            case = "../cases/dumbbells_hookean_shear_3d.toml"
+            [[knob]]
+            key = "polymer.scheme"
+            values = ["euler_maruyama", "heun"]
+            [[observable]]
+            name = "polymer_viscosity"
+            value = 1.0
+            "#,
+        )
+        .unwrap();
+        let point = |scheme: &str, wall: f64| PointResult {
+            knob_values: vec![s.knobs[0].values[usize::from(scheme == "heun")].clone()],
+            status: Status::Done {
+                values: vec![(1.001, 0.0)],
+                wall_seconds: wall,
+                bytes_per_particle: None,
+            },
+        };
+        let r = vec![point("euler_maruyama", 1.0), point("heun", 2.0)];
+        let a = analyse(&s, &r, Some(0.05)).unwrap();
+        assert_eq!(a.recommended, Some(0));
+        assert!(!a.recommendation.contains("edge"), "{}", a.recommendation);
+    }
+
     #[test]
     fn the_converged_reference_is_the_most_expensive_point_and_never_the_recommendation() {
         let s = one_knob("reference = \"converged\"");
