@@ -312,6 +312,28 @@ impl ColloidsCfg {
                 format!("found {radius}; the site radius must be > 0"),
             ));
         }
+        // The bodies must fit in the box without overlapping (each holds at least the cube of
+        // its diameter): a count beyond that is an error, not a placement to attempt (an absurd
+        // count would otherwise exhaust the memory before the placement could fail).
+        let volume: f64 = case.lengths().iter().take(d).product();
+        // (1 + 10⁻⁹: a box of exactly k bodies' cubes must not lose one to round-off.)
+        let fit = (volume / (2.0 * radius).powi(d as i32) * (1.0 + 1e-9)).floor();
+        let n = self.body_count(case);
+        if self.centres.is_empty() && n as f64 > fit {
+            return Err(ix.error(
+                &path(if self.count.is_some() {
+                    "count"
+                } else {
+                    "volume_fraction"
+                }),
+                format!(
+                    "{n} bodies of diameter 2 × site radius = {:.4} do not fit in the box \
+                     (volume {volume:.4}): at most {fit:.0} fit without overlapping; lower the \
+                     count (or volume_fraction) or enlarge the box",
+                    2.0 * radius
+                ),
+            ));
+        }
         // A body and the reach of its constituents' forces must fit in half the box, so that
         // the minimum image of every lever arm and spring is its own body's.
         let extent = 2.0 * radius + cutoff;
