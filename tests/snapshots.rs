@@ -50,6 +50,27 @@ fn run_threads(
     .expect("run")
 }
 
+/// Continues the run in `out` from its checkpoint at `step` on `ranks` × `threads`, writing
+/// into the same folder.
+fn restart_from(out: &Path, step: u64, ranks: usize, threads: usize) {
+    let ck = out
+        .join("checkpoints")
+        .join(mesorheo::output::checkpoint::file_name(step));
+    let out = out.to_path_buf();
+    in_process(ranks, move |c| {
+        restart_case(
+            &ck,
+            c,
+            &RunOptions {
+                threads,
+                out: Some(out.clone()),
+                ..RunOptions::default()
+            },
+        )
+    })
+    .expect("restart");
+}
+
 #[test]
 fn snapshots_have_the_same_content_on_1_2_and_3_ranks() {
     let text = case(100, "");
@@ -93,22 +114,7 @@ fn a_restart_drops_frames_written_after_its_checkpoint_and_rewrites_them() {
     // Stops at 150 (frames 20…140, checkpoints 100 and 150); restart from 100 as if the
     // checkpoint at 150 had been lost: frames 120 and 140 must be dropped and rewritten.
     run(&text, 2, &parts, Some(150));
-    let ck = parts
-        .join("checkpoints")
-        .join(mesorheo::output::checkpoint::file_name(100));
-    let out = parts.clone();
-    in_process(3, move |c| {
-        restart_case(
-            &ck,
-            c,
-            &RunOptions {
-                threads: 1,
-                out: Some(out.clone()),
-                ..RunOptions::default()
-            },
-        )
-    })
-    .expect("restart");
+    restart_from(&parts, 100, 3, 1);
     // The time series likewise: the rows 101…150 of the stopped segment are dropped, not
     // repeated (mutation: keep every row of the file in `ObservablesCsv::open`).
     let csv = |dir: &Path| std::fs::read_to_string(dir.join("observables.csv")).expect("csv");
@@ -545,22 +551,7 @@ fn model_fields_are_the_same_for_any_thread_count_and_across_a_restart() {
 
     let parts = dir.path().join("parts");
     run_threads(&text, 2, 1, &parts, Some(2));
-    let ck = parts
-        .join("checkpoints")
-        .join(mesorheo::output::checkpoint::file_name(2));
-    let out = parts.clone();
-    in_process(1, move |c| {
-        restart_case(
-            &ck,
-            c,
-            &RunOptions {
-                threads: 2,
-                out: Some(out.clone()),
-                ..RunOptions::default()
-            },
-        )
-    })
-    .expect("restart");
+    restart_from(&parts, 2, 1, 2);
     same(
         &parts,
         "a restart from step 2 (2 ranks, then 1 rank × 2 threads)",
