@@ -41,11 +41,13 @@ pub struct SummationGasCfg {
 /// The summation-density field's name.
 pub const DENSITY: &str = "density";
 
-/// Pass 1: m W(r) from every neighbour and from the particle itself.
-struct DensityKernel {
-    lucy: Lucy,
-    mass: f64,
-    scales: [Scale; 1],
+/// The summation density ρ_i = m Σ_j W(r_ij), the particle itself included: m W(r) from every
+/// neighbour and from the particle itself (pass 1 here; the GENERIC polymer particle's
+/// transport-velocity density too).
+pub(crate) struct DensityKernel {
+    pub(crate) lucy: Lucy,
+    pub(crate) mass: f64,
+    pub(crate) scales: [Scale; 1],
 }
 
 impl<const D: usize> GatherKernel<D> for DensityKernel {

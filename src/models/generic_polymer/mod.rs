@@ -69,6 +69,7 @@ use crate::models::interface::{
     PassSpec,
 };
 use crate::models::sph::kernels::{Kernel, Lucy};
+use crate::models::summation_gas::DensityKernel;
 use crate::observable::Observable;
 use crate::particles::{FieldFlags, Particles};
 use crate::rng::{HashStream, Purpose};
@@ -371,35 +372,6 @@ impl<const D: usize> GatherKernel<D> for PairKernel<D> {
     }
 }
 
-/// The summation density pass (transport velocity only): ρ_i = m Σ_j W_ij, the particle
-/// itself included (Español & Revenga 2003; d_i = ρ_i/m is the GENERIC particle's inverse
-/// volume).
-struct SummationDensityKernel {
-    lucy: Lucy,
-    mass: f64,
-    scales: [Scale; 1],
-}
-
-impl<const D: usize> GatherKernel<D> for SummationDensityKernel {
-    fn scales(&self) -> &[Scale] {
-        &self.scales
-    }
-
-    fn cutoff(&self) -> f64 {
-        self.lucy.support()
-    }
-
-    #[inline]
-    fn pair(&self, _: &Particles<D>, _: usize, _: usize, _: &[f64; D], r: f64, out: &mut [f64]) {
-        out[0] = self.mass * self.lucy.w(r);
-    }
-
-    fn self_term(&self, _: &Particles<D>, _: usize, out: &mut [f64]) -> bool {
-        out[0] = self.mass * self.lucy.w(0.0);
-        true
-    }
-}
-
 /// The model of a run (module documentation).
 pub struct GenericPolymer<const D: usize> {
     params: Parameters,
@@ -676,7 +648,9 @@ impl<const D: usize> ParticleModel<D> for GenericPolymer<D> {
         let step = ctx.step;
         let n = p.n_owned;
         if self.transported() && pass == 0 {
-            let kernel = SummationDensityKernel {
+            // The summation density pass (transport velocity only): ρ_i = m Σ_j W_ij, the
+            // particle itself included (Español & Revenga 2003; d_i = ρ_i/m).
+            let kernel = DensityKernel {
                 lucy: self.lucy,
                 mass: self.mass,
                 scales: [Scale::covering(1e8 * self.rest_density)],
