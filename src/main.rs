@@ -18,7 +18,7 @@ use tracing_subscriber::{EnvFilter, Layer, fmt};
     about = "Particle solver for polymeric and viscoelastic flows"
 )]
 struct Cli {
-    /// Only warnings and errors on the console.
+    /// No progress or info lines on the console: the results table, warnings and errors only.
     #[arg(long, short, global = true)]
     quiet: bool,
     /// Debug output on the console.
@@ -599,7 +599,6 @@ fn session(
     job: impl FnOnce(&dyn Comm) -> Result<mesorheo::summary::Summary, mesorheo::error::Error>,
 ) -> ExitCode {
     let root = comm.rank() == 0;
-    let quiet = logs.quiet;
     let _guard = match init_logging(comm.rank(), out, logs) {
         Ok(g) => g,
         Err(e) => {
@@ -617,14 +616,10 @@ fn session(
                     eprintln!("error: cannot write {}/summary.json: {e}", out.display());
                     return ExitCode::FAILURE;
                 }
-                // Each warning once on the console: in the results table, or alone under -q.
-                if !quiet {
-                    eprint!("{}", mesorheo::summary::render(&summary));
-                } else {
-                    for w in &summary.warnings {
-                        eprintln!("warning: {w}");
-                    }
-                }
+                // The results table (each warning once, in it) under -q too: quiet means no
+                // progress or info lines, not no results (a failed reference exits 3, and the
+                // table says which).
+                eprint!("{}", mesorheo::summary::render(&summary));
                 for w in &summary.warnings {
                     tracing::warn!(target: FILES_ONLY, "{w}");
                 }

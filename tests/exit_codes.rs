@@ -355,3 +355,27 @@ fn the_run_script_takes_paths_from_the_callers_directory() {
     let repo = Path::new(env!("CARGO_MANIFEST_DIR"));
     assert!(!repo.join("results").exists() && !repo.join("out/mycase").exists());
 }
+
+/// `-q` drops the progress and info lines, not the results: a run whose reference fails exits 3
+/// and still says which reference and by how much. Fails if the results table is printed only
+/// without `-q` again (mutation: `if !quiet` around `summary::render` in `main.rs`, the form
+/// before 2026-11-27: the stderr then holds no `[FAIL]` line).
+#[test]
+fn a_quiet_run_still_prints_its_results_and_the_failed_reference() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    // k_BT = 1 against a deliberately wrong reference value (the stock case's first reference,
+    // moved to 2): a failed reference, exit 3.
+    let (code, err) = run(
+        &dir.path().join("o"),
+        &[
+            "run.steps=200",
+            "run.equilibration=100",
+            "diagnostics.blocks=2",
+            "reference=[{kind = \"value\", name = \"k_BT moved\", observable = \"temperature\", \
+             value = 2.0, metric = \"relative_error\", tolerance = 0.01}]",
+        ],
+    );
+    assert_eq!(code, Some(3), "{err}");
+    assert!(err.contains("[FAIL] k_BT moved"), "{err}");
+    assert!(err.contains("temperature") && err.contains("state digest"), "{err}");
+}

@@ -43,13 +43,16 @@ pub struct Analysis {
     pub recommendation: String,
 }
 
-fn done(p: &PointResult) -> Option<(&[(f64, f64)], f64)> {
+/// A completed point's values and its cost in core-seconds: the CPU seconds of its processes
+/// where the study measured them, else (a record from before the measure) wall × `cores`.
+fn done(p: &PointResult, cores: f64) -> Option<(&[(f64, f64)], f64)> {
     match &p.status {
         Status::Done {
             values,
             wall_seconds,
+            cpu_seconds,
             ..
-        } => Some((values, *wall_seconds)),
+        } => Some((values, cpu_seconds.unwrap_or(wall_seconds * cores))),
         _ => None,
     }
 }
@@ -116,7 +119,7 @@ pub fn analyse(
     let cores = (sweep.ranks * sweep.threads) as f64;
     let core_seconds: Vec<f64> = results
         .iter()
-        .map(|p| done(p).map_or(f64::NAN, |(_, w)| w * cores))
+        .map(|p| done(p, cores).map_or(f64::NAN, |(_, cost)| cost))
         .collect();
     let most_expensive = (0..results.len())
         .filter(|&i| core_seconds[i].is_finite())
@@ -129,7 +132,7 @@ pub fn analyse(
             Reference::Value { value, stderr } => (*value, *stderr),
             Reference::Converged => {
                 reference_point = Some(most_expensive);
-                let (v, _) = done(&results[most_expensive]).expect("done");
+                let (v, _) = done(&results[most_expensive], cores).expect("done");
                 v[k]
             }
             Reference::Richardson { knob, order } => {
@@ -140,7 +143,7 @@ pub fn analyse(
     }
     let mut errors = Vec::new();
     for (i, p) in results.iter().enumerate() {
-        errors.push(done(p).map(|(values, _)| {
+        errors.push(done(p, cores).map(|(values, _)| {
             values
                 .iter()
                 .zip(&references)
@@ -353,7 +356,7 @@ fn richardson(
         })
         .filter_map(|p| {
             let h = p.knob_values[at].parse::<f64>().ok()?;
-            let (v, _) = done(p)?;
+            let (v, _) = done(p, 1.0)?;
             Some((h, v[k].0, v[k].1))
         })
         .collect();

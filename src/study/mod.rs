@@ -51,8 +51,11 @@
 //! - systematic error √(max(0, e² − s²)): the part of e that the sampling noise does not
 //!   explain, i.e. what a smaller Δt, a finer resolution or a better scheme would shrink.
 //!
-//! The study's error of a point is the largest e over its observables; its cost is the run's
-//! wall time × ranks × threads (core-seconds). A point is on the Pareto front when no other
+//! The study's error of a point is the largest e over its observables; its cost is the CPU
+//! seconds (user + system) of the run's processes, all ranks and threads, measured by the study
+//! around the child (`getrusage(RUSAGE_CHILDREN)`), so that a point does not look dearer because
+//! something else ran beside it (for a point finished by an older version: wall × ranks ×
+//! threads). A point is on the Pareto front when no other
 //! point is both cheaper and more accurate. Its memory is the stored ensemble bytes per
 //! particle the run reports (summary.json `ensemble_bytes_per_particle`: the connectors of
 //! plain dumbbells, the occupied histogram cells of BDDFS), with its own memory/error front
@@ -594,6 +597,7 @@ mod tests {
             status: Status::Done {
                 values: vec![(mean, stderr)],
                 wall_seconds: wall,
+                cpu_seconds: None,
                 bytes_per_particle: None,
             },
         }
@@ -808,6 +812,7 @@ mod tests {
             status: Status::Done {
                 values: vec![(1.001, 0.0)],
                 wall_seconds: wall,
+                cpu_seconds: None,
                 bytes_per_particle: None,
             },
         };
@@ -857,5 +862,29 @@ mod tests {
                 .contains("1 point(s) blew up and 1 were refused")
         );
         assert!(a.csv(&s).contains("0.04,unstable"));
+    }
+
+    /// The cost of a point is its processes' CPU time, not the time it took: a child that
+    /// sleeps 0.4 s costs (almost) nothing, a child that computes costs what it computes.
+    /// Mutation: measuring the wall time around the child (the old cost) fails the first check.
+    #[test]
+    fn a_points_cost_is_its_cpu_time_not_its_wall_time() {
+        let cpu = |script: &str| {
+            let before = run::children_cpu_seconds().expect("getrusage");
+            let start = std::time::Instant::now();
+            let status = Command::new("sh").args(["-c", script]).status().expect("sh");
+            assert!(status.success());
+            (
+                run::children_cpu_seconds().expect("getrusage") - before,
+                start.elapsed().as_secs_f64(),
+            )
+        };
+        let (sleeping, wall) = cpu("sleep 0.4");
+        assert!(wall >= 0.4, "slept {wall} s");
+        // A sleeping shell uses a few milliseconds of CPU to start.
+        assert!(sleeping < 0.1, "a sleeping child cost {sleeping} CPU seconds");
+        let (busy, _) = cpu("i=0; while [ $i -lt 300000 ]; do i=$((i+1)); done");
+        // 300 000 shell additions take ~0.2–1 s of CPU on anything current.
+        assert!(busy > 0.05, "a computing child cost only {busy} CPU seconds");
     }
 }

@@ -7,6 +7,7 @@ import csv
 import sys
 
 import matplotlib
+import matplotlib.transforms
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
@@ -21,7 +22,9 @@ knobs = head[: head.index("status")]
 observables = [h[: -len(":mean")] for h in head if h.endswith(":mean")]
 # The reference point itself (error 0) has no place on a log axis.
 done = [r for r in rows if r["status"] == "done" and float(r["error"]) > 0]
-with_memory = bool(done) and all(r.get("bytes_per_particle") for r in done)
+# The memory panel only where the memory varies (a sweep over N_d or BDDFS grids).
+with_memory = bool(done) and all(r.get("bytes_per_particle") for r in done) and \
+    len({r["bytes_per_particle"] for r in done}) > 1
 axes_spec = [("core_seconds", "pareto", "cost (core-seconds)")]
 if with_memory:
     axes_spec.append(("bytes_per_particle", "pareto_memory", "stored ensemble bytes per particle"))
@@ -43,8 +46,6 @@ for ax, (cost_col, front_col, xlabel) in zip(axes[0], axes_spec):
             ms=5,
             capsize=2,
         )
-        label = " ".join(r[k] for k in knobs)
-        ax.annotate(label, (cost, err), fontsize=5, xytext=(3, 3), textcoords="offset points")
         if r["recommended"] == "1":
             ax.plot(cost, err, "o", ms=14, mfc="none", mec="C3", mew=1.5, label="recommended")
     front = sorted(
@@ -61,4 +62,44 @@ for ax, (cost_col, front_col, xlabel) in zip(axes[0], axes_spec):
     ax.set_title(title + "\npoints: " + ", ".join(knobs), fontsize=9)
     ax.legend(fontsize=7)
 fig.tight_layout()
+# Labels after the layout, so their extents are final: the recommended point first, then the
+# Pareto front, then the rest by error; a label that would overlap one already placed (or a
+# point's marker) tries three other corners and is left out if all overlap. Every point, labelled
+# or not, is a row of study.csv.
+fig.canvas.draw()
+renderer = fig.canvas.get_renderer()
+for ax, (cost_col, front_col, _) in zip(axes[0], axes_spec):
+    placed = []
+    markers = []
+    for r in done:
+        x, y = ax.transData.transform((float(r[cost_col]), float(r["error"])))
+        markers.append(matplotlib.transforms.Bbox.from_extents(x - 3, y - 3, x + 3, y + 3))
+    order = sorted(
+        done,
+        key=lambda r: (r["recommended"] != "1", r[front_col] != "1", float(r["error"])),
+    )
+    hidden = 0
+    for r in order:
+        label = " ".join(r[k] for k in knobs)
+        at = (float(r[cost_col]), float(r["error"]))
+        for dx, dy, ha, va in ((4, 3, "left", "bottom"), (4, -3, "left", "top"),
+                               (-4, 3, "right", "bottom"), (-4, -3, "right", "top")):
+            text = ax.annotate(label, at, fontsize=6, xytext=(dx, dy), textcoords="offset points",
+                               ha=ha, va=va)
+            box = text.get_window_extent(renderer).expanded(1.05, 1.1)
+            inside = ax.get_window_extent(renderer).contains(box.x0, box.y0) and \
+                ax.get_window_extent(renderer).contains(box.x1, box.y1)
+            own = ax.transData.transform(at)
+            clash = any(box.overlaps(b) for b in placed) or any(
+                box.overlaps(m) for m in markers
+                if not (abs(m.x0 + 3 - own[0]) < 1e-6 and abs(m.y0 + 3 - own[1]) < 1e-6))
+            if inside and not clash:
+                placed.append(box)
+                break
+            text.remove()
+        else:
+            hidden += 1
+    if hidden:
+        ax.text(0.99, 0.01, f"{hidden} labels left out where they would overlap (study.csv lists every point)",
+                transform=ax.transAxes, ha="right", va="bottom", fontsize=6, color="0.4")
 fig.savefig(png_path, dpi=110)

@@ -5,7 +5,8 @@ use super::*;
 
 impl Analysis {
     /// The CSV: knob values, status, per observable mean ± stderr, error, statistical and
-    /// systematic parts, the study error, wall time, core-seconds, stored bytes per particle,
+    /// systematic parts, the study error, wall time, core-seconds (the CPU seconds of the point's
+    /// processes; wall × ranks × threads for records older than that measure), stored bytes per particle,
     /// the memory/error and cost/error Pareto flags, reference and recommendation.
     pub fn csv(&self, sweep: &Sweep) -> String {
         let mut s = String::new();
@@ -30,7 +31,6 @@ impl Analysis {
             .map(str::to_string),
         );
         let _ = writeln!(s, "{}", head.join(","));
-        let cores = (sweep.ranks * sweep.threads) as f64;
         for (i, p) in self.points.iter().enumerate() {
             let mut row: Vec<String> = p.knob_values.iter().map(|v| csv_field(v)).collect();
             row.push(
@@ -50,7 +50,11 @@ impl Analysis {
                     }
                     let worst = e.iter().map(|q| q.error).fold(0.0, f64::max);
                     row.push(format!("{worst:.10e}"));
-                    row.push(format!("{:.3}", self.core_seconds[i] / cores));
+                    let wall = match &p.status {
+                        Status::Done { wall_seconds, .. } => *wall_seconds,
+                        _ => f64::NAN,
+                    };
+                    row.push(format!("{wall:.3}"));
                     row.push(format!("{:.3}", self.core_seconds[i]));
                     let b = self.bytes_per_particle[i];
                     row.push(if b.is_finite() {

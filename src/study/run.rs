@@ -11,6 +11,10 @@ pub enum Status {
     Done {
         values: Vec<(f64, f64)>,
         wall_seconds: f64,
+        /// CPU seconds (user + system) of the point's processes, every rank and thread, measured
+        /// by the study around its child (None for a point whose record predates the measure:
+        /// its cost is then wall × ranks × threads).
+        cpu_seconds: Option<f64>,
         /// Stored ensemble bytes per carrying particle at the end of the run (summary.json's
         /// `ensemble_bytes_per_particle`: N_d × D × 8 B for dumbbells, 8 B per occupied
         /// histogram cell for BDDFS); None for scenes without ensembles.
@@ -52,6 +56,9 @@ struct PointRecord {
     overrides: Vec<String>,
     status: String,
     message: String,
+    /// The point's CPU seconds ([`Status::Done::cpu_seconds`]); absent in older records.
+    #[serde(default)]
+    cpu_seconds: Option<f64>,
 }
 
 /// Runs (or resumes) every point of the sweep, then analyses and writes the outputs.
@@ -168,13 +175,17 @@ fn read_done(point_dir: &Path, overrides: &[String], obs: &[ObservableSpec]) -> 
         return None;
     }
     match rec.status.as_str() {
-        "done" => read_summary(point_dir, obs).ok(),
+        "done" => read_summary(point_dir, obs, rec.cpu_seconds).ok(),
         "unstable" => Some(Status::Unstable(rec.message)),
         _ => None,
     }
 }
 
-fn read_summary(point_dir: &Path, obs: &[ObservableSpec]) -> Result<Status, String> {
+fn read_summary(
+    point_dir: &Path,
+    obs: &[ObservableSpec],
+    cpu_seconds: Option<f64>,
+) -> Result<Status, String> {
     let path = point_dir.join("summary.json");
     let text = std::fs::read_to_string(&path)
         .map_err(|e| format!("cannot read {}: {e}", path.display()))?;
@@ -204,6 +215,7 @@ fn read_summary(point_dir: &Path, obs: &[ObservableSpec]) -> Result<Status, Stri
     Ok(Status::Done {
         values,
         wall_seconds,
+        cpu_seconds,
         bytes_per_particle,
     })
 }
@@ -217,6 +229,7 @@ fn run_point(
     let _ = std::fs::remove_file(point_dir.join("point.json"));
     std::fs::create_dir_all(point_dir)
         .map_err(|e| format!("cannot create {}: {e}", point_dir.display()))?;
+    let cpu_before = children_cpu_seconds();
     let (code, last_error) = launch(
         &opts.exe,
         &Launch {
@@ -232,7 +245,13 @@ fn run_point(
     // 0: done; 3: done, but the case's own reference checks failed (expected away from the
     // case's own settings); 4: a blow-up.
     let status = match code {
-        Some(0 | 3) => read_summary(point_dir, &sweep.observables)?,
+        Some(0 | 3) => {
+            let cpu = match (cpu_before, children_cpu_seconds()) {
+                (Some(a), Some(b)) if b >= a => Some(b - a),
+                _ => None,
+            };
+            read_summary(point_dir, &sweep.observables, cpu)?
+        }
         Some(4) => Status::Unstable(last_error.clone()),
         _ => {
             return Err(format!(
@@ -256,11 +275,36 @@ fn run_point(
         } else {
             String::new()
         },
+        cpu_seconds: match &status {
+            Status::Done { cpu_seconds, .. } => *cpu_seconds,
+            _ => None,
+        },
     };
     let text = serde_json::to_string_pretty(&record).map_err(|e| e.to_string())?;
     std::fs::write(point_dir.join("point.json"), text)
         .map_err(|e| format!("cannot write {}/point.json: {e}", point_dir.display()))?;
     Ok(status)
+}
+
+/// CPU seconds (user + system) used so far by every terminated child of this process that it
+/// waited for, and their waited-for descendants (`getrusage(RUSAGE_CHILDREN)`): under `mpirun`
+/// that is every rank, and in each rank every thread. The difference around one child is that
+/// child's cost, which unlike its wall time hardly moves with the other load on the machine
+/// (a run on a busy 2-core machine took 2–3× its quiet wall time but about its quiet CPU time).
+/// None where the call fails.
+pub fn children_cpu_seconds() -> Option<f64> {
+    let mut usage = std::mem::MaybeUninit::<libc::rusage>::zeroed();
+    // SAFETY: `getrusage` writes one `struct rusage` through the pointer, which points at a
+    // zeroed, properly aligned `rusage` owned by this frame; RUSAGE_CHILDREN is a valid `who`.
+    // The value is read only when the call reports success (0), so it is fully initialised.
+    let ok = unsafe { libc::getrusage(libc::RUSAGE_CHILDREN, usage.as_mut_ptr()) } == 0;
+    if !ok {
+        return None;
+    }
+    // SAFETY: initialised by the successful call above (and zeroed before it).
+    let usage = unsafe { usage.assume_init() };
+    let seconds = |t: libc::timeval| t.tv_sec as f64 + t.tv_usec as f64 * 1e-6;
+    Some(seconds(usage.ru_utime) + seconds(usage.ru_stime))
 }
 
 /// How a child run is started.
