@@ -377,5 +377,8 @@ fn a_quiet_run_still_prints_its_results_and_the_failed_reference() {
     );
     assert_eq!(code, Some(3), "{err}");
     assert!(err.contains("[FAIL] k_BT moved"), "{err}");
-    assert!(err.contains("temperature") && err.contains("state digest"), "{err}");
+    assert!(
+        err.contains("temperature") && err.contains("state digest"),
+        "{err}"
+    );
 }

@@ -872,7 +872,10 @@ mod tests {
         let cpu = |script: &str| {
             let before = run::children_cpu_seconds().expect("getrusage");
             let start = std::time::Instant::now();
-            let status = Command::new("sh").args(["-c", script]).status().expect("sh");
+            let status = Command::new("sh")
+                .args(["-c", script])
+                .status()
+                .expect("sh");
             assert!(status.success());
             (
                 run::children_cpu_seconds().expect("getrusage") - before,
@@ -882,9 +885,15 @@ mod tests {
         let (sleeping, wall) = cpu("sleep 0.4");
         assert!(wall >= 0.4, "slept {wall} s");
         // A sleeping shell uses a few milliseconds of CPU to start.
-        assert!(sleeping < 0.1, "a sleeping child cost {sleeping} CPU seconds");
+        assert!(
+            sleeping < 0.1,
+            "a sleeping child cost {sleeping} CPU seconds"
+        );
         let (busy, _) = cpu("i=0; while [ $i -lt 300000 ]; do i=$((i+1)); done");
         // 300 000 shell additions take ~0.2–1 s of CPU on anything current.
-        assert!(busy > 0.05, "a computing child cost only {busy} CPU seconds");
+        assert!(
+            busy > 0.05,
+            "a computing child cost only {busy} CPU seconds"
+        );
     }
 }
