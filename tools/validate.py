@@ -1965,8 +1965,9 @@ def default_weissenberg():
                     f"{cells[1][0]:+.2f} %")
     print()
 
-# Hasimoto (1959), simple cubic array of spheres, with Sangani & Acrivos (1982, Int. J.
-# Multiphase Flow 8, 193, Table 1) extending the series: the drag F = 6πηaU / K(c) on each sphere
+# Hasimoto (1959), simple cubic array of spheres, with Sangani & Acrivos ("Slow flow through a
+# periodic array of spheres", Int. J. Multiphase Flow 8, 343, 1982) extending the series: the
+# drag F = 6πηaU / K(c) on each sphere
 # of a periodic cubic array of cell side L, c = (4π/3)a³/L³ the spheres' volume fraction, U the
 # mean velocity of the fluid relative to the spheres.
 def hasimoto_cubic_k(c):
