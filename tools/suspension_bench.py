@@ -32,7 +32,7 @@ binary = os.environ.get("MESORHEO_BIN", os.path.join(ROOT, "target", "release", 
 case = os.path.join(ROOT, "cases", "dpd_suspension_viscosity_3d.toml")
 text = open(case).read()
 # The solvent alone: the stock case without its [fluid.colloids] section.
-solvent = text.split("[fluid.colloids]")[0] + "[integrator]" + text.split("[integrator]")[1]
+solvent = text.split("\n[fluid.colloids]\n")[0] + "\n[integrator]\n" + text.split("\n[integrator]\n")[1]
 common = [f"run.equilibration={steps // 10}", "reference=[]",
           'diagnostics.observables=["viscosity", "temperature"]']
 variants = {

@@ -2035,8 +2035,8 @@ def suspension_viscosity():
     with ThreadPoolExecutor(2) as pool:
         results = dict(pool.map(one, list(runs)))
     # The solvent alone (the stock case without [fluid.colloids]): the reference solvent.
-    solvent_text = (stock_text.split("[fluid.colloids]")[0] + "[integrator]"
-                    + stock_text.split("[integrator]")[1]).replace(
+    solvent_text = (stock_text.split("\n[fluid.colloids]\n")[0] + "\n[integrator]\n"
+                    + stock_text.split("\n[integrator]\n")[1]).replace(
         '"colloid_velocity_variance"', "").replace('"temperature", ]', '"temperature"]')
     solvent_keep = os.path.join(reuse, "solvent") if reuse else None
     if solvent_keep and os.path.exists(os.path.join(solvent_keep, "summary.json")):
@@ -2180,7 +2180,7 @@ def cylinder_array():
     forces = {"array": 0.6, "array_g0.2": 0.2}
     # The fluid alone in Lees–Edwards shear at γ̇ = 1 (the local rates about the cylinder are ~U/a ≈ 1;
     # at the thesis's Couette rate 0.2 the stress is 5 times closer to the noise), for η.
-    shear_text = text.split("[fluid.colloids]")[0] + "[integrator]" + text.split("[integrator]")[1]
+    shear_text = text.split("\n[fluid.colloids]\n")[0] + "\n[integrator]\n" + text.split("\n[integrator]\n")[1]
     shear_text = shear_text.replace("body_force = [0.6, 0.0]\n", "").replace(
         "lengths = [10.0, 10.0]", "lengths = [10.0, 10.0]\nshear_rate = 1.0").replace(
         'observables = ["momentum", "temperature"]', 'observables = ["viscosity", "temperature"]').replace(
