@@ -78,8 +78,8 @@ and writes plots to docs/ when matplotlib is available. Exits 1 when any recorde
                  MESORHEO_SUSPENSION_STEPS=N)
   cylinder_array  fixed cylinders in a driven 2D flow (cases/dpd_cylinder_array_2d.toml at
                  F_e = 0.3 and 0.1): F/(ηU) against Hasimoto's square array at the exclusion
-                 radius from the RDF, η from Lees–Edwards shear (~40 CPU-min;
-                 MESORHEO_CYLINDER_RUNS=DIR)
+                 radius from the RDF, η from Lees–Edwards shear, and a 20 × 20 cell for
+                 Hasimoto's cell-size dependence (~70 CPU-min; MESORHEO_CYLINDER_RUNS=DIR)
   report         docs/validation_results/verdicts.md from the per-target records that every
                  target with checks writes to docs/validation_results/<target>.json
   dpd_held_out4  the held-out DPD maps, docs/stability/dpd_held_out4.txt (14 maps × seeds 1–3,
@@ -2187,8 +2187,11 @@ def cylinder_array():
     F_e = m g = 0.3 and 0.1, against Hasimoto's F/(ηU) for the exclusion radius measured from the
     cylinder–fluid RDF (g < 0.01) and the fluid's η measured by Lees–Edwards shear of the same
     fluid. Checks: the measured F/(ηU) within 10 % of Hasimoto's (the issue's bound), and the
-    drag linear in U (the two forces' F/(ηU) within 4σ) (~40 CPU-min;
-    MESORHEO_CYLINDER_RUNS=DIR keeps each run in DIR/<name>/ and reuses it)."""
+    drag linear in U (the two forces' F/(ηU) within 4σ); and Hasimoto's cell-size dependence: a
+    20 × 20 cell (3 200 fluid particles, F_e = 0.075, the same F = 240; 14 000 steps) gives the
+    same hydrodynamic radius a_H (the radius whose Hasimoto drag is the measured one) as the
+    10 × 10 cell within 4σ (~70 CPU-min; MESORHEO_CYLINDER_RUNS=DIR keeps each run in DIR/<name>/
+    and reuses it)."""
     case = "dpd_cylinder_array_2d.toml"
     with open(os.path.join(ROOT, "cases", case)) as f:
         text = f.read()
@@ -2215,12 +2218,15 @@ def cylinder_array():
                 return name, (run(f.name, [], threads=1, keep=keep), keep)
             finally:
                 os.unlink(f.name)
+        if name == "array_L20":
+            sets = ["box.lengths=[20.0, 20.0]", "fluid.body_force=[0.15, 0.0]", "run.steps=14000"]
+            return name, (run(case, sets, threads=1, keep=keep), keep)
         g = forces[name]
         return name, (run(case, [f"fluid.body_force=[{g}, 0.0]"], threads=1, keep=keep), keep)
 
     from concurrent.futures import ThreadPoolExecutor
     with ThreadPoolExecutor(2) as pool:
-        results = dict(pool.map(one, ["array", "array_g0.2", "shear"]))
+        results = dict(pool.map(one, ["array", "array_g0.2", "shear", "array_L20"]))
     sh = results["shear"][0]["observables"]
     eta, eta_se = sh["viscosity"]["mean"], sh["viscosity"]["stderr"]
     print("### Cylinder array against Hasimoto (`./run validate cylinder_array`)\n")
@@ -2245,7 +2251,7 @@ def cylinder_array():
         for _ in range(100):
             mid = 0.5 * (lo + hi)
             lo, hi = (mid, hi) if hasimoto_square_drag(mid, cell) < k else (lo, mid)
-        rows[name] = (k, k_se, radius, ref)
+        rows[name] = (k, k_se, radius, ref, 0.5 * (lo + hi))
         print(f"| {mass * g:.2f} | {u:.4f} ± {u_se:.4f} | {force:.1f} | {k:.3f} ± {k_se:.3f} | {radius:.2f} | "
               f"{ref:.3f} | {100 * (k / ref - 1):+.1f} % | {0.5 * (lo + hi):.3f} | {fmt(o['temperature'])} | "
               f"{frames} | {s['wall_seconds']:.0f} |")
@@ -2254,12 +2260,43 @@ def cylinder_array():
         if name == "array":
             print("\nRDF (F_e = 0.3) near the edge: " + ", ".join(f"g({r:.2f}) = {gv:.3f}" for r, gv in rdf if 0.2 < r < 1.0))
             print()
-    (k1, e1, _, _), (k2, e2, _, _) = rows["array"], rows["array_g0.2"]
+    (k1, e1, _, _, _), (k2, e2, _, _, _) = rows["array"], rows["array_g0.2"]
     # η's error is common to both: leave it out of the linearity comparison.
     e1u = k1 * results["array"][0]["observables"]["momentum_x"]["stderr"] / results["array"][0]["observables"]["momentum_x"]["mean"]
     e2u = k2 * results["array_g0.2"][0]["observables"]["momentum_x"]["stderr"] / results["array_g0.2"][0]["observables"]["momentum_x"]["mean"]
     verdict("cylinder array: drag linear in U (F/(ηU) at F_e = 0.1 and 0.3 within 4σ)",
             abs(k1 - k2) < 4 * math.hypot(e1u, e2u), f"({k2:.3f} and {k1:.3f}, σ = {math.hypot(e1u, e2u):.3f})")
+
+    # Hasimoto's cell-size dependence: the 20 × 20 cell (same total force) against the 10 × 10.
+    # a_H is where hasimoto_square_drag(a, L) = F/(ηU); its error from F/(ηU) ± σ by bisection.
+    def a_of(k, cell):
+        lo, hi = 0.01, 3.0
+        for _ in range(100):
+            mid = 0.5 * (lo + hi)
+            lo, hi = (mid, hi) if hasimoto_square_drag(mid, cell) < k else (lo, mid)
+        return 0.5 * (lo + hi)
+
+    s20, keep20 = results["array_L20"]
+    o20 = s20["observables"]
+    cell20, n20 = 20.0, 3200
+    u20 = o20["momentum_x"]["mean"] / (n20 * mass)
+    u20_se = o20["momentum_x"]["stderr"] / (n20 * mass)
+    k20 = n20 * mass * 0.15 / (eta * u20)
+    k20_se = k20 * math.hypot(u20_se / u20, eta_se / eta)
+    r20, _, frames20 = exclusion_radius(os.path.join(keep20, "snapshots.h5"), n20, (cell20 / 2, cell20 / 2),
+                                        cell20, equilibration)
+    ref20 = hasimoto_square_drag(r20, cell20)
+    a20 = a_of(k20, cell20)
+    a20_se = 0.5 * (a_of(k20 + k20_se, cell20) - a_of(k20 - k20_se, cell20))
+    a10 = a_of(k1, cell)
+    a10_se = 0.5 * (a_of(k1 + e1, cell) - a_of(k1 - e1, cell))
+    print(f"\n20 × 20 cell, F_e = 0.075 (F = 240): U = {u20:.4f} ± {u20_se:.4f}, F/(ηU) = {k20:.3f} ± {k20_se:.3f}, "
+          f"exclusion radius {r20:.2f}, Hasimoto there {ref20:.3f} ({100 * (k20 / ref20 - 1):+.1f} %), "
+          f"a_H = {a20:.3f} ± {a20_se:.3f} (10 × 10: {a10:.3f} ± {a10_se:.3f}); {frames20} frames, "
+          f"wall {s20['wall_seconds']:.0f} s")
+    verdict("cylinder array: Hasimoto's cell-size dependence (a_H of the 20 × 20 cell within 4σ of the 10 × 10's)",
+            abs(a20 - a10) < 4 * math.hypot(a20_se, a10_se), f"({a20:.3f} ± {a20_se:.3f} and {a10:.3f} ± {a10_se:.3f})")
+
 
 def generic_polymer_t1():
     """The thesis's T1 (Ellero 2004 §4.8, docs/theory/generic_polymer_particle.md §5): the stock
