@@ -14,7 +14,9 @@ each, one rank × one thread, references off:
            number of particles and the same total number density as the suspension
 
 Prints, per run and as medians, the loop's wall time per step (the summary's loop_seconds /
-steps) and the process's CPU time per step (user + system, set-up included).
+steps), the process's CPU time per step (user + system, set-up included), and the phase timers
+(summary phase_seconds): forces, the engine's rigid-bodies pass (spring and lever sums, exact
+reduction, body update, site placement), neighbour lists, diagnostics.
 
 Usage: tools/suspension_bench.py [STEPS] [REPS]   (MESORHEO_BIN, default target/release/mesorheo)
 """
@@ -40,7 +42,7 @@ variants = {
     "free": (case, ["fluid.colloids.count=85", "fluid.colloids.spring_stiffness=1e-9"]),
     "solvent": (None, ['particles.lattice="random"', f"particles.density={2558 / 512}"]),
 }
-wall, cpu = {}, {}
+wall, cpu, share = {}, {}, {}
 with tempfile.TemporaryDirectory() as work:
     solvent_file = os.path.join(work, "solvent.toml")
     with open(solvent_file, "w") as f:
@@ -62,10 +64,18 @@ with tempfile.TemporaryDirectory() as work:
                  - (before.children_user + before.children_system)) / s["steps"]
             wall.setdefault(name, []).append(w)
             cpu.setdefault(name, []).append(c)
+            ph = s["phase_seconds"]
+            bodies = sum(q["seconds"] for q in ph.get("passes", []) if q["pass"] == "rigid bodies")
+            share.setdefault(name, []).append(bodies / s["loop_seconds"])
             print(f"{name} run {rep + 1}: {s['particles']} particles, loop {1e3 * w:.2f} ms/step (wall), "
-                  f"process {1e3 * c:.2f} ms/step (CPU)", flush=True)
+                  f"process {1e3 * c:.2f} ms/step (CPU); phases per step: forces {1e3 * ph['forces'] / s['steps']:.2f} ms "
+                  f"(of which the rigid-bodies pass {1e3 * bodies / s['steps']:.3f} ms, {100 * bodies / s['loop_seconds']:.2f} % "
+                  f"of the loop), neighbour {1e3 * ph['neighbour'] / s['steps']:.2f} ms, diagnostics "
+                  f"{1e3 * ph['diagnostics'] / s['steps']:.3f} ms, rebuilds {ph['rebuilds']}", flush=True)
 for label, d in (("loop wall", wall), ("process CPU", cpu)):
     med = {k: statistics.median(v) for k, v in d.items()}
     for k, v in d.items():
         print(f"{label} {k}: median {1e3 * med[k]:.2f} ms/step ({', '.join(f'{1e3 * x:.2f}' for x in v)}); "
               f"/ solvent {med[k] / med['solvent']:.3f}")
+for k, v in share.items():
+    print(f"rigid-bodies pass {k}: median {100 * statistics.median(v):.2f} % of the loop")
