@@ -70,14 +70,16 @@ and writes plots to docs/ when matplotlib is available. Exits 1 when any recorde
   bddfs_memory   the issue's "at equal accuracy (η within 1 %), ≥ 50× less memory per particle,
                  ≤ +20 % CPU" at N_d = 10⁶: T2 with 4 particles × 10⁶ dumbbells, BD against
                  BDDFS at Δt = 0.04, 0.08 λ and n_c = 200–400 (~4 min CPU on 1 core)
-  suspension_viscosity  rigid octahedral colloids in DPD Lees–Edwards shear at 38, 85 bodies
-                 beside their free twins (springs cut): η_r against Einstein's 2.5 φ_h with the
-                 Stokes radius from the drag on a fixed body (Hasimoto's cubic array), and the
-                 φ² coefficient beside Batchelor's 6.2 (~45 CPU-min; MESORHEO_SUSPENSION_RUNS=DIR)
+  suspension_viscosity  rigid octahedral colloids in DPD Lees–Edwards shear at 19, 38, 85 bodies
+                 beside their free twins (springs cut) and the solvent alone: η/η_S against
+                 Einstein's 1 + 2.5φ for the particle fraction φ_p and for φ_h with the Stokes
+                 radius from the drag on a fixed body (Hasimoto's cubic array), and what rigidity
+                 adds over the free twin (~60 CPU-min; MESORHEO_SUSPENSION_RUNS=DIR,
+                 MESORHEO_SUSPENSION_STEPS=N)
   cylinder_array  fixed cylinders in a driven 2D flow (cases/dpd_cylinder_array_2d.toml at
                  F_e = 0.3 and 0.1): F/(ηU) against Hasimoto's square array at the exclusion
-                 radius from the RDF, η from Lees–Edwards shear (~40 CPU-min;
-                 MESORHEO_CYLINDER_RUNS=DIR)
+                 radius from the RDF, η from Lees–Edwards shear, and a 20 × 20 cell for
+                 Hasimoto's cell-size dependence (~70 CPU-min; MESORHEO_CYLINDER_RUNS=DIR)
   report         docs/validation_results/verdicts.md from the per-target records that every
                  target with checks writes to docs/validation_results/<target>.json
   dpd_held_out4  the held-out DPD maps, docs/stability/dpd_held_out4.txt (14 maps × seeds 1–3,
@@ -1965,8 +1967,9 @@ def default_weissenberg():
                     f"{cells[1][0]:+.2f} %")
     print()
 
-# Hasimoto (1959), simple cubic array of spheres, with Sangani & Acrivos (1982, Int. J.
-# Multiphase Flow 8, 193, Table 1) extending the series: the drag F = 6πηaU / K(c) on each sphere
+# Hasimoto (1959), simple cubic array of spheres, with Sangani & Acrivos ("Slow flow through a
+# periodic array of spheres", Int. J. Multiphase Flow 8, 343, 1982) extending the series: the
+# drag F = 6πηaU / K(c) on each sphere
 # of a periodic cubic array of cell side L, c = (4π/3)a³/L³ the spheres' volume fraction, U the
 # mean velocity of the fluid relative to the spheres.
 def hasimoto_cubic_k(c):
@@ -1986,22 +1989,33 @@ def stokes_radius_in_cubic_cell(zeta, eta, cell):
 def suspension_viscosity():
     """Relative viscosity of rigid colloids in physical-parameter DPD against φ (issue #44, T12–T14;
     cases/dpd_suspension_viscosity_3d.toml with --set): Lees–Edwards shear of octahedral bodies at
-    body counts 38, 85 beside their free twins (tie springs cut, H = 10⁻⁹: the thesis's "free"
-    system of ch. 5 §2.2), η_r = η/η_free; the hydrodynamic radius a_h from the drag on one fixed
-    body in the periodic cell (Hasimoto 1959, simple cubic) and the solvent's η; φ_h = n_b (4π/3)a_h³.
-    Checks: the intrinsic viscosity (η_r − 1)/φ_h at the dilute point against Einstein's 2.5 within
-    4σ. Prints the φ² coefficient of a fit of (η_r − 1)/φ_h = A + Bφ_h beside Batchelor's 6.2
-    (~45 CPU-min; MESORHEO_SUSPENSION_RUNS=DIR keeps each run in DIR/<name>/ and reuses it)."""
+    body counts 19, 38, 85 (φ_p = N_C/(N_C + N_S) = 0.053, 0.100, 0.199), beside their free twins
+    (tie springs cut, H = 10⁻⁹: the thesis's "free" system of ch. 5 §2.2) and the solvent alone.
+
+    The reference solvent is the solvent alone at the suspension's solvent number density
+    (n_S = 4, the stock case without [fluid.colloids]): Einstein's η₀ is the viscosity of the
+    fluid the bodies are put into, and it is the thesis's "original" η_r (L1428, spec §6.4:
+    η_susp over the Couette solvent viscosity). η_r = η/η_S is compared with 1 + 2.5φ for two
+    volume fractions: the thesis's particle fraction φ_p (what its Fig. 5.4 plots against
+    Einstein) and the hydrodynamic φ_h = n_b (4π/3) a_h³ with the Stokes radius a_h from the drag
+    on one fixed body (Hasimoto 1959, simple cubic). The free twin at the same particles shows what
+    the constituents add as particles; η/η_free − 1 is what rigidity adds.
+    Checks: the intrinsic viscosity (η/η_S − 1)/φ at the most dilute point against Einstein's 2.5
+    within 4σ, for φ_p and for φ_h; rigidity's share η/η_free − 1 against 2.5 φ_h within 4σ
+    (~60 CPU-min; MESORHEO_SUSPENSION_RUNS=DIR keeps each run in DIR/<name>/ and reuses it;
+    MESORHEO_SUSPENSION_STEPS overrides run.steps, default the case's 21 000)."""
     case = "dpd_suspension_viscosity_3d.toml"
     with open(os.path.join(ROOT, "cases", case)) as f:
         stock_text = f.read()
     reuse = os.environ.get("MESORHEO_SUSPENSION_RUNS")
-    counts = (38, 85)
+    steps = os.environ.get("MESORHEO_SUSPENSION_STEPS")
+    length = [f"run.steps={int(steps)}"] if steps else []
+    counts = (19, 38, 85)
     drag_force, drag_cell, drag_solvent = 0.15, 6.0, 864
     runs = {}
     for n in counts:
-        runs[f"rigid_{n}"] = [f"fluid.colloids.count={n}"]
-        runs[f"free_{n}"] = [f"fluid.colloids.count={n}", "fluid.colloids.spring_stiffness=1e-9"]
+        runs[f"rigid_{n}"] = [f"fluid.colloids.count={n}"] + length
+        runs[f"free_{n}"] = [f"fluid.colloids.count={n}", "fluid.colloids.spring_stiffness=1e-9"] + length
     # One fixed body in a resting periodic 6³ cell, the solvent driven by g = 0.15 (Re = ρUa/η ≈ 0.1);
     # the fluid's momentum relaxes in M_fluid/ζ ≈ 6.4 time units, hence 30 (6000 steps) before
     # sampling.
@@ -2020,9 +2034,9 @@ def suspension_viscosity():
     from concurrent.futures import ThreadPoolExecutor
     with ThreadPoolExecutor(2) as pool:
         results = dict(pool.map(one, list(runs)))
-    # The solvent alone (the stock case without [fluid.colloids]), for the drag's η.
-    solvent_text = (stock_text.split("[fluid.colloids]")[0] + "[integrator]"
-                    + stock_text.split("[integrator]")[1]).replace(
+    # The solvent alone (the stock case without [fluid.colloids]): the reference solvent.
+    solvent_text = (stock_text.split("\n[fluid.colloids]\n")[0] + "\n[integrator]\n"
+                    + stock_text.split("\n[integrator]\n")[1]).replace(
         '"colloid_velocity_variance"', "").replace('"temperature", ]', '"temperature"]')
     solvent_keep = os.path.join(reuse, "solvent") if reuse else None
     if solvent_keep and os.path.exists(os.path.join(solvent_keep, "summary.json")):
@@ -2032,7 +2046,7 @@ def suspension_viscosity():
         with tempfile.NamedTemporaryFile("w", suffix=".toml", delete=False) as f:
             f.write(solvent_text)
         try:
-            solvent = run(f.name, [], threads=1, keep=solvent_keep)
+            solvent = run(f.name, length, threads=1, keep=solvent_keep)
         finally:
             os.unlink(f.name)
     eta_s, eta_s_se = solvent["observables"]["viscosity"]["mean"], solvent["observables"]["viscosity"]["stderr"]
@@ -2048,48 +2062,73 @@ def suspension_viscosity():
     a_e = stokes_radius_in_cubic_cell(force / u, eta_s + eta_s_se, drag_cell) - a_h
     a_h_se = math.hypot(a_u, a_e)
     print("### Suspension viscosity against φ (`./run validate suspension_viscosity`)\n")
-    print(f"Solvent alone (γ̇ = 1): η_S = {eta_s:.3f} ± {eta_s_se:.3f}. Drag on one fixed octahedron, "
+    print(f"Solvent alone (n_S = 4, γ̇ = 1): η_S = {eta_s:.3f} ± {eta_s_se:.3f}. Drag on one fixed octahedron, "
           f"g = {drag_force}: U = {u:.4f} ± {u_se:.4f}, F = N_S m g = {force:.2f}, ζ = F/U = {force / u:.2f}; "
           f"Stokes radius with Hasimoto's K(c): a_h = {a_h:.4f} ± {a_h_se:.4f} "
           f"(K = {hasimoto_cubic_k(4 * math.pi / 3 * a_h**3 / drag_cell**3):.4f}, Re = ρUa_h/η = {4 * u * a_h / eta_s:.3f}).\n")
-    print("| bodies | φ_p = N_C/(N_C+N_S) | φ_h | η (rigid) | η_free | η_r − 1 | (η_r − 1)/φ_h | Einstein 2.5φ_h | + Batchelor 6.2φ_h² | k_BT rigid | wall s |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|")
+    print("| bodies | φ_p | φ_h | η (rigid) | η_free | η/η_S − 1 | (η/η_S − 1)/φ_p | (η/η_S − 1)/φ_h | "
+          "η_free/η_S − 1 | η/η_free − 1 | 2.5φ_h | k_BT rigid | wall s |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+
+    def ratio(a, a_se, b, b_se):
+        return a / b - 1.0, (a / b) * math.hypot(a_se / a, b_se / b)
+
     rows = []
     for n in counts:
         r, f = results[f"rigid_{n}"]["observables"], results[f"free_{n}"]["observables"]
         er, er_se = r["viscosity"]["mean"], r["viscosity"]["stderr"]
         ef, ef_se = f["viscosity"]["mean"], f["viscosity"]["stderr"]
-        x = er / ef - 1.0
-        x_se = (er / ef) * math.hypot(er_se / er, ef_se / ef)
+        xs, xs_se = ratio(er, er_se, eta_s, eta_s_se)
+        fs, fs_se = ratio(ef, ef_se, eta_s, eta_s_se)
+        xf, xf_se = ratio(er, er_se, ef, ef_se)
         phi_h = n * 4 * math.pi / 3 * a_h**3 / volume
         phi_h_se = 3 * phi_h * a_h_se / a_h
-        intrinsic = x / phi_h
-        intrinsic_se = abs(intrinsic) * math.hypot(x_se / x if x else 0.0, phi_h_se / phi_h)
         phi_p = 6 * n / (6 * n + n_solvent)
-        rows.append((n, phi_h, x, x_se, intrinsic, intrinsic_se))
+        ih, ih_se = xs / phi_h, math.hypot(xs_se / phi_h, xs * phi_h_se / phi_h**2)
+        rows.append((n, phi_p, phi_h, phi_h_se, xs, xs_se, xf, xf_se, ih, ih_se))
         print(f"| {n} | {phi_p:.4f} | {phi_h:.4f} ± {phi_h_se:.4f} | {er:.3f} ± {er_se:.3f} | {ef:.3f} ± {ef_se:.3f} | "
-              f"{x:.4f} ± {x_se:.4f} | {intrinsic:.2f} ± {intrinsic_se:.2f} | {2.5 * phi_h:.4f} | "
-              f"{2.5 * phi_h + 6.2 * phi_h**2:.4f} | {r['temperature']['mean']:.4f} | "
+              f"{xs:.4f} ± {xs_se:.4f} | {xs / phi_p:.2f} ± {xs_se / phi_p:.2f} | {ih:.1f} ± {ih_se:.1f} | "
+              f"{fs:.4f} ± {fs_se:.4f} | {xf:+.4f} ± {xf_se:.4f} | {2.5 * phi_h:.4f} | {r['temperature']['mean']:.4f} | "
               f"{results[f'rigid_{n}']['wall_seconds']:.0f} + {results[f'free_{n}']['wall_seconds']:.0f} |")
-    # Weighted least squares of (η_r − 1)/φ_h = A + B φ_h.
-    w = [1 / e**2 for (_, _, _, _, _, e) in rows]
-    xs = [p for (_, p, _, _, _, _) in rows]
-    ys = [i for (_, _, _, _, i, _) in rows]
-    sw, sx, sy = sum(w), sum(wi * xi for wi, xi in zip(w, xs)), sum(wi * yi for wi, yi in zip(w, ys))
-    sxx = sum(wi * xi * xi for wi, xi in zip(w, xs))
-    sxy = sum(wi * xi * yi for wi, xi, yi in zip(w, xs, ys))
-    det = sw * sxx - sx * sx
-    a_fit, b_fit = (sxx * sy - sx * sxy) / det, (sw * sxy - sx * sy) / det
-    a_se, b_se = math.sqrt(sxx / det), math.sqrt(sw / det)
-    print(f"\nFit (η_r − 1)/φ_h = A + B φ_h over the three points (weights 1/σ²): A = {a_fit:.2f} ± {a_se:.2f} "
-          f"(Einstein 2.5), B = {b_fit:.1f} ± {b_se:.1f} (Batchelor 1977: 6.2 for Brownian hard spheres, "
-          "5.2 without the Brownian stress). The φ_h errors are shared through a_h, which the fit's "
-          "errors leave out; they scale A and B together.")
-    _, phi0, _, _, i0, i0_se = rows[0]
-    verdict(f"intrinsic viscosity (η_r − 1)/φ_h at the most dilute point (φ_h = {phi0:.4f}) within 4σ of Einstein's 2.5",
-            abs(i0 - 2.5) < 4 * i0_se, f"({i0:.3f} ± {i0_se:.3f})")
-    verdict("fitted dilute slope A within 4σ of Einstein's 2.5", abs(a_fit - 2.5) < 4 * a_se,
-            f"(A = {a_fit:.3f} ± {a_se:.3f})")
+    # Weighted least squares of (η/η_S − 1)/φ_p = A + B φ_p over the points: Einstein–Batchelor
+    # would give A = 2.5; the constituents counted as plain extra particles under the dissipative
+    # viscosity's n² law, (N/N_S)² − 1 = (1 − φ_p)⁻² − 1 = 2φ_p + 3φ_p² + …, give A = 2, B = 3.
+    def slope_fit(eta_ref):
+        pts = []
+        for n in counts:
+            o = results[f"rigid_{n}"]["observables"]["viscosity"]
+            phi_p = 6 * n / (6 * n + n_solvent)
+            pts.append((phi_p, (o["mean"] / eta_ref - 1) / phi_p, o["stderr"] / eta_ref / phi_p))
+        w = [1 / e**2 for (_, _, e) in pts]
+        sw, sx = sum(w), sum(a * p for a, (p, _, _) in zip(w, pts))
+        sy = sum(a * y for a, (_, y, _) in zip(w, pts))
+        sxx = sum(a * p * p for a, (p, _, _) in zip(w, pts))
+        sxy = sum(a * p * y for a, (p, y, _) in zip(w, pts))
+        det = sw * sxx - sx * sx
+        return (sxx * sy - sx * sxy) / det, (sw * sxy - sx * sy) / det, math.sqrt(sxx / det), math.sqrt(sw / det)
+
+    a_fit, b_fit, a_se, b_se = slope_fit(eta_s)
+    # η_S's error is shared by every point: refit with η_S one standard error higher, in quadrature.
+    a_up, b_up, _, _ = slope_fit(eta_s + eta_s_se)
+    a_se, b_se = math.hypot(a_se, a_up - a_fit), math.hypot(b_se, b_up - b_fit)
+    print(f"\nFit (η/η_S − 1)/φ_p = A + B φ_p (weights 1/σ², η_S's shared error added by refitting at η_S + σ): "
+          f"A = {a_fit:.3f} ± {a_se:.3f}, B = {b_fit:.2f} ± {b_se:.2f}; Einstein A = 2.5; the constituents "
+          "as plain extra particles, (N/N_S)² − 1, A = 2, B = 3.\n")
+    n0, p0, h0, h0_se, x0, x0_se, f0, f0_se, i0, i0_se = rows[0]  # noqa: F841
+    verdict("Einstein against the solvent, φ_p: the fitted dilute slope A within 4σ of 2.5",
+            abs(a_fit - 2.5) < 4 * a_se, f"(A = {a_fit:.3f} ± {a_se:.3f})")
+    verdict(f"Einstein against the solvent, φ_h: (η/η_S − 1)/φ_h at φ_h = {h0:.4f} within 4σ of 2.5",
+            abs(i0 - 2.5) < 4 * i0_se, f"({i0:.2f} ± {i0_se:.2f})")
+    # Rigidity's share η/η_free − 1 = C φ_h through the origin over all points (weights 1/σ²):
+    # Einstein's C = 2.5 if making the constituents a rigid body is what adds the stresslet.
+    wc = [1 / r[7] ** 2 for r in rows]
+    sc = sum(w_ * r[2] ** 2 for w_, r in zip(wc, rows))
+    c_fit = sum(w_ * r[6] * r[2] for w_, r in zip(wc, rows)) / sc
+    c_se = 1 / math.sqrt(sc)
+    print(f"Rigidity's share η/η_free − 1 = C φ_h (through the origin, weights 1/σ²): C = {c_fit:.2f} ± {c_se:.2f} "
+          "(Einstein 2.5; a_h's error scales C by 3σ_a/a ≈ 2 % more).\n")
+    verdict("rigidity's share: C in η/η_free − 1 = C φ_h within 4σ of Einstein's 2.5",
+            abs(c_fit - 2.5) < 4 * c_se, f"(C = {c_fit:.2f} ± {c_se:.2f})")
 
 
 # Hasimoto (1959, J. Fluid Mech. 5, 317) for a square array of cylinders, extended to O(c³) by
@@ -2148,8 +2187,11 @@ def cylinder_array():
     F_e = m g = 0.3 and 0.1, against Hasimoto's F/(ηU) for the exclusion radius measured from the
     cylinder–fluid RDF (g < 0.01) and the fluid's η measured by Lees–Edwards shear of the same
     fluid. Checks: the measured F/(ηU) within 10 % of Hasimoto's (the issue's bound), and the
-    drag linear in U (the two forces' F/(ηU) within 4σ) (~40 CPU-min;
-    MESORHEO_CYLINDER_RUNS=DIR keeps each run in DIR/<name>/ and reuses it)."""
+    drag linear in U (the two forces' F/(ηU) within 4σ); and Hasimoto's cell-size dependence: a
+    20 × 20 cell (3 200 fluid particles, F_e = 0.075, the same F = 240; 14 000 steps) gives the
+    same hydrodynamic radius a_H (the radius whose Hasimoto drag is the measured one) as the
+    10 × 10 cell within 4σ (~70 CPU-min; MESORHEO_CYLINDER_RUNS=DIR keeps each run in DIR/<name>/
+    and reuses it)."""
     case = "dpd_cylinder_array_2d.toml"
     with open(os.path.join(ROOT, "cases", case)) as f:
         text = f.read()
@@ -2158,7 +2200,7 @@ def cylinder_array():
     forces = {"array": 0.6, "array_g0.2": 0.2}
     # The fluid alone in Lees–Edwards shear at γ̇ = 1 (the local rates about the cylinder are ~U/a ≈ 1;
     # at the thesis's Couette rate 0.2 the stress is 5 times closer to the noise), for η.
-    shear_text = text.split("[fluid.colloids]")[0] + "[integrator]" + text.split("[integrator]")[1]
+    shear_text = text.split("\n[fluid.colloids]\n")[0] + "\n[integrator]\n" + text.split("\n[integrator]\n")[1]
     shear_text = shear_text.replace("body_force = [0.6, 0.0]\n", "").replace(
         "lengths = [10.0, 10.0]", "lengths = [10.0, 10.0]\nshear_rate = 1.0").replace(
         'observables = ["momentum", "temperature"]', 'observables = ["viscosity", "temperature"]').replace(
@@ -2176,12 +2218,15 @@ def cylinder_array():
                 return name, (run(f.name, [], threads=1, keep=keep), keep)
             finally:
                 os.unlink(f.name)
+        if name == "array_L20":
+            sets = ["box.lengths=[20.0, 20.0]", "fluid.body_force=[0.15, 0.0]", "run.steps=14000"]
+            return name, (run(case, sets, threads=1, keep=keep), keep)
         g = forces[name]
         return name, (run(case, [f"fluid.body_force=[{g}, 0.0]"], threads=1, keep=keep), keep)
 
     from concurrent.futures import ThreadPoolExecutor
     with ThreadPoolExecutor(2) as pool:
-        results = dict(pool.map(one, ["array", "array_g0.2", "shear"]))
+        results = dict(pool.map(one, ["array", "array_g0.2", "shear", "array_L20"]))
     sh = results["shear"][0]["observables"]
     eta, eta_se = sh["viscosity"]["mean"], sh["viscosity"]["stderr"]
     print("### Cylinder array against Hasimoto (`./run validate cylinder_array`)\n")
@@ -2206,7 +2251,7 @@ def cylinder_array():
         for _ in range(100):
             mid = 0.5 * (lo + hi)
             lo, hi = (mid, hi) if hasimoto_square_drag(mid, cell) < k else (lo, mid)
-        rows[name] = (k, k_se, radius, ref)
+        rows[name] = (k, k_se, radius, ref, 0.5 * (lo + hi))
         print(f"| {mass * g:.2f} | {u:.4f} ± {u_se:.4f} | {force:.1f} | {k:.3f} ± {k_se:.3f} | {radius:.2f} | "
               f"{ref:.3f} | {100 * (k / ref - 1):+.1f} % | {0.5 * (lo + hi):.3f} | {fmt(o['temperature'])} | "
               f"{frames} | {s['wall_seconds']:.0f} |")
@@ -2215,12 +2260,43 @@ def cylinder_array():
         if name == "array":
             print("\nRDF (F_e = 0.3) near the edge: " + ", ".join(f"g({r:.2f}) = {gv:.3f}" for r, gv in rdf if 0.2 < r < 1.0))
             print()
-    (k1, e1, _, _), (k2, e2, _, _) = rows["array"], rows["array_g0.2"]
+    (k1, e1, _, _, _), (k2, e2, _, _, _) = rows["array"], rows["array_g0.2"]
     # η's error is common to both: leave it out of the linearity comparison.
     e1u = k1 * results["array"][0]["observables"]["momentum_x"]["stderr"] / results["array"][0]["observables"]["momentum_x"]["mean"]
     e2u = k2 * results["array_g0.2"][0]["observables"]["momentum_x"]["stderr"] / results["array_g0.2"][0]["observables"]["momentum_x"]["mean"]
     verdict("cylinder array: drag linear in U (F/(ηU) at F_e = 0.1 and 0.3 within 4σ)",
             abs(k1 - k2) < 4 * math.hypot(e1u, e2u), f"({k2:.3f} and {k1:.3f}, σ = {math.hypot(e1u, e2u):.3f})")
+
+    # Hasimoto's cell-size dependence: the 20 × 20 cell (same total force) against the 10 × 10.
+    # a_H is where hasimoto_square_drag(a, L) = F/(ηU); its error from F/(ηU) ± σ by bisection.
+    def a_of(k, cell):
+        lo, hi = 0.01, 3.0
+        for _ in range(100):
+            mid = 0.5 * (lo + hi)
+            lo, hi = (mid, hi) if hasimoto_square_drag(mid, cell) < k else (lo, mid)
+        return 0.5 * (lo + hi)
+
+    s20, keep20 = results["array_L20"]
+    o20 = s20["observables"]
+    cell20, n20 = 20.0, 3200
+    u20 = o20["momentum_x"]["mean"] / (n20 * mass)
+    u20_se = o20["momentum_x"]["stderr"] / (n20 * mass)
+    k20 = n20 * mass * 0.15 / (eta * u20)
+    k20_se = k20 * math.hypot(u20_se / u20, eta_se / eta)
+    r20, _, frames20 = exclusion_radius(os.path.join(keep20, "snapshots.h5"), n20, (cell20 / 2, cell20 / 2),
+                                        cell20, equilibration)
+    ref20 = hasimoto_square_drag(r20, cell20)
+    a20 = a_of(k20, cell20)
+    a20_se = 0.5 * (a_of(k20 + k20_se, cell20) - a_of(k20 - k20_se, cell20))
+    a10 = a_of(k1, cell)
+    a10_se = 0.5 * (a_of(k1 + e1, cell) - a_of(k1 - e1, cell))
+    print(f"\n20 × 20 cell, F_e = 0.075 (F = 240): U = {u20:.4f} ± {u20_se:.4f}, F/(ηU) = {k20:.3f} ± {k20_se:.3f}, "
+          f"exclusion radius {r20:.2f}, Hasimoto there {ref20:.3f} ({100 * (k20 / ref20 - 1):+.1f} %), "
+          f"a_H = {a20:.3f} ± {a20_se:.3f} (10 × 10: {a10:.3f} ± {a10_se:.3f}); {frames20} frames, "
+          f"wall {s20['wall_seconds']:.0f} s")
+    verdict("cylinder array: Hasimoto's cell-size dependence (a_H of the 20 × 20 cell within 4σ of the 10 × 10's)",
+            abs(a20 - a10) < 4 * math.hypot(a20_se, a10_se), f"({a20:.3f} ± {a20_se:.3f} and {a10:.3f} ± {a10_se:.3f})")
+
 
 def generic_polymer_t1():
     """The thesis's T1 (Ellero 2004 §4.8, docs/theory/generic_polymer_particle.md §5): the stock
