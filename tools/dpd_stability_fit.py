@@ -5,7 +5,7 @@ Reads the measured stability maps (docs/stability/dpd_maps.txt and the CSVs besi
 the maps over seeds that measure the scatter of a limit) and the blow-ups of the γ × Δt study
 (docs/studies/dpd_gamma_dt.csv), evaluates the limit with the coefficients of src/models/dpd/time_step.rs
 (parsed from its `dpd_fit` module, so the two cannot drift), and prints the score: the points
-whose limit passes 0.97 × the first unstable step (must be none), the points where the limit
+whose limit passes 0.97 × SCATTER_MARGIN × the first unstable step (must be none), the points where the limit
 accepts < 80 % of the stable range, the worst and the median fraction.
 
 `--fit N` runs N generations of scipy's differential evolution (best/1/bin; scipy is needed
@@ -26,10 +26,14 @@ held-out set (20 maps) then accepted 4 of its 60 unstable steps: it was folded i
 RANDOM_START_FRICTION_2D and LAMBDA_EXPONENT added (0.62 and 0.6 to start feasible), and
 `--polish 240 --seed 1` run over 257 points. The third held-out set (22 maps, chosen before
 that refit was evaluated there) accepted 6 of its 66 (13 with the limit before): folded in, both
-random-start factors set to 0.52 to start feasible, `--polish 300 --seed 1` over 323 points
-(the current coefficients). The maps of the current held-out set
-(docs/stability/dpd_held_out4.txt) are refused here: a map of that list in dpd_maps.txt stops
-the tool; `--update-csv` writes their check columns without reading their measured ones. A rerun
+random-start factors set to 0.52 to start feasible, `--polish 300 --seed 1` over 323 points.
+The fourth set then failed on a 3D lattice map (softstart refit, 381 points); the fifth (16 maps) accepted 2 of its 48 unstable steps (2D ideal gas, γ = 18):
+folded in (2026-11-27, stab6), SCATTER_MARGIN = 0.9 added (fixed: `evaluate` holds the boundary
+without it at 0.97 × every unstable step, so the limit stays ≤ 0.873 ×), c₀ lowered to 0.937
+to start feasible, `--polish 240 --seed 1` over 429 points (the current coefficients). The
+maps of the current held-out sets (docs/stability/dpd_held_out4.txt, dpd_held_out6.txt) are
+refused here: a map of those lists in dpd_maps.txt stops the tool; `--update-csv` writes their
+check columns without reading their measured ones. A rerun
 of `--fit` from scratch on all points ended worse (17 below 80 % on 137): the search is a tool,
 not a proof of the optimum. `tests/extremes.rs` checks the same numbers against the library
 itself.
