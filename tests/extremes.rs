@@ -426,8 +426,9 @@ fn map_points(manifest: &str) -> (usize, Vec<MapPoint>) {
 /// the library, so a change of a coefficient is judged against the measurement, and the
 /// `check_limit` column the docs' tables print must be the library's (to 10⁻³;
 /// tools/dpd_stability_fit.py, which wrote it, mirrors the library). Mutation (2026-11-27,
-/// stab6): SCATTER_MARGIN at 1.0 (the margin dropped) fails at the first point in order past
-/// 0.873 ×; docs/validation.md "The out-of-sample margin", "Mutations".
+/// stab6, evaluated by the fit tool's copy of the formula; no mutant build): SCATTER_MARGIN at
+/// 1.0 (the margin dropped) puts 100 points past 0.873 ×, the first in order 2D a = 25,
+/// γ = 2, lattice (0.902 × its unstable step); docs/validation.md "Mutations".
 #[test]
 fn check_refuses_every_measured_unstable_dpd_step() {
     let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
@@ -536,9 +537,13 @@ fn check_against_the_fourth_held_out_dpd_stability_maps() {
 /// after the refit was committed): **none of the 39 unstable steps is accepted** (largest
 /// limit / unstable 0.856, 2D a = 25, γ = 90, seed 2); ≥ 80 % of the stable range is accepted
 /// at 7 (worst 40.0 %, a raw 2D ideal-gas start under its margin; median 74 %): the bounds below
-/// are those, rounded down. Mutation (2026-11-27, a rebuilt test binary): c₀
-/// (IDEAL_GAS_SCALE) 0.937 → 1.1, the ideal-gas friction part loosened by 17 %, makes the 2D
-/// ideal gas at ρ = 3, γ = 30 accepted (docs/validation.md, "Mutations").
+/// are those, rounded down. Mutation (2026-11-27, evaluated by the fit tool's copy of the
+/// formula on the CSVs, which this file checks against the library to 10⁻³; no mutant build:
+/// no time on 2 shared cores): c₀ (IDEAL_GAS_SCALE) 0.937 → 1.1, the ideal-gas friction part
+/// loosened by 17 %, accepts 2 points (2D a = 0, ρ = 3, γ = 30, seed 4, 1.026 ×; 2D a = 25,
+/// γ = 90, seed 2, 1.007 ×);
+/// S back at 1.0 (the margin dropped, the fitted boundary kept) accepts none (0.952 ×): this set
+/// alone does not need S (docs/validation.md, "Mutations").
 #[test]
 fn check_against_the_sixth_held_out_dpd_stability_maps() {
     let (maps, points) = map_points("dpd_held_out6.txt");
