@@ -82,7 +82,8 @@
 //!   2026-11-27) the random start blows up later (steps 30–975, where the raw start blew up in
 //!   its first 4–21), its unstable step scatters as a lattice start's (≤ 1.19× between seeds), and it is 1.3–2.2× the raw start's
 //!   (3D a = 25, γ = 70: 0.0228–0.0254 against 0.0107–0.0161). So a soft-started random start
-//!   gets the steady-state limit of a lattice start: median 81 % of its stable range, not 57 %.
+//!   gets the steady-state limit of a lattice start: median 71 % of its stable range, not 52 %
+//!   (81 % and 57 % before S, below).
 //! - (0.65/λ)^0.785: the linear map of the step gives 0.65/λ; the second held-out set's 3D
 //!   λ = 0.5 lattice map blew up at 1.011 × the limit with the full factor.
 //!
