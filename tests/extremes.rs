@@ -409,29 +409,34 @@ fn map_points(manifest: &str) -> (usize, Vec<MapPoint>) {
 }
 
 /// `check`'s DPD time-step limit against the measured stability maps it was fitted to (issue
-/// #18, #40): at every point it refuses the smallest unstable step with a margin (limit ≤ 0.97
-/// × the first unstable step; the bisection brackets the boundary to 3 %), and it accepts at
-/// least 80 % of the stable range except where docs/validation.md says it is conservative (at
-/// most 192 of the 381 points, none below 41 %: the fit gives 192 and 41.3 %; 148 of them are
-/// raw random starts, whose friction part carries the margin for the luckless seed, 19 are
-/// soft-started random starts and 25 lattice starts, priced by the 3D factor that the 3D
-/// lattice maps at γ = 60–100 asked for), and it refuses every Δt that blew up in the 1500-step
+/// #18, #40): at every point it refuses the smallest unstable step with the fit's margin and
+/// the out-of-sample margin: limit ≤ 0.97 × 0.9 × the first unstable step (0.97: the bisection
+/// brackets the boundary to 3 %; 0.9: `SCATTER_MARGIN`, the fixed margin for the seed scatter
+/// that the held-out sets found beyond the fitted boundary, up to 1.096 × it; module doc of
+/// src/models/dpd/time_step.rs). It accepts at least 80 % of the stable range except where
+/// docs/validation.md says it is conservative (at most 316 of the 429 points, none below 36 %:
+/// the fit gives 316 and 36.3 %; 178 of them are raw random starts, whose friction part carries
+/// the margin for the luckless seed, 62 soft-started random starts and 76 lattice starts, the
+/// price of the out-of-sample margin), and it refuses every Δt that blew up in the 1500-step
 /// γ × Δt study (docs/studies/dpd_gamma_dt.csv, raw random starts: at γ = 40 that is 0.015,
-/// below the 1000-step map's 0.0158). The 381 points include the second and third held-out sets (20 and 22 maps ×
-/// seeds 1–3, folded in after each was reported), four 3D lattice maps and 14 soft-started
-/// random maps (2026-11-27, softstart). The maps are runs of the engine with its blow-up
-/// detectors, independent of the formula; the limit is recomputed here from the library, so a
-/// change of a coefficient is judged against the measurement, and the `check_limit` column the
-/// docs' tables print must be the library's (to 10⁻³; tools/dpd_stability_fit.py, which wrote
-/// it, mirrors the library). Mutation 2026-11-27 (softstart): the 3D factor of c₀ back at 1.06
-/// (IDEAL_GAS_3D) fails at the first point in order past 0.97 ×, 3D a = 0, γ = 4.5, lattice
-/// (accepts 0.15391, unstable at 0.15322); docs/validation.md "The soft start", "Mutations".
+/// below the 1000-step map's 0.0158). The 429 points include the second, third and fifth
+/// held-out sets (20, 22 and 16 maps × seeds 1–3, folded in after each was reported), four 3D
+/// lattice maps and 14 soft-started random maps (2026-11-27). The maps are runs of the engine
+/// with its blow-up detectors, independent of the formula; the limit is recomputed here from
+/// the library, so a change of a coefficient is judged against the measurement, and the
+/// `check_limit` column the docs' tables print must be the library's (to 10⁻³;
+/// tools/dpd_stability_fit.py, which wrote it, mirrors the library). Mutation (2026-11-27,
+/// stab6, evaluated by the fit tool's copy of the formula; no mutant build): SCATTER_MARGIN at
+/// 1.0 (the margin dropped) puts 100 points past 0.873 ×, the first in order 2D a = 25,
+/// γ = 2, lattice (0.902 × its unstable step); docs/validation.md "Mutations".
 #[test]
 fn check_refuses_every_measured_unstable_dpd_step() {
     let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
     let (maps, points) = map_points("dpd_maps.txt");
-    assert_eq!(maps, 112, "the maps of docs/stability/dpd_maps.txt");
-    assert_eq!(points.len(), 381, "the points of docs/stability");
+    assert_eq!(maps, 128, "the maps of docs/stability/dpd_maps.txt");
+    assert_eq!(points.len(), 429, "the points of docs/stability");
+    // The fit's 3 % and the out-of-sample margin (SCATTER_MARGIN = 0.9; doc above).
+    let bound = 0.97 * 0.9;
     let (mut conservative, mut worst) = (0, f64::INFINITY);
     // The first point whose printed limit is not the library's (judged after the physics).
     let mut stale: Option<String> = None;
@@ -444,8 +449,8 @@ fn check_refuses_every_measured_unstable_dpd_step() {
             ));
         }
         assert!(
-            limit <= 0.97 * u,
-            "{}: check accepts {limit:.4e}, unstable at {u:.4e}",
+            limit <= bound * u,
+            "{}: check accepts {limit:.4e}, more than {bound} × the unstable {u:.4e}",
             p.label
         );
         let accepted = limit.min(s) / s;
@@ -455,7 +460,7 @@ fn check_refuses_every_measured_unstable_dpd_step() {
         }
     }
     assert!(
-        conservative <= 192 && worst >= 0.41,
+        conservative <= 316 && worst >= 0.36,
         "{conservative} conservative points, worst {worst:.3}"
     );
     assert!(stale.is_none(), "{}", stale.unwrap_or_default());
@@ -483,7 +488,7 @@ fn check_refuses_every_measured_unstable_dpd_step() {
         };
         let limit = dpd_limits_of_case(&c).expect("DPD").combined;
         assert!(
-            limit <= 0.97 * dt,
+            limit <= bound * dt,
             "γ = {gamma}: check accepts {limit:.4e}, the study blew up at {dt}"
         );
         blowups += 1;
@@ -497,11 +502,12 @@ fn check_refuses_every_measured_unstable_dpd_step() {
 /// accepts its measured unstable step (limit ≥ the smallest unstable Δt). Measured 2026-11-27:
 /// the limit before the softstart refit accepted 2 of the 42 (3D a = 8, γ = 60 lattice, seeds
 /// 2 and 3); the refit, with 3D lattice maps at that point's neighbours (its own runs left
-/// out), refuses all 42 (that map at 0.84–0.93 × its unstable step), so the set is no longer
-/// fully out of sample there. It also holds the price of the raw start's margin: of the 42,
-/// ≥ 80 % of the stable range is accepted at 9 (measured: 9, worst 45.0 %, median 58 %).
-/// Mutation (2026-11-27, the fit tool's copy of the formula): the 3D factor of c₀ back at 1.06
-/// accepts the a = 8, γ = 60 lattice map again (1.070 ×, 1.024 ×).
+/// out), refuses all 42, so the set is no longer fully out of sample there. It also holds the
+/// price of the raw start's margin and of the out-of-sample margin (stab6): of the 42, ≥ 80 %
+/// of the stable range is accepted at 3 (measured: 3, worst 38.6 %, median 51 %; 9, 45 %, 58 %
+/// before the out-of-sample margin). Mutation (2026-11-27, the fit tool's copy of the formula):
+/// the softstart limit with its 3D factor of c₀ back at 1.06 accepts the a = 8, γ = 60 lattice
+/// map again (1.070 ×, 1.024 ×).
 #[test]
 fn check_against_the_fourth_held_out_dpd_stability_maps() {
     let (maps, points) = map_points("dpd_held_out4.txt");
@@ -513,42 +519,44 @@ fn check_against_the_fourth_held_out_dpd_stability_maps() {
         verdict.accepted_unstable
     );
     assert!(
-        verdict.at_least_80 >= 9 && verdict.worst >= 0.44,
+        verdict.at_least_80 >= 3 && verdict.worst >= 0.38,
         "{} of 42 points accept ≥ 80 %, worst {:.3}",
         verdict.at_least_80,
         verdict.worst
     );
 }
 
-/// `check`'s DPD limit out of sample on the fifth held-out set (issue #40), the 16 maps × seeds
-/// 1–3 of docs/stability/dpd_held_out5.txt (new (a, γ, ρ, λ, start) combinations: ten
-/// soft-started random maps, two raw random ones, four lattice maps, two of them 3D at γ = 45
-/// and 80), chosen and committed (f47bfd4) before any of them was run and before this limit
-/// was evaluated there, and never read by tools/dpd_stability_fit.py. A point fails when the
-/// limit accepts its measured unstable step. Measured 2026-11-27 (maps 17:16–17:36 UTC, the
-/// limit of the softstart refit): **2 of the 48 unstable steps are accepted**, the 2D ideal gas
-/// (a = 0, γ = 18, ρ = 4) soft-started at seeds 2 and 3 (1.014 × the unstable step 0.0200;
-/// blow-ups at steps 752 and 234, late: the steady-state friction limit of the 2D ideal gas,
-/// not the start). The test holds those two as the known failures: a new failure anywhere else,
-/// a loosened limit, or a fix of the known ones (then this list and the docs must change) all
-/// fail it. The issue's "no unstable step accepted out of sample" is therefore not met by this
-/// limit (docs/validation.md, "The soft start"). Of the 46 refused points ≥ 80 % of the stable
-/// range is accepted at 26 (worst 46.0 %: a raw 3D random start under its margin). Mutation
-/// (2026-11-27, the fit tool's copy of the formula): the 3D factor of c₀ back at 1.06 accepts
-/// a third point, 3D a = 6, γ = 80, lattice, seed 3 (1.114 ×).
+/// `check`'s DPD limit out of sample on the sixth held-out set (issue #40), the 12 maps of
+/// docs/stability/dpd_held_out6.txt (39 points: the 2D ideal gas at γ = 12, 22 and 30 over
+/// seeds 1–4, weak repulsion a ≤ 4 at γ = 20–70, 2D a = 25 at γ = 90; seven soft-started
+/// random maps, two raw random and three lattice maps, 2D and 3D), chosen and committed
+/// (5d251c4) before any of them was run and before this limit (the stab6 refit with the
+/// out-of-sample margin S = 0.9, dc0877e) existed, never read by tools/dpd_stability_fit.py.
+/// A point fails when the limit accepts its measured unstable step (limit ≥ the smallest
+/// unstable Δt). Measured 2026-11-27 (maps 20:25–20:38 UTC; the limit evaluated there once,
+/// after the refit was committed): **none of the 39 unstable steps is accepted** (largest
+/// limit / unstable 0.856, 2D a = 25, γ = 90, seed 2); ≥ 80 % of the stable range is accepted
+/// at 7 (worst 40.0 %, a raw 2D ideal-gas start under its margin; median 74 %): the bounds below
+/// are those, rounded down. Mutation (2026-11-27, evaluated by the fit tool's copy of the
+/// formula on the CSVs, which this file checks against the library to 10⁻³; no mutant build:
+/// no time on 2 shared cores): c₀ (IDEAL_GAS_SCALE) 0.937 → 1.1, the ideal-gas friction part
+/// loosened by 17 %, accepts 2 points (2D a = 0, ρ = 3, γ = 30, seed 4, 1.026 ×; 2D a = 25,
+/// γ = 90, seed 2, 1.007 ×);
+/// S back at 1.0 (the margin dropped, the fitted boundary kept) accepts none (0.952 ×): this set
+/// alone does not need S (docs/validation.md, "Mutations").
 #[test]
-fn check_against_the_fifth_held_out_dpd_stability_maps() {
-    let (maps, points) = map_points("dpd_held_out5.txt");
-    assert_eq!((maps, points.len()), (16, 48), "the fifth held-out set");
+fn check_against_the_sixth_held_out_dpd_stability_maps() {
+    let (maps, points) = map_points("dpd_held_out6.txt");
+    assert_eq!((maps, points.len()), (12, 39), "the sixth held-out set");
     let verdict = held_out_verdict(&points);
-    assert_eq!(
-        verdict.accepted_unstable,
-        ["s5_2d_a0_g18 seed=2", "s5_2d_a0_g18 seed=3"],
-        "the held-out points whose measured unstable step check accepts"
+    assert!(
+        verdict.accepted_unstable.is_empty(),
+        "the held-out points whose measured unstable step check accepts: {:?}",
+        verdict.accepted_unstable
     );
     assert!(
-        verdict.at_least_80 >= 26 && verdict.worst >= 0.45,
-        "{} of 46 refused points accept ≥ 80 %, worst {:.3}",
+        verdict.at_least_80 >= 7 && verdict.worst >= 0.39,
+        "{} of 39 points accept ≥ 80 %, worst {:.3}",
         verdict.at_least_80,
         verdict.worst
     );

@@ -5,7 +5,7 @@ Reads the measured stability maps (docs/stability/dpd_maps.txt and the CSVs besi
 the maps over seeds that measure the scatter of a limit) and the blow-ups of the γ × Δt study
 (docs/studies/dpd_gamma_dt.csv), evaluates the limit with the coefficients of src/models/dpd/time_step.rs
 (parsed from its `dpd_fit` module, so the two cannot drift), and prints the score: the points
-whose limit passes 0.97 × the first unstable step (must be none), the points where the limit
+whose limit passes 0.97 × SCATTER_MARGIN × the first unstable step (must be none), the points where the limit
 accepts < 80 % of the stable range, the worst and the median fraction.
 
 `--fit N` runs N generations of scipy's differential evolution (best/1/bin; scipy is needed
@@ -26,10 +26,14 @@ held-out set (20 maps) then accepted 4 of its 60 unstable steps: it was folded i
 RANDOM_START_FRICTION_2D and LAMBDA_EXPONENT added (0.62 and 0.6 to start feasible), and
 `--polish 240 --seed 1` run over 257 points. The third held-out set (22 maps, chosen before
 that refit was evaluated there) accepted 6 of its 66 (13 with the limit before): folded in, both
-random-start factors set to 0.52 to start feasible, `--polish 300 --seed 1` over 323 points
-(the current coefficients). The maps of the current held-out set
-(docs/stability/dpd_held_out4.txt) are refused here: a map of that list in dpd_maps.txt stops
-the tool; `--update-csv` writes their check columns without reading their measured ones. A rerun
+random-start factors set to 0.52 to start feasible, `--polish 300 --seed 1` over 323 points.
+The fourth set then failed on a 3D lattice map (softstart refit, 381 points); the fifth (16 maps) accepted 2 of its 48 unstable steps (2D ideal gas, γ = 18):
+folded in (2026-11-27, stab6), SCATTER_MARGIN = 0.9 added (fixed: `evaluate` holds the boundary
+without it at 0.97 × every unstable step, so the limit stays ≤ 0.873 ×), c₀ lowered to 0.937
+to start feasible, `--polish 240 --seed 1` over 429 points (the current coefficients). The
+maps of the current held-out sets (docs/stability/dpd_held_out4.txt, dpd_held_out6.txt) are
+refused here: a map of those lists in dpd_maps.txt stops the tool; `--update-csv` writes their
+check columns without reading their measured ones. A rerun
 of `--fit` from scratch on all points ended worse (17 below 80 % on 137): the search is a tool,
 not a proof of the optimum. `tests/extremes.rs` checks the same numbers against the library
 itself.
@@ -77,9 +81,9 @@ def coefficients():
     return {k: float(v) for k, v in re.findall(r"pub const (\w+): f64 = ([0-9.eE+-]+);", body)}
 
 
-# The held-out sets (the fourth and fifth are held out now: the second and third were folded in after
-# they were reported, see the module doc).
-HELD_OUT = [ROOT / "docs/stability/dpd_held_out4.txt", ROOT / "docs/stability/dpd_held_out5.txt"]
+# The held-out sets (the fourth and sixth are held out now: the second, third and fifth were folded
+# in after they were reported, see the module doc).
+HELD_OUT = [ROOT / "docs/stability/dpd_held_out4.txt", ROOT / "docs/stability/dpd_held_out6.txt"]
 
 
 def held_out_names():
@@ -99,7 +103,7 @@ def points(manifest="dpd_maps.txt", measured=True):
             continue
         name, case, over, _, fixed = [x.strip() for x in line.split("|")]
         if name in refused:
-            raise SystemExit(f"{name} is a held-out map (docs/stability/dpd_held_out4.txt or _5.txt): the fit "
+            raise SystemExit(f"{name} is a held-out map (docs/stability/dpd_held_out4.txt or _6.txt): the fit "
                              "does not read it; move it to dpd_maps.txt only after reporting it")
         p = dict(STOCK[case])
         sweeps = 30  # fluid.soft_start_sweeps's default
@@ -116,6 +120,8 @@ def points(manifest="dpd_maps.txt", measured=True):
         # "random" is the raw uniform placement, which carries the start's margin: a random
         # start with the soft start (the default, fluid.soft_start_sweeps > 0) takes the
         # steady-state limit of a lattice start (src/models/dpd/soft_start.rs).
+        p["start"] = ("lattice" if not p["random"] else
+                      "soft-started random" if sweeps > 0 else "raw random")
         if p["random"] and sweeps > 0:
             p["random"] = False
         knob = over.split("=")[0]
@@ -137,7 +143,7 @@ def points(manifest="dpd_maps.txt", measured=True):
                 study[g] = min(study.get(g, math.inf), dt)
     for g, dt in study.items():
         out.append(dict(STOCK["dpd_equilibrium_2d.toml"], gamma=g, name="study",
-                        stable=None, unstable=dt))
+                        start="raw random", stable=None, unstable=dt))
     return out
 
 
@@ -198,22 +204,42 @@ def limit(x, c):
         free = np.where(d2, c["FREE_FLIGHT_2D"], c["FREE_FLIGHT_3D"])
         p, p2 = c["NORM_EXPONENT"], c["FREE_FLIGHT_EXPONENT"]
         inner = (conservative ** -p + dissipative ** -p) ** (-1 / p)
-        return (inner ** -p2 + free ** -p2) ** (-1 / p2)
+        return c.get("SCATTER_MARGIN", 1.0) * (inner ** -p2 + free ** -p2) ** (-1 / p2)
 
 
 def evaluate(x, c):
-    """(limit / (0.97 × unstable) at every point, accepted fraction at every map point)."""
+    """(limit / (0.97 × SCATTER_MARGIN × unstable) at every point, accepted fraction at every
+    map point). The fitted boundary (the limit without its scatter margin) must stay below
+    0.97 × every unstable step; the margin is fixed, never fitted (the search would otherwise
+    spend it on the fitted points)."""
     lim = limit(x, c)
     st = ~np.isnan(x["stable"])
-    return lim / (MARGIN * x["unstable"]), np.minimum(lim[st], x["stable"][st]) / x["stable"][st]
+    bound = MARGIN * c.get("SCATTER_MARGIN", 1.0) * x["unstable"]
+    return lim / bound, np.minimum(lim[st], x["stable"][st]) / x["stable"][st]
 
 
 def describe(x, c):
     excess, frac = evaluate(x, c)
     if excess.max() > 1:
-        return f"accepts an unstable step ({excess.max():.3f} × 0.97 × the first unstable)"
+        return (f"accepts an unstable step ({excess.max():.3f} × 0.97 × SCATTER_MARGIN × the "
+                f"first unstable)")
     return (f"{int((frac < 0.8).sum())} below 80 %, worst {frac.min():.3f}, "
-            f"median {np.median(frac):.3f}")
+            f"median {np.median(frac):.3f}; largest limit / unstable "
+            f"{(limit(x, c) / x['unstable']).max():.3f}")
+
+
+def by_start(pts, x, c):
+    """The accepted fraction of the stable range by start: median, worst, count below 80 %."""
+    lim = limit(x, c)
+    lines = []
+    for kind in ("lattice", "soft-started random", "raw random"):
+        sel = [i for i, p in enumerate(pts) if p["stable"] is not None and p["start"] == kind]
+        if not sel:
+            continue
+        frac = np.minimum(lim[sel], x["stable"][sel]) / x["stable"][sel]
+        lines.append(f"  {kind}: {len(sel)} points, median {np.median(frac):.3f}, worst "
+                     f"{frac.min():.3f}, {int((frac < 0.8).sum())} below 80 %")
+    return "\n".join(lines)
 
 
 def fit(x, c0, generations, seed):
@@ -313,6 +339,7 @@ def main():
     n_maps = int((~np.isnan(x["stable"])).sum())
     print(f"{n_maps} map points + {len(pts) - n_maps} study blow-ups; src/models/dpd/time_step.rs: "
           f"{describe(x, c)}")
+    print(by_start(pts, x, c))
     if args.table:
         lim = limit(x, c)
         for p, l in zip(pts, lim):
@@ -326,6 +353,7 @@ def main():
         if args.polish:
             best = polish(x, best, args.polish, args.seed)
         print("best found:", describe(x, best))
+        print(by_start(pts, x, best))
         print(json.dumps(best))
 
 

@@ -86,13 +86,15 @@ impl FluidModel for DpdCfg {
         };
         Some(format!(
             "Δt = {dt} is beyond the measured stability limit of this DPD fluid, \
-             Δt ≤ ((Δt_C⁻ᵖ + Δt_D⁻ᵖ)^(p′/p) + Δt_F^(−p′))^(−1/p′) = {:.4e} (p = {}, p′ = {}) with the \
+             Δt ≤ S((Δt_C⁻ᵖ + Δt_D⁻ᵖ)^(p′/p) + Δt_F^(−p′))^(−1/p′) = {:.4e} (p = {}, p′ = {}, the \
+             out-of-sample margin S = {}) with the \
              conservative part Δt_C = α/ω_E = {:.4e}, the dissipative part \
              Δt_D = {:.4e} and the free-flight part Δt_F = {:.4e} (see `mesorheo \
              check`); the limit is {binding}",
             l.combined,
             dpd_fit::NORM_EXPONENT,
             dpd_fit::FREE_FLIGHT_EXPONENT,
+            dpd_fit::SCATTER_MARGIN,
             l.conservative,
             l.dissipative,
             l.free_flight
@@ -436,8 +438,9 @@ fn dpd_report(case: &dyn CaseView, d: &DpdCfg, density: f64, line: &mut dyn FnMu
         )),
     }
     line(format!(
-        "time step Δt = {dt}: stability limit ((Δt_C⁻ᵖ + Δt_D⁻ᵖ)^(p′/p) + Δt_F^(−p′))^(−1/p′) = {:.4} \
-         [{}] (measured, p = {}, p′ = {}, see docs/validation.md), with the conservative part \
+        "time step Δt = {dt}: stability limit S((Δt_C⁻ᵖ + Δt_D⁻ᵖ)^(p′/p) + Δt_F^(−p′))^(−1/p′) = {:.4} \
+         [{}] (measured, p = {}, p′ = {}, out-of-sample margin S = {}, see docs/validation.md), \
+         with the conservative part \
          Δt_C = α/ω_E = {:.4} (cage ω_E = {:.4}), the dissipative part Δt_D = {:.4} \
          (ω_D = γΣw_D/m = {:.4}, c = {:.3}{}) and the free-flight part Δt_F = {} r_c/√(k_BT/m) \
          = {:.4}; Groot–Warren accuracy guide Δt ≤ 0.06 at a = 25 [{}]",
@@ -445,6 +448,7 @@ fn dpd_report(case: &dyn CaseView, d: &DpdCfg, density: f64, line: &mut dyn FnMu
         if dt <= lim.combined { "ok" } else { "VIOLATED" },
         super::time_step::dpd_fit::NORM_EXPONENT,
         super::time_step::dpd_fit::FREE_FLIGHT_EXPONENT,
+        super::time_step::dpd_fit::SCATTER_MARGIN,
         lim.conservative,
         lim.cage_frequency,
         lim.dissipative,

@@ -7,41 +7,44 @@
 //! Σ_j w_D ≈ n ∫ w_D dV = n 8π r_c³ / ((s+1)(s+2)(s+3)) (3D),  n 2π r_c² / ((s+1)(s+2)) (2D)
 //! ω_E² = (a s̄ / r_c) N_c / (D m),  N_c = n V_D(r_c)   the cage (Einstein) frequency
 //! ω_D  = γ Σ_j w_D / m                                the friction rate
-//! Δt_C = α_D / ω_E                                    α₂ = 1.28, α₃ = 1.22
+//! Δt_C = α_D / ω_E                                    α₂ = 1.29, α₃ = 1.23
 //! Δt_D: the root of ω_D Δt = c (1 + (K Δt)^q),        q = 0.573
-//!        c = c₀ g_D(a/k_BT) (0.65 / max(λ, 0.5))^0.727
-//!        c₀ = 0.977 (1 − 0.595/√(Σ_j w_D)) (× 0.935 in 3D)
-//!        g_D(x) = G_D − (G_D − 1) e^{−x/21.0},        G₂ = 3.94, G₃ = 4.5
-//!        K = K_D (v_th/r_c) e^{−a/(6.18 k_BT)},       K₂ = 7.19, K₃ = 9.82
+//!        c = c₀ g_D(a/k_BT) (0.65 / max(λ, 0.5))^0.785
+//!        c₀ = 0.937 (1 − 0.595/√(Σ_j w_D)) (× 0.987 in 3D)
+//!        g_D(x) = G_D − (G_D − 1) e^{−x/21.0},        G₂ = 3.94, G₃ = 4.31
+//!        K = K_D (v_th/r_c) e^{−a/(6.47 k_BT)},       K₂ = 7.19, K₃ = 10.8
 //! raw random start (fluid.soft_start_sweeps = 0), 2D: also the root of
-//!        (ω_D − 4.63 ω_E) Δt = c₀ (0.65/max(λ, 0.5))^0.727 (1 + (K Δt)^q)
-//! raw random start: Δt_D × 0.526 (2D), × 0.597 (3D)   the start's margin (below)
+//!        (ω_D − 4.82 ω_E) Δt = c₀ (0.65/max(λ, 0.5))^0.785 (1 + (K Δt)^q)
+//! raw random start: Δt_D × 0.53 (2D), × 0.605 (3D)    the start's margin (below)
 //! soft-started random start (the default): as a lattice start (below)
-//! Δt_F = F_D r_c / v_th                               F₂ = 0.176, F₃ = 0.193 (explicit friction only)
-//! Δt_CD = (Δt_C⁻ᵖ + Δt_D⁻ᵖ)^{−1/p},  p = 2.63
-//! Δt ≤ (Δt_CD^{−p′} + Δt_F^{−p′})^{−1/p′},  p′ = 2.43
+//! Δt_F = F_D r_c / v_th                               F₂ = 0.178, F₃ = 0.185 (explicit friction only)
+//! Δt_CD = (Δt_C⁻ᵖ + Δt_D⁻ᵖ)^{−1/p},  p = 2.62
+//! Δt ≤ S (Δt_CD^{−p′} + Δt_F^{−p′})^{−1/p′},  p′ = 2.51,  S = 0.9 (the out-of-sample margin)
 //! ```
 //!
-//! Every coefficient is measured: 381 points of 112 stability maps (`mesorheo stability`,
+//! Every coefficient is measured: 429 points of 128 stability maps (`mesorheo stability`,
 //! 1000-step trials, 2D ρ = 2, 3, 4 and 5, 3D ρ = 3, 4 and 5, a = 0…200, γ = 1…100, λ = 0.5,
 //! 0.55 and 0.65, lattice, raw random and soft-started random starts, six maps over the seeds
 //! 1–6 that measure the scatter of one limit, the first three held-out sets of 20, 20 and 22
-//! maps over seeds 1–3, each folded in after it was reported, four 3D lattice maps at γ = 30–100
-//! and a = 4–14 and 14 soft-started random maps, added 2026-11-27 (softstart);
+//! maps over seeds 1–3 and the fifth of 16, each folded in after it was reported, four 3D
+//! lattice maps at γ = 30–100 and a = 4–14 and 14 soft-started random maps, added 2026-11-27;
 //! docs/stability/dpd_maps.txt, docs/validation.md
 //! "Stability maps against `check`"), and the blow-ups of the 1500-step γ × Δt study
 //! (docs/studies/dpd_gamma_dt.csv), fitted by a differential evolution and a local search
-//! (`tools/dpd_stability_fit.py`) so that no measured unstable step is accepted (the limit is at
-//! most 0.97 × the first unstable step). It accepts a median 90 % of the stable range of a
-//! lattice start (138 points, 25 below 80 %, worst 70 %), 81 % of a soft-started random start's
-//! (42 points, 19 below 80 %, worst 69 %) and 57 % of a raw random start's (the margin below).
+//! (`tools/dpd_stability_fit.py`) so that the fitted boundary (the limit without S) stays at
+//! most 0.97 × every measured first unstable step; the limit, S = 0.9 times it, stays at most
+//! 0.873 ×. It accepts a median 80 % of the stable range of a lattice start (153 points, 76
+//! below 80 %, worst 65 %), 71 % of a soft-started random start's (69 points, 62 below 80 %,
+//! worst 61 %) and 52 % of a raw random start's (207 points; the margin below); without S (the
+//! softstart limit, 2026-11-27, on the same points) 90 %, 81 % and 57 %.
 //! Why each part:
 //!
 //! - Δt_C: the stiffest mode of a particle's cage is a pair mode, ω_max² ≤ 2ω_E² (Gershgorin),
 //!   so velocity Verlet needs Δt < √2/ω_E; measured: α = 1.32 (2D) and 1.13 (3D) at a = 25, up
 //!   to 1.42 and 1.33 at a = 200 (the contact stiffness a/r_c overstates the softer cages); the
 //!   2D value is bounded by the 2D a = 150, ρ = 2 map (1.31 until the 2026-11-27 refit, 1.28
-//!   since; α₃ rose from 1.14 to 1.22 in the same local search).
+//!   after it, 1.29 since the stab6 refit; α₃ rose from 1.14 to 1.22 to 1.23 in the same local
+//!   searches).
 //! - Δt_D: the explicit friction of a mode with rate k is stable for kΔt < 1/λ (the linear map
 //!   of the Groot–Warren step, whose force is evaluated at the predicted velocity: hence the
 //!   0.65/λ, measured 1.27–1.35 between λ = 0.65 and 0.5), and k is a local rate, not the mean
@@ -79,15 +82,17 @@
 //!   2026-11-27) the random start blows up later (steps 30–975, where the raw start blew up in
 //!   its first 4–21), its unstable step scatters as a lattice start's (≤ 1.19× between seeds), and it is 1.3–2.2× the raw start's
 //!   (3D a = 25, γ = 70: 0.0228–0.0254 against 0.0107–0.0161). So a soft-started random start
-//!   gets the steady-state limit of a lattice start: median 81 % of its stable range, not 57 %.
-//! - (0.65/λ)^0.727: the linear map of the step gives 0.65/λ; the second held-out set's 3D
+//!   gets the steady-state limit of a lattice start: median 71 % of its stable range, not 52 %
+//!   (81 % and 57 % before S, below).
+//! - (0.65/λ)^0.785: the linear map of the step gives 0.65/λ; the second held-out set's 3D
 //!   λ = 0.5 lattice map blew up at 1.011 × the limit with the full factor.
 //!
 //! The measured limit scatters between seeds (six maps over the seeds 1–6): by 0 % where the
 //! cage binds (a = 25, γ = 4.5), 6–11 % for the ideal gas, and 18 % for 3D a = 2 at γ = 11
 //! (stable up to 0.078–0.095), 1.7× for a random start at strong friction (above).
 //!
-//! - c₀ × 0.935 in 3D (was × 1.06 until 2026-11-27): the fourth held-out set accepted the
+//! - c₀'s 3D factor (× 1.06 until 2026-11-27, × 0.935 after softstart, × 0.987 since the stab6
+//!   refit, which lowered c₀ itself from 0.977 to 0.937): the fourth held-out set accepted the
 //!   unstable step of the 3D a = 8, γ = 60 lattice map (1.063 × and 1.018 × at seeds 2 and 3).
 //!   Measured around it (docs/stability/dpd3_g60_a_lattice_seed*.csv,
 //!   dpd3_a8_gamma_lattice_seed2.csv, its own runs left out): the 3D friction limit of a weakly
@@ -98,15 +103,31 @@
 //!   unstable from 0.0148–0.0151 (all seeds), over 16 000 steps from 0.0130 (seed 1): a 1000-step
 //!   trial measures the Δt whose blow-up waits ~1000 steps, and longer runs need smaller steps
 //!   (docs/validation.md). With the maps folded in and the local search rerun, the 3D factor
-//!   fell to 0.935; the price is paid by lattice starts (below 80 % at 25 of 138 fitted points,
-//!   6 before; median 90 %).
+//!   fell to 0.935.
+//! - S = 0.9 (`SCATTER_MARGIN`, 2026-11-27, stab6), the out-of-sample margin: fixed, not fitted
+//!   (the fit keeps the boundary without it ≤ 0.97 × every unstable step, so a search cannot
+//!   spend it on the fitted points). The last two held-out sets (steady-state starts; the raw
+//!   random start's larger misses carry their own margin, above) found points beyond their
+//!   fitted boundary: the fourth 1.063 × the unstable step (1.096 × the fit's 0.97 bound),
+//!   the fifth 1.014 × (1.045 ×: the 2D ideal gas, a = 0, γ = 18, soft-started, seeds 2 and 3,
+//!   whose lattice start at seed 2 is unstable from 0.0204, 0.993 × the limit then). A fit that
+//!   leans on 429 points to within 3 % is exposed to the 6–18 % seed scatter of every point
+//!   it did not see; S = 0.9 covers the largest excess seen (1.096 ×) with 1.4 % to spare. Its
+//!   price: the median accepted share of the stable range falls from 90 % to 80 % (lattice),
+//!   81 % to 71 % (soft-started random) and 57 % to 52 % (raw random), with the fifth set folded
+//!   in and the coefficients polished again under S (`tools/dpd_stability_fit.py --table`).
 //!
 //! Out of sample: the fourth held-out set (docs/stability/dpd_held_out4.txt, 14 maps × seeds
-//! 1–3): this limit refuses all 42 unstable steps (the 3D a = 8, γ = 60 lattice map at 0.84–0.93
+//! 1–3): this limit refuses all 42 unstable steps (the 3D a = 8, γ = 60 lattice map at 0.75–0.84
 //! × its unstable step; it was refused by reason of maps at its neighbours, so it is no longer
-//! fully out of sample); of the 42, 9 accept ≥ 80 % of the stable range (median 58 %, worst 45 %).
-//! The fifth held-out set (docs/stability/dpd_held_out5.txt): docs/validation.md and
-//! `tests/extremes.rs`.
+//! fully out of sample); of the 42, 3 accept ≥ 80 % of the stable range (median 51 %, worst
+//! 39 %). The sixth held-out set (docs/stability/dpd_held_out6.txt, 12 maps, 39 points, chosen
+//! before this refit, evaluated once after it, 2026-11-27): **none of the 39 unstable steps is
+//! accepted** (largest 0.856 × the unstable step); 7 of 39 accept ≥ 80 % of the stable range
+//! (median 74 %, worst 40 %). The softstart limit (without S) also refused all 39 there, but
+//! two of them beyond its own in-sample bound of 0.97 × (0.995 ×: the 2D ideal gas, ρ = 3,
+//! γ = 30, seed 4; 0.990 ×: 2D a = 25, γ = 90, seed 2; median 84 %), as sets 4 and 5 did.
+//! docs/validation.md, `tests/extremes.rs`.
 //!
 //! Groot & Warren (1997) recommend Δt ≈ 0.04–0.06 at a = 25, γ = 4.5, ρ = 3 for k_BT within a
 //! few per cent: that accuracy limit is reported, not enforced (see the k_BT-vs-Δt curve in
@@ -148,34 +169,36 @@ pub struct DpdLimits {
     pub conservative: f64,
     /// The free-flight part Δt_F = F_D r_c / √(k_BT/m) (∞ under the exponential thermostat).
     pub free_flight: f64,
-    /// The limit `check` enforces, ((Δt_C⁻ᵖ + Δt_D⁻ᵖ)^{p′/p} + Δt_F^{−p′})^{−1/p′}.
+    /// The limit `check` enforces, S ((Δt_C⁻ᵖ + Δt_D⁻ᵖ)^{p′/p} + Δt_F^{−p′})^{−1/p′}.
     pub combined: f64,
 }
 
 /// Measured coefficients of [`dpd_limits`] (module doc).
 pub(crate) mod dpd_fit {
-    pub const ALPHA_2D: f64 = 1.28;
-    pub const ALPHA_3D: f64 = 1.22;
-    pub const IDEAL_GAS_SCALE: f64 = 0.977;
+    pub const ALPHA_2D: f64 = 1.29;
+    pub const ALPHA_3D: f64 = 1.23;
+    pub const IDEAL_GAS_SCALE: f64 = 0.937;
     pub const IDEAL_GAS_FLUCTUATION: f64 = 0.595;
-    pub const IDEAL_GAS_3D: f64 = 0.935;
+    pub const IDEAL_GAS_3D: f64 = 0.987;
     pub const REPULSION_GAIN_2D: f64 = 3.94;
-    pub const REPULSION_GAIN_3D: f64 = 4.5;
+    pub const REPULSION_GAIN_3D: f64 = 4.31;
     pub const REPULSION_SCALE_KT: f64 = 21.0;
     pub const THERMAL_RELIEF_2D: f64 = 7.19;
-    pub const THERMAL_RELIEF_3D: f64 = 9.82;
-    pub const THERMAL_RELIEF_SCALE_KT: f64 = 6.18;
+    pub const THERMAL_RELIEF_3D: f64 = 10.8;
+    pub const THERMAL_RELIEF_SCALE_KT: f64 = 6.47;
     pub const RELIEF_EXPONENT: f64 = 0.573;
-    pub const RANDOM_START_RELIEF: f64 = 4.63;
+    pub const RANDOM_START_RELIEF: f64 = 4.82;
     pub const RANDOM_START_THERMAL: f64 = 1.0;
-    pub const RANDOM_START_FRICTION_2D: f64 = 0.526;
-    pub const RANDOM_START_FRICTION_3D: f64 = 0.597;
-    pub const LAMBDA_EXPONENT: f64 = 0.727;
+    pub const RANDOM_START_FRICTION_2D: f64 = 0.53;
+    pub const RANDOM_START_FRICTION_3D: f64 = 0.605;
+    pub const LAMBDA_EXPONENT: f64 = 0.785;
     pub const MEASURED_LAMBDA: f64 = 0.65;
-    pub const FREE_FLIGHT_2D: f64 = 0.176;
-    pub const FREE_FLIGHT_3D: f64 = 0.193;
-    pub const NORM_EXPONENT: f64 = 2.63;
-    pub const FREE_FLIGHT_EXPONENT: f64 = 2.43;
+    pub const FREE_FLIGHT_2D: f64 = 0.178;
+    pub const FREE_FLIGHT_3D: f64 = 0.185;
+    pub const NORM_EXPONENT: f64 = 2.62;
+    pub const FREE_FLIGHT_EXPONENT: f64 = 2.51;
+    /// The out-of-sample margin on the fitted boundary (fixed, not fitted; module doc).
+    pub const SCATTER_MARGIN: f64 = 0.9;
 }
 
 /// Limits for the DPD fluid `d` in `dimension` dimensions at number density `n` and particle
@@ -214,7 +237,7 @@ pub fn dpd_limits(
         REPULSION_GAIN_3D
     };
     let repulsion = gain - (gain - 1.0) * (-d.a.max(0.0) / (REPULSION_SCALE_KT * d.kt)).exp();
-    // (0.65/λ)^0.727 (module doc): the linear map of the step gives 0.65/λ; the second held-out
+    // (0.65/λ)^0.785 (module doc): the linear map of the step gives 0.65/λ; the second held-out
     // set's 3D λ = 0.5 lattice map blew up at 1.011 × the limit with the full factor.
     let lambda_factor = (MEASURED_LAMBDA / lambda.max(0.5)).powf(LAMBDA_EXPONENT);
     let friction_coefficient = ideal_gas * repulsion * lambda_factor;
@@ -272,7 +295,8 @@ pub fn dpd_limits(
         dissipative,
         conservative,
         free_flight,
-        combined: (cage_and_friction.powf(-p2) + free_flight.powf(-p2)).powf(-1.0 / p2),
+        combined: SCATTER_MARGIN
+            * (cage_and_friction.powf(-p2) + free_flight.powf(-p2)).powf(-1.0 / p2),
     }
 }
 
