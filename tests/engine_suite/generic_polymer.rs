@@ -150,8 +150,8 @@ fn sheared_generic_polymer_is_bitwise_identical_on_1_to_4_ranks_and_1_to_2_threa
 /// longer exactly energy conserving: this measures that the Gibbs marginals survive within
 /// the error bars); and under Lees–Edwards shear with the noise on the run is bitwise the same
 /// on 1–4 ranks × 1–2 threads (the third pass reads the neighbours' κ_j, ghosts included).
-/// Mutation: the smoothing pass not asking for the ghosts' κ (its `ghost_fields` empty) makes
-/// the multi-rank runs differ (docs/validation.md). Cost ≈ 3 s CPU.
+/// Mutation (intended, not yet run): the smoothing pass not asking for the ghosts' κ (its
+/// `ghost_fields` empty) should make the multi-rank runs differ. Cost ≈ 3 s CPU.
 #[test]
 fn smoothed_gradient_keeps_the_fdt_at_rest_and_is_bitwise_on_1_to_4_ranks() {
     let smoothed = "conformation_gradient = \"smoothed\"";
