@@ -687,8 +687,10 @@ profile_bins = 6
 /// its thermal noise on: the continuity density, the conformation vectors and their
 /// kick–drift–kick half-step scratch travel in the checkpoint, and the pair and conformation
 /// noise, keyed by (seed, step, ids), continue where they stopped: N steps ≡ N/2 + checkpoint
-/// + restart on another rank count + N/2, bitwise; also with the smoothed velocity gradient
-/// in the Q equation (a derived field, recomputed, never checkpointed).
+/// + restart on another rank count + N/2, bitwise.
+///
+/// Also with the smoothed velocity gradient in the Q equation (a derived field, recomputed,
+/// never checkpointed).
 #[test]
 fn generic_polymer_restart_is_bitwise() {
     // The GENERIC tests' box (16 × 16, k_BT = 1, λ_H = 0.1), sheared at 0.3, 120 steps.
