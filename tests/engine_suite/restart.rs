@@ -688,11 +688,16 @@ profile_bins = 6
 /// kick–drift–kick half-step scratch travel in the checkpoint, and the pair and conformation
 /// noise, keyed by (seed, step, ids), continue where they stopped: N steps ≡ N/2 + checkpoint
 /// + restart on another rank count + N/2, bitwise.
+///
+/// Also with the smoothed velocity gradient in the Q equation (a derived field, recomputed,
+/// never checkpointed).
 #[test]
 fn generic_polymer_restart_is_bitwise() {
     // The GENERIC tests' box (16 × 16, k_BT = 1, λ_H = 0.1), sheared at 0.3, 120 steps.
-    let text = super::generic_polymer::at_rest(0.01, 120, 0.3, "");
-    assert_restart_at_60_is_bitwise(&text, "GENERIC polymer, Lees–Edwards");
+    for extra in ["", "conformation_gradient = \"smoothed\""] {
+        let text = super::generic_polymer::at_rest(0.01, 120, 0.3, extra);
+        assert_restart_at_60_is_bitwise(&text, &format!("GENERIC polymer, Lees–Edwards {extra}"));
+    }
 }
 
 /// `text` run whole ≡ run to step 60 on 1 (2) ranks + restarted on 2 (1) ranks, bitwise.

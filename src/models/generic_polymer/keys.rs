@@ -43,6 +43,12 @@ pub const KEYS: &[KeyDoc] = &[
         "GENERIC polymer fluid: the drift of Q. \"single_dumbbell\": −Q/(2λ_H), Eq. 4.60, FDT consistent. \"printed_generic\": −N^d Q/(2λ_H) with N^d = n^d/d_i, the GENERIC drift of the printed Eq. 4.48 with the entropy 4.47 and the printed noise; it breaks the FDT (⟨Q_a²⟩ = k_BT/(HN^d)) and is kept to show it.",
     ),
     key(
+        "fluid.conformation_gradient",
+        "\"particle\" | \"smoothed\"",
+        "\"particle\"",
+        "GENERIC polymer fluid: the velocity gradient κ the conformation equation dQ = Q·κ dt + … reads. \"particle\": the particle's own SPH gradient κ_i = (1/d_i) Σ_j ω_ij ⊗ v_ij (Eq. 4.60). \"smoothed\": its Shepard average over the kernel, κ̄_i = Σ_j W_ij κ_j / Σ_j W_ij (self included; one more pair pass), the same continuum gradient with less particle-scale noise, which the multiplicative Q·κ term would otherwise rectify into extra stretching; the momentum equation is unchanged, so the reversible part no longer conserves energy exactly (docs/theory/generic_polymer_particle.md §2.8).",
+    ),
+    key(
         "fluid.si.box_length",
         "float > 0 (m)",
         "required in [fluid.si]",

@@ -309,14 +309,16 @@ impl FluidModel for GenericPolymerCfg {
         ));
         line(format!(
             "  thesis constants (Eq. 4.66): C1 = 5η_s/3 = {:.6e}, C2² = {:.6e}, C3 = {:.6e}, \
-             C4 = {:.6e}, C5 = {:.6e}; velocity noise {}, conformation drift {:?}",
+             C4 = {:.6e}, C5 = {:.6e}; velocity noise {}, conformation drift {:?}, \
+             conformation gradient {:?}",
             5.0 * p.solvent_viscosity / 3.0,
             p.equilibrium_component(),
             p.polymer_viscosity(),
             p.dumbbell_density * p.spring_constant,
             p.sound_speed * p.sound_speed,
             if self.velocity_noise { "on" } else { "off" },
-            self.conformation_drift
+            self.conformation_drift,
+            self.conformation_gradient
         ));
         let pt = self.transport_pressure_at(rho0);
         if pt > 0.0 {
