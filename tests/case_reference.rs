@@ -234,6 +234,7 @@ relaxation_time = 0.1
 dumbbell_density = 16.0
 velocity_noise = false
 conformation_drift = "printed_generic"
+conformation_gradient = "smoothed"
 transport_pressure = 500.0
 background_pressure = 5.0
 [integrator]
