@@ -577,15 +577,14 @@ impl<const D: usize> RigidBodies<D> {
     /// The pair counts of the colloid–solvent RDF ([`rdf`]): over the rank's owned particles
     /// that `solvent(k)` accepts and are no body's constituent, and every body, the number of
     /// minimum-image distances to the body's cloud centre in each bin [b Δr, (b + 1) Δr),
-    /// b < `bins`; then the number of solvent particles N_S. Exact sums reduced over the ranks.
-    /// Collective.
+    /// b < `bins`, `(width, bins)` = (Δr, the bin count); then the number of solvent particles
+    /// N_S. Exact sums reduced over the ranks. Collective.
     pub fn solvent_rdf_counts(
         &self,
         p: &Particles<D>,
         sim_box: &SimBox<D>,
         step: u64,
-        width: f64,
-        bins: usize,
+        (width, bins): (f64, usize),
         solvent: impl Fn(usize) -> bool,
         comm: &dyn Comm,
     ) -> (Vec<f64>, f64) {

@@ -552,8 +552,7 @@ impl<'c, const D: usize> Simulation<'c, D> {
                             &self.particles,
                             &self.sim_box,
                             self.step,
-                            width,
-                            bins,
+                            (width, bins),
                             fluid,
                             self.comm,
                         );

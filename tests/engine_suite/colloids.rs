@@ -474,6 +474,7 @@ fn fixed_cylinder_holds_the_whole_body_force() {
             "output.snapshot_every=0",
             "reference=[]",
             r#"diagnostics.observables=["temperature", "colloid_solvent_rdf"]"#,
+            "diagnostics.rdf_range=5.0",
         ],
     );
     let case = case_from_str(&text, "cylinder array").case;
