@@ -126,6 +126,11 @@ pub fn block_warnings(scalars: &BTreeMap<String, Vec<f64>>, blocks: usize) -> Ve
         if name.starts_with("momentum") {
             continue;
         }
+        // The RDF's bins are read through the exclusion radius, whose error bar comes from its
+        // own block values; a warning per bin would bury the others.
+        if name.starts_with(crate::observable::COLLOID_SOLVENT_RDF_PREFIX) {
+            continue;
+        }
         let n = series.len();
         let nb = blocks.min(n);
         if nb < 2 {

@@ -713,6 +713,7 @@ impl<const D: usize> Scene for FlowScene<'_, D> {
             velocity_profile: Vec::new(),
             density_profile: Vec::new(),
             shear_stress_profile: Vec::new(),
+            colloid_solvent_rdf: Vec::new(),
             validation,
             // The error bars come from the spread of independent particles' averages: no
             // blocks.

@@ -77,6 +77,14 @@ pub enum Observable {
     /// components (3 in 3D, z in 2D), Ω = −(γ̇/2) ẑ the imposed flow's rotation (equipartition:
     /// k_BT/I, I the body's moment of inertia about its centre).
     ColloidVelocityVariance,
+    /// The radial distribution function of the solvent about the rigid colloids' centres
+    /// (needs `[fluid.colloids]`, free or fixed; [`crate::rigid_bodies::rdf`]): g(r) in bins of
+    /// `diagnostics.rdf_bin_width` out to `diagnostics.rdf_range`, about each body's cloud
+    /// centre (its constituents' mean position), normalised by the ideal-gas count of the
+    /// solvent's number density in each shell; summary.json lists it as `colloid_solvent_rdf`,
+    /// and `colloid_exclusion_radius`, the outer edge of the last bin with g < 0.01 (Nguyen
+    /// 2021 L877; spec §4), with the spread of its block values as the error bar.
+    ColloidSolventRdf,
 }
 
 impl Observable {
@@ -118,6 +126,7 @@ impl Observable {
             Observable::ShearStressProfile => "shear_stress_profile",
             Observable::Conformation => "conformation",
             Observable::ColloidVelocityVariance => "colloid_velocity_variance",
+            Observable::ColloidSolventRdf => "colloid_solvent_rdf",
         }
     }
 }
@@ -127,6 +136,14 @@ pub const COLLOID_VELOCITY_VARIANCE_NAMES: [&str; 2] = [
     "colloid_velocity_variance",
     "colloid_angular_velocity_variance",
 ];
+
+/// The scalar series of the colloid–solvent RDF are named this and the bin number (four
+/// digits); the summary gathers them into `colloid_solvent_rdf` and derives
+/// [`COLLOID_EXCLUSION_RADIUS`] from them.
+pub const COLLOID_SOLVENT_RDF_PREFIX: &str = "colloid_solvent_rdf_";
+
+/// The summary's name of the exclusion radius read from the colloid–solvent RDF.
+pub const COLLOID_EXCLUSION_RADIUS: &str = "colloid_exclusion_radius";
 
 /// The scalar series of the density profile are named this and the bin number (four digits);
 /// the summary gathers them into `density_profile`.

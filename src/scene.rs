@@ -136,6 +136,8 @@ pub struct SceneReport {
     pub density_profile: Vec<DensityPoint>,
     /// Binned shear stress.
     pub shear_stress_profile: Vec<ProfilePoint>,
+    /// The colloid–solvent RDF.
+    pub colloid_solvent_rdf: Vec<crate::summary::RdfPoint>,
     /// Checks against the case's references (after a completed run).
     pub validation: Vec<Validation>,
     /// Warnings about the averages.
@@ -200,6 +202,7 @@ impl<const D: usize> Scene for ParticleScene<'_, D> {
         let scalar = |(name, _): &(String, f64)| {
             !name.starts_with(crate::diagnostics::SHEAR_STRESS_PROFILE_PREFIX)
                 && !name.starts_with(DENSITY_PROFILE_PREFIX)
+                && !name.starts_with(crate::observable::COLLOID_SOLVENT_RDF_PREFIX)
         };
         self.row = None;
         if self.sim.is_sample_step() {
@@ -345,6 +348,37 @@ impl<const D: usize> Scene for ParticleScene<'_, D> {
                 }
             })
             .collect();
+        // The RDF's bins likewise, and the exclusion radius read from their block means
+        // ([`crate::rigid_bodies::rdf::exclusion_estimate`]) joins the scalars (references
+        // check it).
+        let colloid_solvent_rdf = {
+            use crate::observable::{COLLOID_EXCLUSION_RADIUS, COLLOID_SOLVENT_RDF_PREFIX};
+            let width = case.diagnostics.rdf_bin_width;
+            let names: Vec<String> = (observables.keys())
+                .filter(|k| k.starts_with(COLLOID_SOLVENT_RDF_PREFIX))
+                .cloned()
+                .collect();
+            if !names.is_empty() {
+                let series: Vec<&[f64]> = names
+                    .iter()
+                    .map(|k| sim.series.scalars[k].as_slice())
+                    .collect();
+                observables.insert(
+                    COLLOID_EXCLUSION_RADIUS.to_owned(),
+                    crate::rigid_bodies::rdf::exclusion_estimate(&series, blocks, width),
+                );
+            }
+            (names.iter().enumerate())
+                .map(|(b, name)| {
+                    let e = observables.remove(name).expect("listed above");
+                    crate::summary::RdfPoint {
+                        r: (b as f64 + 0.5) * width,
+                        mean: e.mean,
+                        stderr: e.stderr,
+                    }
+                })
+                .collect::<Vec<_>>()
+        };
         let mut warnings = crate::diagnostics::block_warnings(&sim.series.scalars, blocks);
         warnings.extend(sim.counted_warnings());
         // The expected profile: the reverse-Poiseuille solution when the case checks one,
@@ -403,6 +437,7 @@ impl<const D: usize> Scene for ParticleScene<'_, D> {
             validation,
             warnings,
             shear_stress_profile,
+            colloid_solvent_rdf,
             state_digest: sim.state_digest(),
         })
     }
@@ -787,6 +822,7 @@ pub fn drive(
         velocity_profile: report.velocity_profile,
         density_profile: report.density_profile,
         shear_stress_profile: report.shear_stress_profile,
+        colloid_solvent_rdf: report.colloid_solvent_rdf,
         validation: report.validation,
         warnings: report.warnings,
         state_digest: report.state_digest,

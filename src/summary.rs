@@ -47,6 +47,17 @@ pub struct DensityPoint {
     pub stderr: f64,
 }
 
+/// A point of the colloid–solvent RDF.
+#[derive(Clone, Debug, Serialize, PartialEq)]
+pub struct RdfPoint {
+    /// Bin centre r.
+    pub r: f64,
+    /// ⟨g⟩ in the bin.
+    pub mean: f64,
+    /// Standard error.
+    pub stderr: f64,
+}
+
 /// One segment of a run: the first run, or one restart.
 #[derive(Clone, Debug, Serialize, serde::Deserialize, PartialEq)]
 pub struct Segment {
@@ -167,6 +178,11 @@ pub struct Summary {
     /// the reverse-Poiseuille stress of a case driven by a reverse body force, else null.
     #[serde(skip_serializing_if = "Vec::is_empty", default)]
     pub shear_stress_profile: Vec<ProfilePoint>,
+    /// The solvent's g(r) about the colloids' cloud centres (runs that ask for
+    /// `colloid_solvent_rdf`); its exclusion radius is the observable
+    /// `colloid_exclusion_radius`.
+    #[serde(skip_serializing_if = "Vec::is_empty", default)]
+    pub colloid_solvent_rdf: Vec<RdfPoint>,
     /// Reference checks.
     pub validation: Vec<Validation>,
     /// Caveats on the results (e.g. block error bars of correlated series that are too small).

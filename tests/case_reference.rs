@@ -532,7 +532,9 @@ dt = 0.01
 [run]
 steps = 100
 [diagnostics]
-observables = ["temperature"]
+observables = ["temperature", "colloid_solvent_rdf"]
+rdf_bin_width = 0.05
+rdf_range = 3.0
 [[reference]]
 kind = "value"
 name = "t"

@@ -348,6 +348,30 @@ pub struct DiagnosticsCfg {
     /// Longest lag of the transverse-current autocorrelation (time units).
     #[serde(default = "default_transverse_current_time")]
     pub transverse_current_time: f64,
+    /// Bin width Δr of the colloid–solvent RDF.
+    #[serde(default = "default_rdf_bin_width")]
+    pub rdf_bin_width: f64,
+    /// Outer radius of the colloid–solvent RDF (default half the smallest box edge).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rdf_range: Option<f64>,
+}
+
+impl DiagnosticsCfg {
+    /// The outer radius of the colloid–solvent RDF: as given, or half the smallest of the box
+    /// edges `lengths`.
+    pub fn rdf_range(&self, lengths: &[f64]) -> f64 {
+        self.rdf_range
+            .unwrap_or_else(|| 0.5 * lengths.iter().copied().fold(f64::INFINITY, f64::min))
+    }
+
+    /// The number of bins of the colloid–solvent RDF in a box of edges `lengths`.
+    pub fn rdf_bins(&self, lengths: &[f64]) -> usize {
+        crate::rigid_bodies::rdf::bin_count(self.rdf_range(lengths), self.rdf_bin_width)
+    }
+}
+
+fn default_rdf_bin_width() -> f64 {
+    0.02
 }
 
 fn default_transverse_current_modes() -> usize {
@@ -384,6 +408,8 @@ impl Default for DiagnosticsCfg {
             transverse_current_modes: default_transverse_current_modes(),
             transverse_current_every: default_transverse_current_every(),
             transverse_current_time: default_transverse_current_time(),
+            rdf_bin_width: default_rdf_bin_width(),
+            rdf_range: None,
         }
     }
 }

@@ -81,6 +81,9 @@ pub fn scalar_names(case: &Case) -> Vec<String> {
                         .map(|s| s.to_string()),
                 );
             }
+            Observable::ColloidSolventRdf => {
+                out.push(crate::observable::COLLOID_EXCLUSION_RADIUS.to_owned());
+            }
             Observable::CompositeViscosity => {
                 out.push("composite_viscosity".to_owned());
                 out.push("inclusion_torque".to_owned());

@@ -381,6 +381,10 @@ pub fn generic_support(o: Observable) -> Result<(), String> {
             "\"colloid_velocity_variance\" measures suspended rigid bodies; it needs \
              [fluid.colloids] of a DPD fluid (not fixed)"
         }
+        Observable::ColloidSolventRdf => {
+            "\"colloid_solvent_rdf\" bins the solvent about suspended rigid bodies; it needs \
+             [fluid.colloids] of a DPD fluid"
+        }
         _ => return Ok(()),
     };
     Err(need.to_string())

@@ -43,6 +43,7 @@
 //! extra per-particle field is needed to find them. The table is checkpointed as exact words
 //! ([`RigidBodies::to_json`]).
 
+pub mod rdf;
 pub mod shapes;
 
 use crate::comm::Comm;
@@ -538,6 +539,77 @@ impl<const D: usize> RigidBodies<D> {
             return [0.0; 2];
         }
         [v2 / (n * D as f64), w2 / (n * rotational.len() as f64)]
+    }
+
+    /// Each body's cloud centre, the mean position of its constituents (minimum image about
+    /// the body's centre R, with the Lees–Edwards shift of `step`), from exact sums over every
+    /// rank's owned constituents ([`rdf`]). Collective.
+    pub fn cloud_centres(
+        &self,
+        p: &Particles<D>,
+        sim_box: &SimBox<D>,
+        step: u64,
+        comm: &dyn Comm,
+    ) -> Vec<[f64; D]> {
+        let offset = sim_box.le_offset(step, self.dt);
+        let nb = self.bodies.len();
+        let mut sums = vec![FixedSum::ZERO; nb * D];
+        for k in 0..p.n_owned {
+            let Some((b, _)) = self.constituent(p.gid[k]) else {
+                continue;
+            };
+            let mut centre = [0.0; D];
+            centre.copy_from_slice(&self.bodies[b].centre[..D]);
+            let arm = separation(sim_box, &p.pos[k], &centre, offset);
+            for d in 0..D {
+                sums[b * D + d].add(arm[d]);
+            }
+        }
+        FixedSum::allreduce(comm, &mut sums);
+        let n = self.offsets.len() as f64;
+        (0..nb)
+            .map(|b| {
+                std::array::from_fn(|d| self.bodies[b].centre[d] + sums[b * D + d].value() / n)
+            })
+            .collect()
+    }
+
+    /// The pair counts of the colloid–solvent RDF ([`rdf`]): over the rank's owned particles
+    /// that `solvent(k)` accepts and are no body's constituent, and every body, the number of
+    /// minimum-image distances to the body's cloud centre in each bin [b Δr, (b + 1) Δr),
+    /// b < `bins`, `(width, bins)` = (Δr, the bin count); then the number of solvent particles
+    /// N_S. Exact sums reduced over the ranks. Collective.
+    pub fn solvent_rdf_counts(
+        &self,
+        p: &Particles<D>,
+        sim_box: &SimBox<D>,
+        step: u64,
+        (width, bins): (f64, usize),
+        solvent: impl Fn(usize) -> bool,
+        comm: &dyn Comm,
+    ) -> (Vec<f64>, f64) {
+        let centres = self.cloud_centres(p, sim_box, step, comm);
+        let offset = sim_box.le_offset(step, self.dt);
+        let range = bins as f64 * width;
+        // The bins, then N_S.
+        let mut sums = vec![FixedSum::ZERO; bins + 1];
+        for k in 0..p.n_owned {
+            if !solvent(k) || self.constituent(p.gid[k]).is_some() {
+                continue;
+            }
+            sums[bins].add(1.0);
+            for c in &centres {
+                let d = separation(sim_box, &p.pos[k], c, offset);
+                let r = d.iter().map(|x| x * x).sum::<f64>().sqrt();
+                if r < range {
+                    let b = ((r / width) as usize).min(bins - 1);
+                    sums[b].add(1.0);
+                }
+            }
+        }
+        FixedSum::allreduce(comm, &mut sums);
+        let values: Vec<f64> = sums.iter().map(FixedSum::value).collect();
+        (values[..bins].to_vec(), values[bins])
     }
 
     /// This rank's share (its owned constituents) of the constraint virial of the last

@@ -41,6 +41,7 @@ pub(super) fn virial_scope(observables: &[Observable]) -> VirialScope {
         | Observable::ConstitutiveStress
         | Observable::Conformation
         | Observable::ColloidVelocityVariance
+        | Observable::ColloidSolventRdf
         | Observable::CompositeViscosity
         | Observable::TransverseCurrentViscosity => VirialScope::Off,
     };
@@ -539,6 +540,33 @@ impl<'c, const D: usize> Simulation<'c, D> {
                         let [vn, wn] = crate::observable::COLLOID_VELOCITY_VARIANCE_NAMES;
                         out.scalars.push((vn.into(), v));
                         out.scalars.push((wn.into(), w));
+                    }
+                }
+                Observable::ColloidSolventRdf => {
+                    // g(r) of the solvent about the bodies' cloud centres ([`crate::rigid_bodies::rdf`]):
+                    // exact pair counts over the ranks, normalised by each shell's ideal-gas count.
+                    if let Some(bodies) = &self.bodies {
+                        let width = case.diagnostics.rdf_bin_width;
+                        let bins = case.diagnostics.rdf_bins(&self.sim_box.lengths[..]);
+                        let (counts, solvent) = bodies.solvent_rdf_counts(
+                            &self.particles,
+                            &self.sim_box,
+                            self.step,
+                            (width, bins),
+                            fluid,
+                            self.comm,
+                        );
+                        let density = solvent / self.sim_box.volume();
+                        let n_bodies = bodies.bodies().len() as f64;
+                        let g = crate::rigid_bodies::rdf::normalise(
+                            &counts, width, D, n_bodies, density,
+                        );
+                        for (b, gb) in g.into_iter().enumerate() {
+                            out.scalars.push((
+                                format!("{}{b:04}", crate::observable::COLLOID_SOLVENT_RDF_PREFIX),
+                                gb,
+                            ));
+                        }
                     }
                 }
                 // Measured by the model whose fields they are (above); `check` refuses

@@ -91,6 +91,38 @@ pub(super) fn validate_outputs(case: &Case, ix: &SpanIndex) -> Result<(), CaseEr
             format!("found {}; must be between 1 and {MAX_BINS}", d.profile_bins),
         );
     }
+    if !(d.rdf_bin_width.is_finite() && d.rdf_bin_width > 0.0) {
+        return err(
+            &["diagnostics", "rdf_bin_width"],
+            format!("found {}; the RDF's bin width must be > 0", d.rdf_bin_width),
+        );
+    }
+    let lengths = &case.domain.lengths[..dim.min(case.domain.lengths.len())];
+    let half = 0.5 * lengths.iter().copied().fold(f64::INFINITY, f64::min);
+    let range = d.rdf_range(lengths);
+    if let Some(r) = d.rdf_range
+        && !(r.is_finite() && r > 0.0 && r <= half)
+    {
+        return err(
+            &["diagnostics", "rdf_range"],
+            format!(
+                "found {r}; the RDF's range must be > 0 and at most half the smallest box edge \
+                 ({half}), where the minimum image of a distance is still unique"
+            ),
+        );
+    }
+    let rdf_bins = crate::rigid_bodies::rdf::bin_count(range, d.rdf_bin_width);
+    if d.observables.contains(&Observable::ColloidSolventRdf) && !(2..=MAX_BINS).contains(&rdf_bins)
+    {
+        return err(
+            &["diagnostics", "rdf_bin_width"],
+            format!(
+                "found {} with the range {range}: {rdf_bins} bins; the RDF needs 2 to {MAX_BINS} \
+                 bins of this width within its range",
+                d.rdf_bin_width
+            ),
+        );
+    }
     for (i, o) in d.observables.iter().enumerate() {
         if d.observables[..i].contains(o) {
             return Err(ix.error(

@@ -115,6 +115,7 @@ impl FluidModel for DpdCfg {
             {
                 Ok(())
             }
+            Observable::ColloidSolventRdf if self.colloids.is_some() => Ok(()),
             _ => crate::models::fluid_model::generic_support(o),
         }
     }
