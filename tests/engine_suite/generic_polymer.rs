@@ -329,7 +329,7 @@ fn model_a_at_rest_obeys_the_fdt_for_every_dumbbell() {
 /// noise is one stream per particle and step keyed by its id; the ghosts carry the ensemble
 /// average ⟨QQ⟩, computed from the owned particles' dumbbells in a pass before the pair pass).
 /// Mutation (intended, not run): the pair pass not asking for the ghosts' moment
-/// (`ghost_fields` of the main pass without [`CONFORMATION_MOMENT`] in Model A) should make the
+/// (`ghost_fields` of the main pass without `generic_conformation_moment` in Model A) should make the
 /// multi-rank runs differ (the ghosts' ⟨QQ⟩ would be stale or zero).
 #[test]
 fn model_a_is_bitwise_identical_on_1_to_4_ranks_and_1_to_2_threads() {

@@ -546,9 +546,9 @@ impl<const D: usize> GenericPolymer<D> {
         let mut m: [[f64; D]; D] = std::array::from_fn(|a| std::array::from_fn(|b| q[a] * q[b]));
         if self.ensemble > 1 {
             for v in q[D..self.ensemble * D].chunks_exact(D) {
-                for a in 0..D {
-                    for b in 0..D {
-                        m[a][b] += v[a] * v[b];
+                for (a, row) in m.iter_mut().enumerate() {
+                    for (b, x) in row.iter_mut().enumerate() {
+                        *x += v[a] * v[b];
                     }
                 }
             }
@@ -873,10 +873,8 @@ impl<const D: usize> ParticleModel<D> for GenericPolymer<D> {
                 let mut out = Vec::with_capacity(n * D * (D + 1) / 2);
                 for v in q[..n * width].chunks_exact(width) {
                     let m = self.ensemble_moment(v);
-                    for a in 0..D {
-                        for b in a..D {
-                            out.push(m[a][b]);
-                        }
+                    for (a, row) in m.iter().enumerate() {
+                        out.extend_from_slice(&row[a..]);
                     }
                 }
                 Some(out)
@@ -934,8 +932,8 @@ impl<const D: usize> ParticleModel<D> for GenericPolymer<D> {
             for i in 0..n {
                 let m = self.ensemble_moment(&p.extra[self.conformation].data[i * width..]);
                 let out = &mut p.extra[self.moment].data[i * D * D..(i + 1) * D * D];
-                for a in 0..D {
-                    out[a * D..(a + 1) * D].copy_from_slice(&m[a]);
+                for (a, row) in m.iter().enumerate() {
+                    out[a * D..(a + 1) * D].copy_from_slice(row);
                 }
             }
             return Ok(PassOutput::default());
@@ -1036,9 +1034,9 @@ impl<const D: usize> ParticleModel<D> for GenericPolymer<D> {
         for i in 0..p.n_owned {
             sums[0].add(1.0);
             let m = self.ensemble_moment(&q[i * width..(i + 1) * width]);
-            for a in 0..D {
-                for b in 0..D {
-                    sums[1 + a * D + b].add(m[a][b]);
+            for (a, row) in m.iter().enumerate() {
+                for (b, x) in row.iter().enumerate() {
+                    sums[1 + a * D + b].add(*x);
                 }
             }
             if i % 2048 == 2047 {
@@ -1181,10 +1179,10 @@ mod tests {
             assert_eq!(rb, ra[..2].to_vec(), "particle {i}'s rate of dumbbell 0");
             assert_ne!(ra[..2], ra[2..4], "particle {i}: dumbbells 0 and 1 alike");
             let m = a_model.ensemble_moment(qa);
-            for x in 0..2 {
-                for y in 0..2 {
+            for (x, row) in m.iter().enumerate() {
+                for (y, mxy) in row.iter().enumerate() {
                     let direct = (0..3).map(|k| qa[2 * k + x] * qa[2 * k + y]).sum::<f64>() / 3.0;
-                    assert!((m[x][y] - direct).abs() <= 1e-15 * direct.abs().max(1e-300));
+                    assert!((mxy - direct).abs() <= 1e-15 * direct.abs().max(1e-300));
                 }
             }
             assert_eq!(b_model.ensemble_moment(qb)[0][1], qb[0] * qb[1]);
