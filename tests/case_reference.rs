@@ -235,6 +235,7 @@ dumbbell_density = 16.0
 velocity_noise = false
 conformation_drift = "printed_generic"
 conformation_gradient = "smoothed"
+explicit_dumbbells = 2
 transport_pressure = 500.0
 background_pressure = 5.0
 [integrator]

@@ -285,3 +285,57 @@ fn transport_velocity_keeps_t1_on_the_hookean_startup() {
         "⟨Q_xQ_y⟩ = {m_xy} against the Hookean start-up {xy} ± {sd_xy}"
     );
 }
+
+/// Model A (`explicit_dumbbells = 4`: four explicit dumbbells per particle, the pressure reads
+/// their average; docs/theory/generic_polymer_particle.md §6) at rest: ⟨Q_aQ_b⟩ over every
+/// dumbbell is (k_BT/H) δ_ab with the kick–drift–kick bias 1/(1 + Δt/(4λ)), the kinetic
+/// temperature k_BT, and momentum zero to round-off, at Δt = 0.01. Each dumbbell obeys the
+/// same equation with its own noise, so the average over the 4 × 256 dumbbells estimates each
+/// one's stationary second moment, with about half Model B's error bar (4 independent
+/// dumbbells per particle); bounds 4.5 standard errors of the 10 block averages (as the Model B
+/// test). Mutation (intended, not run for lack of time on the loaded VM): the noise of
+/// dumbbells k ≥ 1 dropped (`+ amplitude * rk[b]` only for k = 0) drives their Q to 0 and
+/// ⟨Q_x²⟩ to ≈ 1/4 of the expected value, failing by ~100σ. Cost ≈ 4 s CPU.
+#[test]
+fn model_a_at_rest_obeys_the_fdt_for_every_dumbbell() {
+    let dt = 0.01;
+    let s = run(
+        &at_rest(dt, 4000, 0.0, "explicit_dumbbells = 4"),
+        "Model A at rest",
+    );
+    let expected = KT_OVER_H / (1.0 + dt / (4.0 * LAMBDA));
+    for c in ["conformation_xx", "conformation_yy"] {
+        let (m, se) = estimate(&s, c);
+        eprintln!("Model A, Δt = {dt}: {c} = {m:.5} ± {se:.5} (expected {expected:.5})");
+        assert!(
+            (m - expected).abs() < 4.5 * se,
+            "Model A: {c} = {m} ± {se}, expected {expected}"
+        );
+        assert!(se < 0.02, "{c}'s error bar {se} too wide to test anything");
+    }
+    let (xy, se) = estimate(&s, "conformation_xy");
+    assert!(xy.abs() < 4.5 * se, "Model A: ⟨Q_xQ_y⟩ = {xy} ± {se}");
+    let (t, se) = estimate(&s, "temperature");
+    eprintln!("Model A, Δt = {dt}: k_BT = {t:.5} ± {se:.5}");
+    assert!((t - 1.0).abs() < 4.5 * se, "Model A: k_BT = {t} ± {se}");
+    for p in ["momentum_x", "momentum_y"] {
+        let (m, _) = estimate(&s, p);
+        assert!(m.abs() < 1e-9, "Model A: {p} = {m}");
+    }
+}
+
+/// Model A (3 dumbbells per particle) under Lees–Edwards shear with the pair noise on: bitwise
+/// identical final state and averages on 1–4 in-process ranks × 1–2 threads (the dumbbells'
+/// noise is one stream per particle and step keyed by its id; the ghosts carry the ensemble
+/// average ⟨QQ⟩, computed from the owned particles' dumbbells in a pass before the pair pass).
+/// Mutation (intended, not run): the pair pass not asking for the ghosts' moment
+/// (`ghost_fields` of the main pass without `generic_conformation_moment` in Model A) should make the
+/// multi-rank runs differ (the ghosts' ⟨QQ⟩ would be stale or zero).
+#[test]
+fn model_a_is_bitwise_identical_on_1_to_4_ranks_and_1_to_2_threads() {
+    let text = at_rest(0.01, 60, 0.3, "explicit_dumbbells = 3");
+    let d = digests_on_1_to_4_ranks(&text, "generic_polymer_model_a", |s| {
+        assert_eq!(s.steps, 60)
+    });
+    assert_all_equal("GENERIC polymer Model A, Lees–Edwards 2D", &d);
+}

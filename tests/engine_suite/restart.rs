@@ -690,11 +690,16 @@ profile_bins = 6
 /// + restart on another rank count + N/2, bitwise.
 ///
 /// Also with the smoothed velocity gradient in the Q equation (a derived field, recomputed,
-/// never checkpointed).
+/// never checkpointed), and Model A (3 explicit dumbbells per particle: the ensemble is
+/// checkpointed, its average ⟨QQ⟩ derived).
 #[test]
 fn generic_polymer_restart_is_bitwise() {
     // The GENERIC tests' box (16 × 16, k_BT = 1, λ_H = 0.1), sheared at 0.3, 120 steps.
-    for extra in ["", "conformation_gradient = \"smoothed\""] {
+    for extra in [
+        "",
+        "conformation_gradient = \"smoothed\"",
+        "explicit_dumbbells = 3",
+    ] {
         let text = super::generic_polymer::at_rest(0.01, 120, 0.3, extra);
         assert_restart_at_60_is_bitwise(&text, &format!("GENERIC polymer, Lees–Edwards {extra}"));
     }

@@ -49,6 +49,12 @@ pub const KEYS: &[KeyDoc] = &[
         "GENERIC polymer fluid: the velocity gradient κ the conformation equation dQ = Q·κ dt + … reads. \"particle\": the particle's own SPH gradient κ_i = (1/d_i) Σ_j ω_ij ⊗ v_ij (Eq. 4.60). \"smoothed\": its Shepard average over the kernel, κ̄_i = Σ_j W_ij κ_j / Σ_j W_ij (self included; one more pair pass), the same continuum gradient with less particle-scale noise, which the multiplicative Q·κ term would otherwise rectify into extra stretching; the momentum equation is unchanged, so the reversible part no longer conserves energy exactly (docs/theory/generic_polymer_particle.md §2.8).",
     ),
     key(
+        "fluid.explicit_dumbbells",
+        "integer ≥ 1",
+        "1",
+        "GENERIC polymer fluid: Model A, the number N_s of explicit conformation vectors (dumbbells) per particle, each advanced with the particle's velocity gradient, the drift of fluid.conformation_drift and its own FDT noise (one stream per particle and step, keyed by its id); the polymer pressure is k_BT n^d 1 − H n^d ⟨QQ⟩_i, the average over the particle's dumbbells, as in CONNFFESSIT. 1 is Model B (one Q per particle), bit for bit. Cost and memory grow as N_s (docs/theory/generic_polymer_particle.md §6).",
+    ),
+    key(
         "fluid.si.box_length",
         "float > 0 (m)",
         "required in [fluid.si]",

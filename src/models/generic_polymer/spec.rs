@@ -166,6 +166,14 @@ impl FluidModel for GenericPolymerCfg {
         }
         self.check_reduced(ix)?;
         self.check_units(case, ix)?;
+        if self.explicit_dumbbells == 0 {
+            return Err(ix.error(
+                &path(&["fluid", "explicit_dumbbells"]),
+                "found 0; Model A needs at least one explicit dumbbell per particle (1, the \
+                 default, is Model B: one conformation vector per particle)"
+                    .to_string(),
+            ));
+        }
         if let Some(pt) = self.transport_pressure
             && !(pt.is_finite() && pt >= 0.0)
         {
@@ -287,8 +295,16 @@ impl FluidModel for GenericPolymerCfg {
         let dim = case.dimension();
         let (a, b) = p.friction_coefficients(dim);
         let rho0 = case.mass() * density;
+        let model = if self.explicit_dumbbells > 1 {
+            format!(
+                "Model A, {} explicit dumbbells per particle",
+                self.explicit_dumbbells
+            )
+        } else {
+            "Model B".to_string()
+        };
         line(format!(
-            "GENERIC polymer fluid (Model B, isothermal, Hookean): Lucy r_c = {}, c_s = {:.6e}, \
+            "GENERIC polymer fluid ({model}, isothermal, Hookean): Lucy r_c = {}, c_s = {:.6e}, \
              η_s = {:.6e}, k_BT = {:.6e}, H = {:.6e}, λ_H = {:.6e}, n^d = {:.6e}",
             p.smoothing_length,
             p.sound_speed,
@@ -371,9 +387,12 @@ impl FluidModel for GenericPolymerCfg {
 
     fn memory(&self, case: &dyn CaseView) -> ModelMemory {
         let d = case.dimension() as f64;
-        // ρ, ρ̇, Q, Q̇ (state and a checkpoint copy) and the two-stage scratch.
+        // ρ, ρ̇, Q, Q̇ (state and a checkpoint copy) and the two-stage scratch; Model A: N_s
+        // vectors Q and Q̇, and ⟨QQ⟩ (D²).
+        let n_s = f64::from(self.explicit_dumbbells.max(1));
+        let moment = if n_s > 1.0 { d * d } else { 0.0 };
         ModelMemory {
-            numbers_per_particle: 2.0 * (2.0 + 3.0 * d) + 2.0 * (1.0 + d),
+            numbers_per_particle: 2.0 * (2.0 + 3.0 * d * n_s) + 2.0 * (1.0 + d * n_s) + moment,
             full_lists: 1.0,
             ensemble_bytes: 0.0,
         }
