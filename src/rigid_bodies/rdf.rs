@@ -92,33 +92,15 @@ pub fn exclusion_estimate(series: &[&[f64]], blocks: usize, width: f64) -> Estim
             samples: 0,
         };
     }
-    let mean_of = |from: usize, to: usize| -> Vec<f64> {
-        series
+    let radius_over = |r: std::ops::Range<usize>| {
+        let len = r.len() as f64;
+        let mean_g: Vec<f64> = series
             .iter()
-            .map(|s| s[from..to].iter().sum::<f64>() / (to - from) as f64)
-            .collect()
+            .map(|s| s[r.clone()].iter().sum::<f64>() / len)
+            .collect();
+        exclusion_radius(&mean_g, width)
     };
-    let mean = exclusion_radius(&mean_of(0, n), width);
-    let nb = blocks.min(n);
-    let size = n / nb.max(1);
-    if nb < 2 || size == 0 {
-        return Estimate {
-            mean,
-            stderr: f64::NAN,
-            samples: n,
-        };
-    }
-    let start = n - nb * size;
-    let radii: Vec<f64> = (0..nb)
-        .map(|k| exclusion_radius(&mean_of(start + k * size, start + (k + 1) * size), width))
-        .collect();
-    let bm = radii.iter().sum::<f64>() / nb as f64;
-    let var = radii.iter().map(|r| (r - bm) * (r - bm)).sum::<f64>() / (nb - 1) as f64;
-    Estimate {
-        mean,
-        stderr: (var / nb as f64).sqrt(),
-        samples: n,
-    }
+    crate::diagnostics::block_estimate(n, blocks, radius_over)
 }
 
 #[cfg(test)]
