@@ -48,6 +48,7 @@ pub mod domain;
 pub mod dpd_parameters;
 pub mod driver;
 pub mod error;
+pub mod estimate;
 pub mod fixed_sum;
 pub mod flow_scene;
 pub mod geometry;

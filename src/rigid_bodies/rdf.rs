@@ -29,7 +29,7 @@
 //! Every count is an exact fixed-point sum over the ranks' owned particles, and the cloud centres
 //! are exact sums too, so g(r) is bitwise the same on any rank and thread count.
 
-use crate::diagnostics::Estimate;
+use crate::estimate::Estimate;
 
 /// g below this is "excluded" (Nguyen 2021 L877).
 pub const EXCLUSION_THRESHOLD: f64 = 0.01;
@@ -81,7 +81,7 @@ pub fn exclusion_radius(g: &[f64], width: f64) -> f64 {
 }
 
 /// The exclusion radius of the time-averaged g(r) (`series[b]`: bin b's samples), with the
-/// block error: the series cut into `blocks` equal blocks as [`crate::diagnostics::block_average`]
+/// block error: the series cut into `blocks` equal blocks as [`crate::estimate::block_average`]
 /// does, the radius read from each block's mean g(r), and the standard error s_B/√n_B of those.
 pub fn exclusion_estimate(series: &[&[f64]], blocks: usize, width: f64) -> Estimate {
     let n = series.first().map_or(0, |s| s.len());
@@ -100,7 +100,7 @@ pub fn exclusion_estimate(series: &[&[f64]], blocks: usize, width: f64) -> Estim
             .collect();
         exclusion_radius(&mean_g, width)
     };
-    crate::diagnostics::block_estimate(n, blocks, radius_over)
+    crate::estimate::block_estimate(n, blocks, radius_over)
 }
 
 #[cfg(test)]
