@@ -15,7 +15,7 @@ fn run(out: &std::path::Path, sets: &[&str]) -> (Option<i32>, String) {
         .arg(case)
         .arg("--out")
         .arg(out)
-        .args(["-q", "-t", "1"]);
+        .args(["-q", "--no-plots", "-t", "1"]);
     for s in sets {
         cmd.arg("--set").arg(s);
     }

@@ -273,7 +273,7 @@ fn check_memory_estimate_covers_the_measured_peak() {
             .arg(stock_case_path(case))
             .arg("--out")
             .arg(&out)
-            .args(["-q", "-t", threads]);
+            .args(["-q", "--no-plots", "-t", threads]);
         for s in sets.iter().chain(&[
             "run.steps=20".to_string(),
             "run.equilibration=0".to_string(),

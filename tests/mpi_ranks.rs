@@ -24,6 +24,16 @@ fn mpirun(ranks: usize, threads: usize, case: &Path, out: &Path) -> std::process
     )
 }
 
+/// `--no-plots` for `run` and `restart`: these tests read summaries and checkpoints, and
+/// drawing the PNGs costs each run 1–5 s of Python (the plots have their own test in
+/// `tests/snapshots.rs`).
+fn no_plots(args: &[&str]) -> &'static [&'static str] {
+    match args.first() {
+        Some(&"run") | Some(&"restart") => &["--no-plots"],
+        _ => &[],
+    }
+}
+
 fn mpirun_args(ranks: usize, args: &[&str]) -> std::process::Output {
     Command::new("mpirun")
         .args([
@@ -35,6 +45,7 @@ fn mpirun_args(ranks: usize, args: &[&str]) -> std::process::Output {
         ])
         .arg(env!("CARGO_BIN_EXE_mesorheo"))
         .args(args)
+        .args(no_plots(args))
         .env("OMPI_ALLOW_RUN_AS_ROOT", "1")
         .env("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1")
         .env("NO_COLOR", "1")
@@ -292,6 +303,7 @@ fn mpirun_connffessit_sigterm_on_two_ranks_then_one_rank_restart_equals_one_run(
             "run",
             case.to_str().expect("utf-8"),
             "-q",
+            "--no-plots",
             "-t",
             "1",
             "--out",

@@ -412,6 +412,10 @@ fn a_checkpoint_locked_by_another_process_handle_is_still_read() {
 fn binary(args: &[&str]) -> Command {
     let mut c = Command::new(env!("CARGO_BIN_EXE_mesorheo"));
     c.args(args).env("NO_COLOR", "1");
+    // These tests read summaries and checkpoints: no PNGs (1–5 s of Python per run).
+    if matches!(args.first(), Some(&"run") | Some(&"restart")) {
+        c.arg("--no-plots");
+    }
     c
 }
 

@@ -13,8 +13,8 @@
 
 use crate::common;
 use common::{
-    assert_all_equal, assert_references_pass, case_from_str, digests_on_1_to_4_ranks,
-    sph_periodic_box, stock_case, stock_text, with_overrides,
+    assert_all_equal, assert_references_pass, assert_shortened_references_pass, case_from_str,
+    digests_on_1_to_4_ranks, sph_periodic_box, stock_case, stock_text, with_overrides,
 };
 use mesorheo::analytic::relaxation;
 use mesorheo::comm::SerialComm;
@@ -79,11 +79,24 @@ fn maxwell_shear_wave_follows_the_linear_solution() {
 
 // The stock viscoelastic cases pass their references, one test each (they run in parallel).
 
-/// `maxwell_shear_2d`: η and N₁ at De = 1 within 1 %.
+/// `maxwell_shear_2d` shortened to 9 000 of its 16 000 steps (7 λ of start-up, t ∈ [7, 9]
+/// averaged): the particles' own η and N₁ within the case's 0.2 % (measured 2026-11-28:
+/// +0.09 %, +0.02 %; after 4 λ the start-up's oscillation is still there: −0.76 %, +1.36 %),
+/// τ traceless, momentum conserved. The momentum-flux η and N₁ need the case's whole window
+/// t ∈ [8, 16] for its 0.4 % and 1 % (the pressure's slow oscillation: on t ∈ [7, 9] they read
+/// −0.90 ± 0.40 % and −2.46 ± 0.42 %), so here their bounds are 3 % and 5 %, which still fail
+/// the polymer term dropped from the momentum equation (the flux η falls to η_s, −98 %) or its
+/// sign flipped; the case's own bounds are `./run validate stock`'s.
 #[test]
 fn stock_maxwell_shear_passes_its_references() {
-    let name = "maxwell_shear_2d.toml";
-    assert_references_pass(name, &stock_case(name));
+    assert_shortened_references_pass(
+        "maxwell_shear_2d.toml",
+        &["run.steps=9000", "run.equilibration=7000"],
+        &[
+            ("viscosity", 0.03),
+            ("first_normal_stress_difference", 0.05),
+        ],
+    );
 }
 
 /// `maxwell_channel_relaxation_2d`: the relaxation profile within 2 % of the amplitude at every
@@ -94,12 +107,24 @@ fn stock_maxwell_channel_relaxation_passes_its_references() {
     assert_references_pass(name, &stock_case(name));
 }
 
-/// `fene_p_shear_2d`: η and N₁ against the closed form, tolerances in its file. Mutation:
-/// Z = 1 + tr τ/(G_p b), without the D (η +24 %, N₁ +53 %).
+/// `fene_p_shear_2d` shortened to 5 000 of its 16 000 steps (4 λ of start-up, t ∈ [4, 5]
+/// averaged; Z = 1.56 at Wi = 1, so the start-up decays as e^{−Zt/λ}): the particles' own η and
+/// N₁ against the closed form within the case's 0.6 % (measured 2026-11-28: +0.17 %, +0.27 %).
+/// The momentum-flux η and N₁ get 3 % and 5 % instead of the case's 1.5 % and 3 % (on this
+/// window they read +0.07 ± 0.55 % and +2.76 ± 0.94 %; the whole window is
+/// `./run validate stock`'s), which still fail the polymer term dropped from the momentum
+/// equation or its sign flipped. Mutation: Z = 1 + tr τ/(G_p b), without the D (η +24 %,
+/// N₁ +53 %).
 #[test]
 fn stock_fene_p_shear_passes_its_references() {
-    let name = "fene_p_shear_2d.toml";
-    assert_references_pass(name, &stock_case(name));
+    assert_shortened_references_pass(
+        "fene_p_shear_2d.toml",
+        &["run.steps=5000", "run.equilibration=4000"],
+        &[
+            ("viscosity", 0.03),
+            ("first_normal_stress_difference", 0.05),
+        ],
+    );
 }
 
 /// A Lees–Edwards box and a walled channel of Maxwell fluid (the wall particles advance their
