@@ -24,14 +24,15 @@ fn mpirun(ranks: usize, threads: usize, case: &Path, out: &Path) -> std::process
     )
 }
 
-/// `--no-plots` for `run` and `restart`: these tests read summaries and checkpoints, and
-/// drawing the PNGs costs each run 1–5 s of Python (the plots have their own test in
-/// `tests/snapshots.rs`).
-fn no_plots(args: &[&str]) -> &'static [&'static str] {
-    match args.first() {
-        Some(&"run") | Some(&"restart") => &["--no-plots"],
-        _ => &[],
+/// `args` with `--no-plots` after a `run` or `restart` subcommand: these tests read summaries
+/// and checkpoints, and drawing the PNGs costs each run 1–5 s of Python (the plots have their
+/// own test in `tests/snapshots.rs`).
+fn with_no_plots<'a>(args: &[&'a str]) -> Vec<&'a str> {
+    let mut out = args.to_vec();
+    if matches!(args.first(), Some(&"run") | Some(&"restart")) {
+        out.insert(1, "--no-plots");
     }
+    out
 }
 
 fn mpirun_args(ranks: usize, args: &[&str]) -> std::process::Output {
@@ -44,8 +45,7 @@ fn mpirun_args(ranks: usize, args: &[&str]) -> std::process::Output {
             "none",
         ])
         .arg(env!("CARGO_BIN_EXE_mesorheo"))
-        .args(args)
-        .args(no_plots(args))
+        .args(with_no_plots(args))
         .env("OMPI_ALLOW_RUN_AS_ROOT", "1")
         .env("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1")
         .env("NO_COLOR", "1")

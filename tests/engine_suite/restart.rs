@@ -411,10 +411,17 @@ fn a_checkpoint_locked_by_another_process_handle_is_still_read() {
 
 fn binary(args: &[&str]) -> Command {
     let mut c = Command::new(env!("CARGO_BIN_EXE_mesorheo"));
-    c.args(args).env("NO_COLOR", "1");
-    // These tests read summaries and checkpoints: no PNGs (1–5 s of Python per run).
-    if matches!(args.first(), Some(&"run") | Some(&"restart")) {
-        c.arg("--no-plots");
+    c.env("NO_COLOR", "1");
+    match args.split_first() {
+        // These tests read summaries and checkpoints: no PNGs (1–5 s of Python per run). The
+        // flag goes right after the subcommand: a caller's args may end in `--out` and add the
+        // folder with `.arg`.
+        Some((&sub, rest)) if sub == "run" || sub == "restart" => {
+            c.arg(sub).arg("--no-plots").args(rest);
+        }
+        _ => {
+            c.args(args);
+        }
     }
     c
 }
