@@ -58,11 +58,14 @@ fn stokes_shear_rate(x: f64, y: f64, r0: f64) -> f64 {
 /// Above and below the cylinder (|x − x₀| < Δ), in the band R + Δ/2 < r < R + 3Δ, the fluid
 /// particles' own shear rate S_xy/η = ∂_y v_x + ∂_x v_y against the Stokes solution at their
 /// positions, which rises to 3γ̇ at the surface (2.5γ̇ at r = R + Δ/4). Measured at t = 0.5 of
-/// the stock cell: the band's mean 1.4272 against Stokes 1.4329 (−0.4 %, 10 particles; the
-/// periodic images and Re = 1 change the field by a few per cent). In the first row
-/// (r < R + Δ/2, not tested) the kernel (support 3.1Δ) smears the steep gradient: 1.85
-/// against 2.5. The bound, 4 % on the band's mean, fails the Morris images switched off
-/// (morris_cap = 1: the disc's particles seen at rest; measured −9.2 %).
+/// the stock cell with its fitted images (2026-11-28): the band's mean 1.4490 against Stokes
+/// 1.4295 (+1.4 %, 9 particles; the periodic images and Re = 1 change the field by a few per
+/// cent); with Morris's images, the stock setting before, 1.4272 against 1.4329 (−0.4 %, 10
+/// particles). In the first row (r < R + Δ/2, not tested) the kernel (support 3.1Δ) smears
+/// the steep gradient: 1.85 against 2.5 (Morris's images). The bound, 4 % on the band's mean,
+/// failed Morris's images switched off (images = "morris" with morris_cap = 1: the disc's
+/// particles seen at rest; measured −9.2 % when Morris's images were the stock setting; not
+/// rerun since).
 #[test]
 fn shear_rate_near_the_inclusion_follows_stokes() {
     let loaded = stock_case("inclusion_newtonian_2d.toml");
