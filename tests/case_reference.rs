@@ -191,6 +191,7 @@ repulsion_range = 0.05
 [inclusions]
 centres = [[0.5, 0.5]]
 radius = 0.1
+images = "morris"
 morris_cap = 1.5
 mirror_pressure = true
 [integrator]

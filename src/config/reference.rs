@@ -185,10 +185,16 @@ const LATER_KEYS: &[KeyDoc] = &[
         "Radius R of every inclusion. The viscous time-step limit tightens to 0.025 r_s² ρ₀/η (measured).",
     ),
     key(
+        "inclusions.images",
+        "`morris` or `fitted`",
+        "`morris`",
+        "The velocity a fluid particle sees for an inclusion particle. `morris`: Morris's pairwise v_j = U − (d_j/d_i)(v_i − U), capped by `morris_cap` (a partial slip: the disc acts as one of radius R − 0.065Δ). `fitted` (the stock Newtonian cell's setting): the fluid's velocity relative to the inclusion fitted over the particle's fluid neighbours as a profile d·A vanishing at the surface, continued to the particle's depth (exact for a linear profile; no cap; docs/theory/sph_maxwell.md §2.3a). Measured at R = 0.1, Δ = 0.02 (2026-11-28): η_eff +0.04 %, torque −0.24 % against the Stokes cell (`morris`: −0.32 %, −2.63 %), stable at the stock Δt.",
+    ),
+    key(
         "inclusions.morris_cap",
         "float ≥ 1",
         "1.5",
-        "Cap β_max of Morris's extrapolation factor β = 1 + d_j/d_i (v_j = −(d_j/d_i) v_i relative to the inclusion).",
+        "Cap β_max of Morris's extrapolation factor β = 1 + d_j/d_i (v_j = −(d_j/d_i) v_i relative to the inclusion), with `images = \"morris\"`.",
     ),
     key(
         "inclusions.mirror_pressure",

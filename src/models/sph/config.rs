@@ -197,7 +197,10 @@ pub struct InclusionsCfg {
     pub centres: Vec<Vec<f64>>,
     /// Radius R of every inclusion.
     pub radius: f64,
-    /// Cap β_max of Morris's extrapolation factor β = 1 + d_j/d_i.
+    /// The velocity a fluid particle sees for an inclusion particle (default: Morris's).
+    #[serde(default)]
+    pub images: InclusionImages,
+    /// Cap β_max of Morris's extrapolation factor β = 1 + d_j/d_i (`images = "morris"`).
     #[serde(default = "beta_max")]
     pub morris_cap: f64,
     /// Whether an inclusion particle carries its fluid neighbour's pressure in their pair
@@ -232,6 +235,27 @@ impl InclusionsCfg {
         };
         self.centres.len() as f64 * each / lengths.iter().product::<f64>()
     }
+}
+
+/// `[inclusions] images`: the velocity a fluid particle sees for an inclusion particle j
+/// (docs/theory/sph_maxwell.md §2.3).
+#[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq, Eq, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum InclusionImages {
+    /// One velocity per inclusion particle, whichever fluid particle sees it: the fluid's
+    /// velocity relative to the inclusion fitted over j's fluid neighbours k (kernel weights)
+    /// as a profile that vanishes at the surface and grows linearly with the surface distance,
+    /// w = d A, and continued to j's depth: v_j = U − d_j A, d_j = R − |x_j − c| (the
+    /// tangential part carried round the circle). Exact for a profile linear in the distance to
+    /// the surface, with no cap (Morris's capped factor slips). Set by the stock Newtonian cell
+    /// (η_eff +0.04 %, torque −0.24 % against the Stokes cell at R = 0.1, Δ = 0.02;
+    /// docs/validation.md); not the default.
+    Fitted,
+    /// Morris's pairwise extrapolation from the fluid end, v_j = U − (d_j/d_i)(v_i − U) with
+    /// β = 1 + d_j/d_i capped at `morris_cap` (the capped factor slips: the disc acts as one of
+    /// radius R − 0.065Δ at β_max = 1.5).
+    #[default]
+    Morris,
 }
 
 /// `[walls] treatment`

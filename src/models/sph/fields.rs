@@ -27,6 +27,10 @@ pub const MIRROR_VELOCITY: &str = "mirror_velocity";
 /// An inclusion particle's offset x_j − c from its inclusion's centre (0 for every other
 /// particle): constant, since inclusions are fixed.
 pub const INCLUSION_OFFSET: &str = "inclusion_offset";
+/// An inclusion particle's image velocity relative to its inclusion, w_j = v_j − U, under
+/// `[inclusions] images = "fitted"`: the fluid's velocity fitted as a profile vanishing at the
+/// surface and continued to the particle's depth (D per particle; [`ImageKernel`]).
+pub const INCLUSION_IMAGE_VELOCITY: &str = "inclusion_image_velocity";
 /// An inclusion particle's share of its inclusion's traction moment ∮ (σ·n) ⊗ (x − c) dS:
 /// Σ_i F_{i→j}^a s_i^b over its fluid neighbours i, the pair force on it times the surface
 /// point s_i = R n_i nearest i (relative to the centre), D×D row-major.

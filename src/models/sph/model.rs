@@ -7,6 +7,8 @@ use crate::error::{Error, Quantity, UNSTABLE, Unstable};
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(super) enum Pass {
     Density,
+    /// The inclusion particles' fitted image velocities ([`ImageKernel`]).
+    InclusionImage,
     Gradient,
     Momentum,
     /// Mirror walls: the boundary particles' density and velocity from their mirror points.
@@ -87,6 +89,11 @@ impl<const D: usize> SphModel<D> {
             passes.push(Pass::Density);
         }
         let mirror_walls = walls.is_some_and(|w| w.treatment == WallTreatment::Mirror);
+        let fitted_images = cfg.derivatives == Derivatives::Sph
+            && inclusions.is_some_and(|inc| inc.images == InclusionImages::Fitted);
+        if fitted_images {
+            passes.push(Pass::InclusionImage);
+        }
         if cfg.derivatives == Derivatives::Msph {
             if mirror_walls {
                 passes.push(Pass::WallMirror);
@@ -134,6 +141,7 @@ impl<const D: usize> SphModel<D> {
             beta_max: inc.morris_cap,
             min_distance: 0.5 * spacing,
             offset: usize::MAX,
+            image: usize::MAX,
         });
         Self {
             cfg: cfg.clone(),
@@ -588,6 +596,30 @@ impl<const D: usize> SphModel<D> {
                     p.extra[self.density].data[..n].copy_from_slice(&sums);
                 })
             }
+            Pass::InclusionImage => {
+                let Some(geometry) = self.boundaries.inclusions else {
+                    return Ok(());
+                };
+                let velocity = self.cfg.sound_speed;
+                let w0 = kernel.w(0.0);
+                let support = self.cfg.support();
+                // Terms: W d² ≤ W(0) r_s², W d |u| ≤ W(0) r_s c₀ (velocities of order c₀ at
+                // most in a run that has not blown up).
+                let mut scales = vec![Scale::covering(HEADROOM * w0 * support * support)];
+                scales.extend(vec![
+                    Scale::covering(HEADROOM * w0 * support * velocity);
+                    1 + D
+                ]);
+                let k = ImageKernel {
+                    kernel,
+                    radius: geometry.radius,
+                    offset: geometry.offset,
+                    scales,
+                };
+                gather(&k, p, full, &mut sums).map(|()| {
+                    finish_images(p, &sums, geometry.radius, geometry.offset, geometry.image);
+                })
+            }
             Pass::Gradient => {
                 let corrected = self.cfg.velocity_gradient == GradientEstimate::Corrected;
                 let mut scales = vec![Scale::covering(HEADROOM * gradient_scale); D * D];
@@ -879,6 +911,13 @@ impl<const D: usize> ParticleModel<D> for SphModel<D> {
                 flags: FieldFlags::STATE,
             });
         }
+        if self.passes.contains(&Pass::InclusionImage) {
+            f.push(FieldSpec {
+                name: INCLUSION_IMAGE_VELOCITY,
+                kind: FieldKind::Vector,
+                flags: FieldFlags::DERIVED,
+            });
+        }
         if self.measures_traction() {
             f.push(FieldSpec {
                 name: INCLUSION_TRACTION_MOMENT,
@@ -908,6 +947,9 @@ impl<const D: usize> ParticleModel<D> for SphModel<D> {
         // The inclusion offsets never change; the ghosts get them before the first pass that
         // sees a boundary velocity (they persist until the next rebuild).
         let mut offsets_refreshed = self.inclusions.is_none();
+        // The fitted image velocities, formed on the owners, reach the ghosts before the first
+        // pass that sees a boundary velocity after them.
+        let mut images_pending = false;
         self.passes
             .iter()
             .map(|pass| match pass {
@@ -915,12 +957,23 @@ impl<const D: usize> ParticleModel<D> for SphModel<D> {
                     name: "summation density",
                     ghost_fields: Vec::new(),
                 },
+                Pass::InclusionImage => {
+                    images_pending = true;
+                    PassSpec {
+                        name: "inclusion image velocities",
+                        ghost_fields: Vec::new(),
+                    }
+                }
                 Pass::Gradient => {
                     density_refreshed = true;
                     let mut ghost_fields = vec![DENSITY];
                     if !offsets_refreshed {
                         ghost_fields.push(INCLUSION_OFFSET);
                         offsets_refreshed = true;
+                    }
+                    if images_pending {
+                        ghost_fields.push(INCLUSION_IMAGE_VELOCITY);
+                        images_pending = false;
                     }
                     PassSpec {
                         name: "velocity gradient",
@@ -934,6 +987,9 @@ impl<const D: usize> ParticleModel<D> for SphModel<D> {
                     }
                     if !offsets_refreshed {
                         ghost_fields.push(INCLUSION_OFFSET);
+                    }
+                    if images_pending {
+                        ghost_fields.push(INCLUSION_IMAGE_VELOCITY);
                     }
                     if self.cfg.derivatives == Derivatives::Sph {
                         ghost_fields.extend(self.stress_fields());
@@ -975,6 +1031,7 @@ impl<const D: usize> ParticleModel<D> for SphModel<D> {
         // density pass scatters from the half list, and so does the momentum pass except in
         // a fluid-only scheme, whose momentum sums are gathered in lanes (`lanes`).
         self.passes.contains(&Pass::Gradient)
+            || self.passes.contains(&Pass::InclusionImage)
             || self.passes.contains(&Pass::MsphGradient)
             || self.momentum_in_lanes()
     }
@@ -1049,6 +1106,11 @@ impl<const D: usize> ParticleModel<D> for SphModel<D> {
                 .extra_index(INCLUSION_OFFSET)
                 .ok_or("the inclusion offset field is not registered")?;
             geometry.offset = offset;
+            if self.passes.contains(&Pass::InclusionImage) {
+                geometry.image = p
+                    .extra_index(INCLUSION_IMAGE_VELOCITY)
+                    .ok_or("the inclusion image velocity field is not registered")?;
+            }
             if !restarted {
                 // The particles inside a disc are its boundary particles (the species the
                 // engine gives them follows the same test, [`InclusionsCfg::offset`]).

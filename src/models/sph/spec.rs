@@ -400,13 +400,20 @@ impl FluidModel for SphCfg {
             } else {
                 "spheres"
             };
+            let images = match inc.images {
+                crate::models::sph::InclusionImages::Fitted => {
+                    "fitted image velocities (a profile vanishing at the surface)".to_string()
+                }
+                crate::models::sph::InclusionImages::Morris => {
+                    format!("Morris images capped at β = {}", inc.morris_cap)
+                }
+            };
             line(format!(
                 "inclusions: {} fixed {shape} of radius {}, volume fraction φ = {phi:.5}, \
-                 Morris images capped at β = {}; a Newtonian fluid's mean stress over the \
+                 {images}; a Newtonian fluid's mean stress over the \
                  fluid is exactly 1/(1 − φ) = {:.5} of ηγ̇{}",
                 inc.centres.len(),
                 inc.radius,
-                inc.morris_cap,
                 1.0 / (1.0 - phi),
                 if case.dimension() == 2 {
                     format!(
