@@ -719,6 +719,7 @@ impl<const D: usize> Scene for FlowScene<'_, D> {
             // blocks.
             warnings,
             state_digest: format!("{:016x}", e.digest()),
+            load: None,
         })
     }
 

@@ -43,6 +43,7 @@ pub mod check;
 pub mod comm;
 pub mod config;
 pub mod correlator;
+pub mod counting_sort;
 pub mod diagnostics;
 pub mod domain;
 pub mod dpd_parameters;

@@ -7,6 +7,8 @@
 //! every step, such as an SPH density, does neither); fixed-width fields are sent to ghosts
 //! when a model's pass asks for them ([`crate::domain::HaloPlan::refresh_fields`]).
 
+use rayon::prelude::*;
+
 /// A D × D tensor (a velocity gradient κ_αβ = ∂v_α/∂x_β, a stress, a conformation tensor).
 /// Fields store it row-major in D² plain numbers (so it migrates, checkpoints and travels to
 /// ghosts like any field); kernels read and write it as this type through
@@ -276,6 +278,15 @@ pub struct VarField {
     pub data: VarData,
 }
 
+/// One ghost as the halo makes it: identity, position and velocity of its image, species.
+#[derive(Clone, Copy, Debug)]
+pub struct Ghost<const D: usize> {
+    pub gid: u64,
+    pub pos: [f64; D],
+    pub vel: [f64; D],
+    pub species: u8,
+}
+
 /// All particles a rank holds.
 #[derive(Clone, Debug, Default)]
 pub struct Particles<const D: usize> {
@@ -485,18 +496,29 @@ impl<const D: usize> Particles<D> {
         }
     }
 
-    /// Appends a ghost; its registered fields start at zero (a pass that reads them asks the
-    /// halo to refresh them first).
-    pub fn push_ghost(&mut self, gid: u64, pos: [f64; D], vel: [f64; D], species: u8) {
-        self.gid.push(gid);
-        self.pos.push(pos);
-        self.vel.push(vel);
+    /// Appends ghosts in order; their registered fields start at zero (a pass that reads them
+    /// asks the halo to refresh them first).
+    pub fn push_ghosts(&mut self, ghosts: &[Ghost<D>]) {
+        self.gid.extend(ghosts.iter().map(|g| g.gid));
+        self.pos.extend(ghosts.iter().map(|g| g.pos));
+        self.vel.extend(ghosts.iter().map(|g| g.vel));
         if let Some(s) = &mut self.species {
-            s.push(species);
+            s.extend(ghosts.iter().map(|g| g.species));
         }
         for f in &mut self.extra {
-            f.data.extend(std::iter::repeat_n(0.0, f.width));
+            f.data
+                .extend(std::iter::repeat_n(0.0, f.width * ghosts.len()));
         }
+    }
+
+    /// Appends one ghost (see [`Self::push_ghosts`]).
+    pub fn push_ghost(&mut self, gid: u64, pos: [f64; D], vel: [f64; D], species: u8) {
+        self.push_ghosts(&[Ghost {
+            gid,
+            pos,
+            vel,
+            species,
+        }]);
     }
 
     /// Number of words [`Self::pack_owned`] writes before the variable-length payload.
@@ -584,25 +606,52 @@ impl<const D: usize> Particles<D> {
     pub fn permute_owned(&mut self, order: &[u32]) {
         debug_assert_eq!(self.n_owned, self.len());
         debug_assert_eq!(order.len(), self.n_owned);
-        fn apply<T: Clone>(v: &mut Vec<T>, order: &[u32], width: usize) {
-            let mut out = Vec::with_capacity(v.len());
-            for &o in order {
-                let o = o as usize;
-                out.extend_from_slice(&v[o * width..(o + 1) * width]);
+        // Gathers in the new order on the rayon pool of the caller (the rank's threads), or on
+        // the calling thread alone when it is no pool's (never rayon's global pool).
+        let on_pool = rayon::current_thread_index().is_some();
+        fn apply_to<T: Copy + Send + Sync>(v: &mut Vec<T>, order: &[u32], on_pool: bool) {
+            if !on_pool {
+                *v = order.iter().map(|&o| v[o as usize]).collect();
+                return;
             }
+            let mut out = Vec::with_capacity(order.len());
+            order
+                .par_iter()
+                .with_min_len(4096)
+                .map(|&o| v[o as usize])
+                .collect_into_vec(&mut out);
             *v = out;
         }
-        apply(&mut self.gid, order, 1);
-        apply(&mut self.pos, order, 1);
-        apply(&mut self.vel, order, 1);
-        apply(&mut self.force, order, 1);
-        apply(&mut self.vel_half, order, 1);
-        apply(&mut self.image, order, 1);
+        fn apply_wide(v: &mut Vec<f64>, order: &[u32], width: usize, on_pool: bool) {
+            let mut out = vec![0.0; v.len()];
+            if !on_pool {
+                for (dst, &o) in out.chunks_exact_mut(width.max(1)).zip(order) {
+                    let o = o as usize;
+                    dst.copy_from_slice(&v[o * width..(o + 1) * width]);
+                }
+                *v = out;
+                return;
+            }
+            out.par_chunks_mut(width.max(1))
+                .zip(order.par_iter())
+                .with_min_len(1024)
+                .for_each(|(dst, &o)| {
+                    let o = o as usize;
+                    dst.copy_from_slice(&v[o * width..(o + 1) * width]);
+                });
+            *v = out;
+        }
+        apply_to(&mut self.gid, order, on_pool);
+        apply_to(&mut self.pos, order, on_pool);
+        apply_to(&mut self.vel, order, on_pool);
+        apply_to(&mut self.force, order, on_pool);
+        apply_to(&mut self.vel_half, order, on_pool);
+        apply_to(&mut self.image, order, on_pool);
         if let Some(s) = &mut self.species {
-            apply(s, order, 1);
+            apply_to(s, order, on_pool);
         }
         for f in &mut self.extra {
-            apply(&mut f.data, order, f.width);
+            apply_wide(&mut f.data, order, f.width, on_pool);
         }
         // Ensembles are moved, not cloned: no second copy of the largest state.
         for f in &mut self.var {

@@ -144,6 +144,8 @@ pub struct SceneReport {
     pub warnings: Vec<String>,
     /// Digest of the final state.
     pub state_digest: String,
+    /// This rank's owned particles, ghosts and listed pairs at the end (particle scenes).
+    pub load: Option<[f64; 3]>,
 }
 
 /// A particle scene: the simulation and its snapshot series.
@@ -439,6 +441,7 @@ impl<const D: usize> Scene for ParticleScene<'_, D> {
             shear_stress_profile,
             colloid_solvent_rdf,
             state_digest: sim.state_digest(),
+            load: Some(sim.load()),
         })
     }
 
@@ -780,6 +783,7 @@ pub fn drive(
     scene.close_outputs(options.out.as_deref())?;
     // The warnings reach the console once, with the results (`mesorheo::summary::render`).
     let report = scene.report(completed)?;
+    let times = scene.times().clone();
     let steps_run = (scene.step() - first_step) as f64;
     let rate = |n: f64| n * steps_run / loop_seconds.max(1e-300);
     let mut peak = [crate::capacity::peak_resident_memory().unwrap_or(-1.0)];
@@ -826,8 +830,40 @@ pub fn drive(
         validation: report.validation,
         warnings: report.warnings,
         state_digest: report.state_digest,
-        phase_seconds: scene.times().clone(),
+        phase_seconds_over_ranks: (comm.size() > 1).then(|| spread(comm, &times)),
+        load: report.load.map(|load| {
+            let mut sum = load;
+            let mut max = load;
+            comm.allreduce_sum(&mut sum);
+            comm.allreduce_max(&mut max);
+            let n = comm.size() as f64;
+            let stat = |k: usize| crate::summary::MeanMax {
+                mean: sum[k] / n,
+                max: max[k],
+            };
+            crate::summary::Load {
+                owned: stat(0),
+                ghosts: stat(1),
+                pairs: stat(2),
+            }
+        }),
+        phase_seconds: times,
     })
+}
+
+/// Every rank's phase times reduced: their mean and the largest (collective).
+fn spread(comm: &dyn Comm, times: &PhaseTimes) -> crate::summary::PhaseSpread {
+    let mine = times.to_numbers();
+    let mut sum = mine.clone();
+    let mut max = mine;
+    comm.allreduce_sum(&mut sum);
+    comm.allreduce_max(&mut max);
+    let n = comm.size() as f64;
+    sum.iter_mut().for_each(|x| *x /= n);
+    crate::summary::PhaseSpread {
+        mean: times.with_numbers(&sum),
+        max: times.with_numbers(&max),
+    }
 }
 
 /// One rank's neighbour-list rebuilds since its last progress interval, logged at debug as one

@@ -190,8 +190,38 @@ pub struct Summary {
     pub warnings: Vec<String>,
     /// Hash of the final state in global-id order.
     pub state_digest: String,
+    /// Every rank's phase times, their mean and the largest over the ranks (runs on more than
+    /// one rank): the spread between the two is load imbalance.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub phase_seconds_over_ranks: Option<PhaseSpread>,
+    /// Owned particles, ghosts and listed pairs per rank at the end: mean and largest over
+    /// the ranks (particle scenes).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub load: Option<Load>,
     /// Rank 0's wall time per phase of the loop, seconds.
     pub phase_seconds: crate::sim::PhaseTimes,
+}
+
+/// The mean and the largest of a per-rank quantity.
+#[derive(Clone, Copy, Debug, Serialize, PartialEq)]
+pub struct MeanMax {
+    pub mean: f64,
+    pub max: f64,
+}
+
+/// Per-rank counts at the end of a run.
+#[derive(Clone, Copy, Debug, Serialize, PartialEq)]
+pub struct Load {
+    pub owned: MeanMax,
+    pub ghosts: MeanMax,
+    pub pairs: MeanMax,
+}
+
+/// Phase times over the ranks.
+#[derive(Clone, Debug, Serialize)]
+pub struct PhaseSpread {
+    pub mean: crate::sim::PhaseTimes,
+    pub max: crate::sim::PhaseTimes,
 }
 
 /// The instantaneous binned profiles u_x(y) of a run, by step (what a start-up reference reads).

@@ -71,6 +71,44 @@ fn case_text() -> String {
     )
 }
 
+/// The summary's per-rank load (owned particles, ghosts, pairs: mean and largest over the
+/// ranks) adds up to the particle count, and on more than one rank the phase times' spread
+/// over the ranks is there, each mean at most its largest, the rebuild count the same on every
+/// rank (every rank rebuilds together).
+fn assert_load_and_phase_spread(v: &serde_json::Value, ranks: usize) {
+    let num = |x: &serde_json::Value| x.as_f64().expect("a number");
+    let owned = &v["load"]["owned"];
+    let particles = num(&v["particles"]);
+    assert_eq!(num(&owned["mean"]) * ranks as f64, particles, "{owned}");
+    assert!(num(&owned["max"]) >= num(&owned["mean"]));
+    assert!(num(&owned["max"]) < particles || ranks == 1);
+    for k in ["ghosts", "pairs"] {
+        assert!(num(&v["load"][k]["mean"]) > 0.0, "{k}: {}", v["load"]);
+    }
+    assert!(num(&v["phase_seconds"]["pass_wait"]) >= 0.0);
+    let spread = &v["phase_seconds_over_ranks"];
+    if ranks == 1 {
+        assert!(spread.is_null(), "one rank has no spread: {spread}");
+        return;
+    }
+    for phase in [
+        "neighbour",
+        "rebuild_comm",
+        "halo",
+        "forces",
+        "pass_wait",
+        "integrate",
+    ] {
+        let (mean, max) = (num(&spread["mean"][phase]), num(&spread["max"][phase]));
+        assert!(
+            0.0 <= mean && mean <= max,
+            "{phase}: mean {mean}, max {max}"
+        );
+    }
+    assert_eq!(spread["mean"]["rebuilds"], v["phase_seconds"]["rebuilds"]);
+    assert_eq!(spread["max"]["rebuilds"], v["phase_seconds"]["rebuilds"]);
+}
+
 #[test]
 fn mpirun_one_and_two_ranks_give_the_same_state() {
     let dir = tempfile::tempdir().expect("tempdir");
@@ -91,6 +129,7 @@ fn mpirun_one_and_two_ranks_give_the_same_state() {
         )
         .expect("json");
         assert_eq!(v["ranks"], ranks);
+        assert_load_and_phase_spread(&v, ranks);
         seen.push((ranks, threads, digest(&out)));
         assert!(out.join("logs").join("rank0000.log").exists());
         if ranks == 2 {

@@ -13,7 +13,8 @@ use super::slab::Slab;
 use super::tags;
 use crate::comm::Comm;
 use crate::geometry::{SimBox, axis_order};
-use crate::particles::Particles;
+use crate::particles::{Ghost, Particles};
+use rayon::prelude::*;
 
 /// A local periodic image: ghost = image `k` of particle `src` along `axis`.
 #[derive(Clone, Copy, Debug)]
@@ -71,6 +72,7 @@ impl HaloPlan {
         range: f64,
         step: u64,
         dt: f64,
+        pool: &rayon::ThreadPool,
     ) -> Self {
         particles.clear_ghosts();
         let offset = sim_box.le_offset(step, dt);
@@ -103,30 +105,51 @@ impl HaloPlan {
         plan.recv_from_up = from_up.len() / width;
         plan.unpack(particles, &from_down, &from_up);
 
-        // Local images along the other periodic axes, in the fixed axis order.
+        // Local images along the other periodic axes, in the fixed axis order; each axis's
+        // images are found and made on the rank's threads, in the order of a serial loop over
+        // the particles (owned, then the ghosts made so far) and k = −2, −1, 1, 2.
         for axis in axis_order::<D>() {
             if axis == a || sim_box.boundaries[axis] != crate::geometry::Boundary::Periodic {
                 continue;
             }
             let length = sim_box.lengths[axis];
-            let existing = particles.len();
-            for src in 0..existing {
-                for k in [-2i32, -1, 1, 2] {
-                    let c = particles.pos[src][axis] + f64::from(k) * length;
-                    if c >= -range && c < length + range {
-                        plan.local.push(LocalImage {
-                            src: src as u32,
-                            axis: axis as u8,
-                            k: k as i8,
-                        });
-                        let mut p = particles.pos[src];
-                        let mut v = particles.vel[src];
-                        sim_box.apply_image(&mut p, &mut v, axis, k, offset);
-                        let species = particles.species_of(src);
-                        particles.push_ghost(particles.gid[src], p, v, species);
-                    }
-                }
-            }
+            let existing = &*particles;
+            let (images, ghosts) = pool.install(|| {
+                let images: Vec<LocalImage> = (0..existing.len())
+                    .into_par_iter()
+                    .with_min_len(4096)
+                    .flat_map_iter(|src| {
+                        let x = existing.pos[src][axis];
+                        [-2i32, -1, 1, 2].into_iter().filter_map(move |k| {
+                            let c = x + f64::from(k) * length;
+                            (c >= -range && c < length + range).then_some(LocalImage {
+                                src: src as u32,
+                                axis: axis as u8,
+                                k: k as i8,
+                            })
+                        })
+                    })
+                    .collect();
+                let ghosts: Vec<Ghost<D>> = images
+                    .par_iter()
+                    .with_min_len(4096)
+                    .map(|img| {
+                        let src = img.src as usize;
+                        let mut p = existing.pos[src];
+                        let mut v = existing.vel[src];
+                        sim_box.apply_image(&mut p, &mut v, axis, i32::from(img.k), offset);
+                        Ghost {
+                            gid: existing.gid[src],
+                            pos: p,
+                            vel: v,
+                            species: existing.species_of(src),
+                        }
+                    })
+                    .collect();
+                (images, ghosts)
+            });
+            particles.push_ghosts(&ghosts);
+            plan.local.extend(images);
         }
         plan
     }

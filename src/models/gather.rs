@@ -18,8 +18,9 @@
 //! contribution to i is always c(i, j), computed on i's rank from i's copy and j's (ghost or
 //! owned) copy.
 
+use crate::counting_sort::{self, DisjointSlots};
 use crate::fixed_sum::{FixedSum, LaneFactor, LaneSums, Scale, Split};
-use crate::neighbour::NeighbourList;
+use crate::neighbour::{NEAR_AT_BUILD, NeighbourList};
 use crate::particles::Particles;
 use crate::simd::Isa;
 use rayon::prelude::*;
@@ -54,23 +55,45 @@ pub struct LaneRows {
 }
 
 impl LaneRows {
+    /// Interleaves the rows on the rank's threads: each group's length first (its longest
+    /// row × [`LANES`]), the groups' starts by a prefix sum, then every group filled on its own.
     fn new(offsets: &[usize], neighbours: &[u32], n_owned: usize) -> Self {
         let groups = n_owned.div_ceil(LANES);
+        let member = |g: usize, l: usize| (g * LANES + l).min(n_owned - 1);
+        let row = |g: usize, l: usize| {
+            let m = member(g, l);
+            &neighbours[offsets[m]..offsets[m + 1]]
+        };
+        let longest: Vec<usize> = (0..groups)
+            .into_par_iter()
+            .with_min_len(1024)
+            .map(|g| (0..LANES).map(|l| row(g, l).len()).max().unwrap_or(0))
+            .collect();
         let mut starts = Vec::with_capacity(groups + 1);
-        let mut index = Vec::with_capacity(neighbours.len() + neighbours.len() / 4);
         starts.push(0);
-        for g in 0..groups {
-            let member = |l: usize| (g * LANES + l).min(n_owned - 1);
-            let row = |l: usize| &neighbours[offsets[member(l)]..offsets[member(l) + 1]];
-            let longest = (0..LANES).map(|l| row(l).len()).max().unwrap_or(0);
-            for k in 0..longest {
-                for l in 0..LANES {
-                    index.push(row(l).get(k).copied().unwrap_or(member(l) as u32));
-                }
-            }
-            starts.push(index.len());
+        for (g, &k) in longest.iter().enumerate() {
+            starts.push(starts[g] + k * LANES);
         }
-        let max_index = index.iter().copied().max().unwrap_or(0);
+        let mut index = vec![0u32; starts[groups]];
+        let mut parts = Vec::with_capacity(groups);
+        let mut rest = &mut index[..];
+        for &k in &longest {
+            let (head, tail) = rest.split_at_mut(k * LANES);
+            parts.push(head);
+            rest = tail;
+        }
+        parts
+            .into_par_iter()
+            .enumerate()
+            .with_min_len(1024)
+            .for_each(|(g, out)| {
+                for (k, entries) in out.chunks_exact_mut(LANES).enumerate() {
+                    for (l, e) in entries.iter_mut().enumerate() {
+                        *e = row(g, l).get(k).copied().unwrap_or(member(g, l) as u32);
+                    }
+                }
+            });
+        let max_index = index.par_iter().copied().max().unwrap_or(0);
         Self {
             starts,
             index,
@@ -98,28 +121,52 @@ impl LaneRows {
 impl FullList {
     /// The full rows of the half list's `n_owned` owned particles: pair [i, j] puts j in row i
     /// and, when j is owned, i in row j.
+    ///
+    /// A stable counting sort of the half list's entries by row, on the rank's threads
+    /// ([`crate::counting_sort`]): each row holds its neighbours in the half list's order,
+    /// the same rows on any number of threads.
     pub fn from_half<const D: usize>(list: &NeighbourList<D>, n_owned: usize) -> Self {
-        let mut counts = vec![0usize; n_owned + 1];
-        for [i, j] in list.pairs() {
-            counts[i as usize + 1] += 1;
-            if (j as usize) < n_owned {
-                counts[j as usize + 1] += 1;
-            }
-        }
-        for k in 1..counts.len() {
-            counts[k] += counts[k - 1];
-        }
-        let offsets = counts.clone();
-        let mut fill = counts;
+        let pairs = list.flagged_pairs();
+        let owned = n_owned as u32;
+        let per = pairs
+            .len()
+            .div_ceil(counting_sort::chunk_count(pairs.len()))
+            .max(1);
+        let counts: Vec<Vec<u32>> = pairs
+            .par_chunks(per)
+            .map(|chunk| {
+                let mut count = vec![0u32; n_owned];
+                for &[i, j] in chunk {
+                    let j = j & !NEAR_AT_BUILD;
+                    count[i as usize] += 1;
+                    if j < owned {
+                        count[j as usize] += 1;
+                    }
+                }
+                count
+            })
+            .collect();
+        let (offsets, mut next) = counting_sort::bases(counts, n_owned);
         let mut neighbours = vec![0u32; offsets[n_owned]];
-        for [i, j] in list.pairs() {
-            neighbours[fill[i as usize]] = j;
-            fill[i as usize] += 1;
-            if (j as usize) < n_owned {
-                neighbours[fill[j as usize]] = i;
-                fill[j as usize] += 1;
-            }
-        }
+        let slots = DisjointSlots::new(&mut neighbours);
+        pairs
+            .par_chunks(per)
+            .zip(next.par_iter_mut())
+            .for_each(|(chunk, next)| {
+                for &[i, j] in chunk {
+                    let j = j & !NEAR_AT_BUILD;
+                    let (i, ju) = (i as usize, j as usize);
+                    // SAFETY (both writes): this chunk's entries of a row take the run of
+                    // slots `counting_sort::bases` gave that (chunk, row), one slot each; no
+                    // other chunk and no other row is given any of them.
+                    unsafe { slots.write(next[i] as usize, j) };
+                    next[i] += 1;
+                    if j < owned {
+                        unsafe { slots.write(next[ju] as usize, i as u32) };
+                        next[ju] += 1;
+                    }
+                }
+            });
         let lanes = LaneRows::new(&offsets, &neighbours, n_owned);
         Self {
             offsets,
@@ -586,7 +633,26 @@ impl<const D: usize> Default for PairBatch<D> {
 /// Per-thread accumulators of [`scatter`], kept between calls.
 #[derive(Debug, Default)]
 pub struct ScatterBuffers {
-    buffers: Vec<Vec<FixedSum>>,
+    buffers: Vec<Band>,
+}
+
+/// One thread's accumulators over the band of owned particles its chunk of pairs touches
+/// (particle `lo + k`'s sums at `acc[k · width ..]`): the list runs in cell order over spatially
+/// ordered particles, so each thread clears and merges its band, not every owned particle.
+#[derive(Debug, Default)]
+struct Band {
+    lo: usize,
+    acc: Vec<FixedSum>,
+}
+
+impl Band {
+    /// The sums of particle `i` (width numbers), if in the band.
+    #[inline]
+    fn get(&self, i: usize, width: usize) -> Option<&[FixedSum]> {
+        let k = i.wrapping_sub(self.lo);
+        self.acc
+            .get(k.checked_mul(width)?..(k + 1).checked_mul(width)?)
+    }
 }
 
 /// One thread's share of [`scatter`].
@@ -604,12 +670,13 @@ struct ScatterChunk<'a, const D: usize, K> {
 #[target_feature(enable = "avx2")]
 fn scatter_chunk_avx2<const D: usize, K: SymmetricKernel<D>>(
     chunk: &ScatterChunk<D, K>,
-    acc: &mut Vec<FixedSum>,
+    band: &mut Band,
 ) -> Result<(), PairError> {
-    scatter_chunk(chunk, acc)
+    scatter_chunk(chunk, band)
 }
 
-/// Scatters a chunk of listed pairs into the thread's accumulators `acc` (n_owned × width), in
+/// Scatters a chunk of listed pairs into the thread's accumulators `band` (the band of owned
+/// particles the chunk touches × width), in
 /// batches: the separations of up to [`BATCH`] listed pairs, those within the cutoff (and with
 /// an end whose sums are wanted) kept without a branch, their terms from
 /// [`SymmetricKernel::pair_batch`], each quantity split into its fixed-point words in one loop,
@@ -617,7 +684,7 @@ fn scatter_chunk_avx2<const D: usize, K: SymmetricKernel<D>>(
 #[inline(always)]
 fn scatter_chunk<const D: usize, K: SymmetricKernel<D>>(
     chunk: &ScatterChunk<D, K>,
-    acc: &mut Vec<FixedSum>,
+    band: &mut Band,
 ) -> Result<(), PairError> {
     let ScatterChunk {
         kernel,
@@ -629,8 +696,22 @@ fn scatter_chunk<const D: usize, K: SymmetricKernel<D>>(
     let parities = kernel.parities();
     let width = scales.len();
     let n = p.n_owned;
+    // The band of owned particles the chunk's pairs touch.
+    let (mut lo, mut hi) = (usize::MAX, 0);
+    for &[i, j] in pairs {
+        let (i, j) = (i as usize, (j & !crate::neighbour::NEAR_AT_BUILD) as usize);
+        lo = lo.min(i);
+        hi = hi.max(i + 1);
+        if j < n {
+            lo = lo.min(j);
+            hi = hi.max(j + 1);
+        }
+    }
+    let lo = lo.min(hi);
+    band.lo = lo;
+    let acc = &mut band.acc;
     acc.clear();
-    acc.resize(n * width, FixedSum::ZERO);
+    acc.resize((hi - lo) * width, FixedSum::ZERO);
     let mut batch = PairBatch::<D>::default();
     let mut r2 = [0.0; BATCH];
     let mut terms: BatchTerms = [[0.0; BATCH]; MAX_SCATTER_WIDTH];
@@ -675,12 +756,12 @@ fn scatter_chunk<const D: usize, K: SymmetricKernel<D>>(
             for q in 0..width {
                 let w = words[q][k];
                 if to_i {
-                    acc[i * width + q].add_split(w);
+                    acc[(i - lo) * width + q].add_split(w);
                 }
                 if to_j {
                     match parities[q] {
-                        Parity::Even => acc[j * width + q].add_split(w),
-                        Parity::Odd => acc[j * width + q].sub_split(w),
+                        Parity::Even => acc[(j - lo) * width + q].add_split(w),
+                        Parity::Odd => acc[(j - lo) * width + q].sub_split(w),
                     }
                 }
             }
@@ -718,7 +799,7 @@ pub fn scatter_on<const D: usize, K: SymmetricKernel<D>>(
     }
     let rc2 = kernel.cutoff() * kernel.cutoff();
     let chunks = rayon::current_num_threads().max(1);
-    work.buffers.resize_with(chunks, Vec::new);
+    work.buffers.resize_with(chunks, Band::default);
     let avx2 = isa.has_avx2();
     let results: Vec<Result<(), PairError>> = work
         .buffers
@@ -758,9 +839,11 @@ pub fn scatter_on<const D: usize, K: SymmetricKernel<D>>(
                         s.add_split(split_term(&scales[q], p, (i, i), q, term[q])?);
                     }
                     for b in buffers {
-                        let mut x = b[i * width + q];
-                        x.normalize();
-                        s.merge(&x);
+                        if let Some(sums) = b.get(i, width) {
+                            let mut x = sums[q];
+                            x.normalize();
+                            s.merge(&x);
+                        }
                     }
                     sums_out[q] = scales[q].value(&s);
                 }
@@ -860,6 +943,90 @@ mod tests {
         rows.iter_mut().for_each(|r| r.sort());
         // 0–1 and 1–2 are owned pairs (both rows), 2–ghost(3) only in row 2.
         assert_eq!(rows, vec![vec![1], vec![0, 2], vec![1, 3]]);
+    }
+
+    /// The old serial construction of the rows: the reference of the threaded one.
+    fn serial_rows(list: &NeighbourList<2>, n_owned: usize) -> (Vec<usize>, Vec<u32>) {
+        let mut offsets = vec![0usize; n_owned + 1];
+        for [i, j] in list.pairs() {
+            offsets[i as usize + 1] += 1;
+            if (j as usize) < n_owned {
+                offsets[j as usize + 1] += 1;
+            }
+        }
+        for k in 1..offsets.len() {
+            offsets[k] += offsets[k - 1];
+        }
+        let mut fill = offsets.clone();
+        let mut neighbours = vec![0u32; offsets[n_owned]];
+        for [i, j] in list.pairs() {
+            neighbours[fill[i as usize]] = j;
+            fill[i as usize] += 1;
+            if (j as usize) < n_owned {
+                neighbours[fill[j as usize]] = i;
+                fill[j as usize] += 1;
+            }
+        }
+        (offsets, neighbours)
+    }
+
+    /// 40 000 scattered owned particles and 4 000 ghosts: more pairs than one chunk of the
+    /// threaded sort, so 2, 3 and 8 threads cut the list into several. Every thread count gives
+    /// the serial construction's rows, entry for entry, and the same lane rows.
+    #[test]
+    fn full_rows_are_the_serial_construction_on_any_number_of_threads() {
+        let mut p = Particles::<2>::default();
+        let mut x: u64 = 0x2545_F491_4F6C_DD1D;
+        let mut next = || {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            (x >> 11) as f64 / (1u64 << 53) as f64
+        };
+        for g in 0..44_000u64 {
+            let pos = [100.0 * next(), 40.0 * next()];
+            if g < 40_000 {
+                p.push_owned(g, pos, [0.0; 2]);
+            } else {
+                p.push_ghost(g, pos, [0.0; 2], 0);
+            }
+        }
+        let list = NeighbourList::build(&p, 0.5, 0.4);
+        let (offsets, neighbours) = serial_rows(&list, p.n_owned);
+        assert!(
+            list.len() > 4 * 16_384,
+            "{} pairs: too few to split",
+            list.len()
+        );
+        let mut lanes = None;
+        for threads in [1, 2, 3, 8] {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .expect("a pool");
+            let full = pool.install(|| FullList::from_half(&list, p.n_owned));
+            assert_eq!(full.offsets, offsets, "{threads} threads");
+            assert_eq!(full.neighbours, neighbours, "{threads} threads");
+            let l = &full.lanes;
+            let lanes = lanes.get_or_insert_with(|| l.clone());
+            assert_eq!(
+                (&l.starts, &l.index, l.max_index),
+                (&lanes.starts, &lanes.index, lanes.max_index),
+                "{threads} threads"
+            );
+        }
+        // The lane rows hold the rows: group 0, lane 1 walks row 1, then repeats particle 1.
+        let lanes = lanes.expect("built");
+        let row1 = &neighbours[offsets[1]..offsets[2]];
+        let walked: Vec<u32> = lanes
+            .group(0)
+            .iter()
+            .skip(1)
+            .step_by(LANES)
+            .copied()
+            .collect();
+        assert_eq!(&walked[..row1.len()], row1);
+        assert!(walked[row1.len()..].iter().all(|&e| e == 1));
     }
 
     /// Sums ids of the neighbours, and a term of 10⁹ for the pair (4, 5).

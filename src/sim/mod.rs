@@ -39,6 +39,56 @@ use crate::species::{Motion, Species};
 pub use crate::workers::{hash_words, worker_pool};
 use std::time::{Duration, Instant};
 
+impl PhaseTimes {
+    /// Every number in a fixed order (the phases, the rebuild count, then the passes'
+    /// seconds): what a reduction over the ranks combines. Every rank runs the same passes in
+    /// the same order, so the vectors line up.
+    pub fn to_numbers(&self) -> Vec<f64> {
+        let mut v = vec![
+            self.integrate,
+            self.particle_state,
+            self.neighbour,
+            self.rebuild_comm,
+            self.halo,
+            self.forces,
+            self.pass_wait,
+            self.diagnostics,
+            self.snapshots,
+            self.checkpoints,
+            self.rebuilds as f64,
+        ];
+        v.extend(self.passes.iter().map(|p| p.seconds));
+        v
+    }
+
+    /// These times with the numbers of [`Self::to_numbers`] put back (reduced over ranks).
+    pub fn with_numbers(&self, v: &[f64]) -> Self {
+        let mut t = self.clone();
+        let &[a, b, c, d, e, f, g, h, i, j, k] = &v[..11] else {
+            unreachable!("11 phase numbers")
+        };
+        (
+            t.integrate,
+            t.particle_state,
+            t.neighbour,
+            t.rebuild_comm,
+            t.halo,
+        ) = (a, b, c, d, e);
+        (
+            t.forces,
+            t.pass_wait,
+            t.diagnostics,
+            t.snapshots,
+            t.checkpoints,
+        ) = (f, g, h, i, j);
+        t.rebuilds = k as u64;
+        for (p, &x) in t.passes.iter_mut().zip(&v[11..]) {
+            p.seconds = x;
+        }
+        t
+    }
+}
+
 /// Wall time spent per phase of the step (this rank).
 #[derive(Clone, Debug, Default, serde::Serialize)]
 pub struct PhaseTimes {
@@ -52,8 +102,11 @@ pub struct PhaseTimes {
     pub rebuild_comm: f64,
     /// Ghost refresh between rebuilds.
     pub halo: f64,
-    /// Pair evaluation and gather.
+    /// Pair evaluation and gather (each pass's own work).
     pub forces: f64,
+    /// Waits at the collective check after each pass: the lag behind the slowest rank (load
+    /// imbalance and jitter), not work.
+    pub pass_wait: f64,
     /// Sampling of observables.
     pub diagnostics: f64,
     /// Snapshot frames (collective writes, incl. the id-order redistribution).
@@ -63,7 +116,7 @@ pub struct PhaseTimes {
     /// Number of neighbour-list builds.
     pub rebuilds: u64,
     /// `forces` split by model pass, in evaluation order (each pass's own work, its ghost
-    /// refresh excluded; the wait for the slowest rank's pass included).
+    /// refresh and the wait for the slowest rank's pass excluded).
     pub passes: Vec<PassSeconds>,
 }
 
@@ -662,7 +715,8 @@ impl<'c, const D: usize> Simulation<'c, D> {
         let order = self
             .pool
             .install(|| spatial_order(&self.particles.pos, 0.5 * range));
-        self.particles.permute_owned(&order);
+        let particles = &mut self.particles;
+        self.pool.install(|| particles.permute_owned(&order));
         self.halo = HaloPlan::build(
             &mut self.particles,
             &self.sim_box,
@@ -671,6 +725,7 @@ impl<'c, const D: usize> Simulation<'c, D> {
             range,
             self.step,
             self.dt,
+            &self.pool,
         );
         let t1 = Instant::now();
         let particles = &self.particles;
@@ -714,6 +769,7 @@ impl<'c, const D: usize> Simulation<'c, D> {
     fn compute_forces(&mut self, virial_scope: VirialScope) -> Result<(), Error> {
         let t0 = Instant::now();
         let mut halo_seconds = 0.0;
+        let mut wait_seconds = 0.0;
         self.particles.force.fill([0.0; D]);
         let mut virial = None;
         let mut shear_profile = None;
@@ -734,10 +790,12 @@ impl<'c, const D: usize> Simulation<'c, D> {
                 };
                 let pass_start = Instant::now();
                 let result = self.pool.install(|| model.pass(k, ctx));
+                let seconds = pass_start.elapsed().as_secs_f64();
+                let wait_start = Instant::now();
                 let mut failed = [if result.is_err() { 1.0 } else { 0.0 }];
                 self.comm.allreduce_max(&mut failed);
+                wait_seconds += wait_start.elapsed().as_secs_f64();
                 let name = self.pass_names[m][k];
-                let seconds = pass_start.elapsed().as_secs_f64();
                 match self
                     .times
                     .passes
@@ -801,7 +859,8 @@ impl<'c, const D: usize> Simulation<'c, D> {
             self.shear_virial_profile = Some((self.step, p));
         }
         self.times.halo += halo_seconds;
-        self.times.forces += t0.elapsed().as_secs_f64() - halo_seconds;
+        self.times.pass_wait += wait_seconds;
+        self.times.forces += t0.elapsed().as_secs_f64() - halo_seconds - wait_seconds;
         Ok(())
     }
 
@@ -1034,6 +1093,13 @@ impl<'c, const D: usize> Simulation<'c, D> {
                 }
             }
         }
+    }
+
+    /// This rank's load now: owned particles, ghosts, listed pairs.
+    pub fn load(&self) -> [f64; 3] {
+        let owned = self.particles.n_owned;
+        let ghosts = self.particles.len() - owned;
+        [owned as f64, ghosts as f64, self.list.len() as f64]
     }
 
     /// A hash of the complete owned state — id, position, velocity, force, image counts and
