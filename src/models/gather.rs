@@ -20,7 +20,7 @@
 
 use crate::counting_sort::{self, DisjointSlots};
 use crate::fixed_sum::{FixedSum, LaneFactor, LaneSums, Scale, Split};
-use crate::neighbour::{NEAR_AT_BUILD, NeighbourList};
+use crate::neighbour::{NEAR_AT_BUILD, NeighbourList, PairBand};
 use crate::particles::Particles;
 use crate::simd::Isa;
 use rayon::prelude::*;
@@ -633,26 +633,7 @@ impl<const D: usize> Default for PairBatch<D> {
 /// Per-thread accumulators of [`scatter`], kept between calls.
 #[derive(Debug, Default)]
 pub struct ScatterBuffers {
-    buffers: Vec<Band>,
-}
-
-/// One thread's accumulators over the band of owned particles its chunk of pairs touches
-/// (particle `lo + k`'s sums at `acc[k · width ..]`): the list runs in cell order over spatially
-/// ordered particles, so each thread clears and merges its band, not every owned particle.
-#[derive(Debug, Default)]
-struct Band {
-    lo: usize,
-    acc: Vec<FixedSum>,
-}
-
-impl Band {
-    /// The sums of particle `i` (width numbers), if in the band.
-    #[inline]
-    fn get(&self, i: usize, width: usize) -> Option<&[FixedSum]> {
-        let k = i.wrapping_sub(self.lo);
-        self.acc
-            .get(k.checked_mul(width)?..(k + 1).checked_mul(width)?)
-    }
+    buffers: Vec<PairBand<FixedSum>>,
 }
 
 /// One thread's share of [`scatter`].
@@ -670,7 +651,7 @@ struct ScatterChunk<'a, const D: usize, K> {
 #[target_feature(enable = "avx2")]
 fn scatter_chunk_avx2<const D: usize, K: SymmetricKernel<D>>(
     chunk: &ScatterChunk<D, K>,
-    band: &mut Band,
+    band: &mut PairBand<FixedSum>,
 ) -> Result<(), PairError> {
     scatter_chunk(chunk, band)
 }
@@ -684,7 +665,7 @@ fn scatter_chunk_avx2<const D: usize, K: SymmetricKernel<D>>(
 #[inline(always)]
 fn scatter_chunk<const D: usize, K: SymmetricKernel<D>>(
     chunk: &ScatterChunk<D, K>,
-    band: &mut Band,
+    band: &mut PairBand<FixedSum>,
 ) -> Result<(), PairError> {
     let ScatterChunk {
         kernel,
@@ -696,22 +677,7 @@ fn scatter_chunk<const D: usize, K: SymmetricKernel<D>>(
     let parities = kernel.parities();
     let width = scales.len();
     let n = p.n_owned;
-    // The band of owned particles the chunk's pairs touch.
-    let (mut lo, mut hi) = (usize::MAX, 0);
-    for &[i, j] in pairs {
-        let (i, j) = (i as usize, (j & !crate::neighbour::NEAR_AT_BUILD) as usize);
-        lo = lo.min(i);
-        hi = hi.max(i + 1);
-        if j < n {
-            lo = lo.min(j);
-            hi = hi.max(j + 1);
-        }
-    }
-    let lo = lo.min(hi);
-    band.lo = lo;
-    let acc = &mut band.acc;
-    acc.clear();
-    acc.resize((hi - lo) * width, FixedSum::ZERO);
+    let (lo, acc) = band.reset(pairs, n, width, FixedSum::ZERO);
     let mut batch = PairBatch::<D>::default();
     let mut r2 = [0.0; BATCH];
     let mut terms: BatchTerms = [[0.0; BATCH]; MAX_SCATTER_WIDTH];
@@ -799,7 +765,7 @@ pub fn scatter_on<const D: usize, K: SymmetricKernel<D>>(
     }
     let rc2 = kernel.cutoff() * kernel.cutoff();
     let chunks = rayon::current_num_threads().max(1);
-    work.buffers.resize_with(chunks, Band::default);
+    work.buffers.resize_with(chunks, PairBand::default);
     let avx2 = isa.has_avx2();
     let results: Vec<Result<(), PairError>> = work
         .buffers
@@ -975,22 +941,12 @@ mod tests {
     /// the serial construction's rows, entry for entry, and the same lane rows.
     #[test]
     fn full_rows_are_the_serial_construction_on_any_number_of_threads() {
-        let mut p = Particles::<2>::default();
-        let mut x: u64 = 0x2545_F491_4F6C_DD1D;
-        let mut next = || {
-            x ^= x << 13;
-            x ^= x >> 7;
-            x ^= x << 17;
-            (x >> 11) as f64 / (1u64 << 53) as f64
-        };
-        for g in 0..44_000u64 {
-            let pos = [100.0 * next(), 40.0 * next()];
-            if g < 40_000 {
-                p.push_owned(g, pos, [0.0; 2]);
-            } else {
-                p.push_ghost(g, pos, [0.0; 2], 0);
-            }
-        }
+        let p = crate::neighbour::scattered_particles(
+            40_000,
+            44_000,
+            [100.0, 40.0],
+            0x2545_F491_4F6C_DD1D,
+        );
         let list = NeighbourList::build(&p, 0.5, 0.4);
         let (offsets, neighbours) = serial_rows(&list, p.n_owned);
         assert!(

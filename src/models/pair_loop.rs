@@ -14,7 +14,7 @@
 use crate::error::Error;
 use crate::error::{Quantity, UNSTABLE, Unstable};
 use crate::fixed_sum::{FixedSum, Split};
-use crate::neighbour::{NEAR_AT_BUILD, NeighbourList};
+use crate::neighbour::{NEAR_AT_BUILD, NeighbourList, PairBand};
 use crate::particles::Particles;
 use crate::simd::Isa;
 use rayon::prelude::*;
@@ -186,26 +186,7 @@ type BadPair = (u64, u64, f64);
 /// Reusable accumulators of the pair loop.
 #[derive(Default)]
 pub struct PairWorkspace<const D: usize> {
-    buffers: Vec<Window<D>>,
-}
-
-/// One thread's accumulators over the owned particles its chunk of pairs touches: particle
-/// `lo + k` at `acc[k]`. The list runs in cell order over spatially ordered particles, so a
-/// chunk touches a band of the owned particles (its own, and their neighbours up to two cell
-/// layers on), and a thread clears and merges its band rather than every owned particle:
-/// with T threads the merge is O(n) in all instead of O(T n).
-#[derive(Default)]
-struct Window<const D: usize> {
-    lo: usize,
-    acc: Vec<[FixedSum; D]>,
-}
-
-impl<const D: usize> Window<D> {
-    /// The accumulators of particle `i`, if in the band.
-    #[inline]
-    fn get(&self, i: usize) -> Option<&[FixedSum; D]> {
-        self.acc.get(i.wrapping_sub(self.lo))
-    }
+    buffers: Vec<PairBand<[FixedSum; D]>>,
 }
 
 /// One thread's share of the pair loop.
@@ -227,7 +208,7 @@ struct ChunkInput<'a, const D: usize, K> {
 #[target_feature(enable = "avx2")]
 fn evaluate_chunk_avx2<const D: usize, K: PairKernel<D>>(
     chunk: &ChunkInput<D, K>,
-    acc: &mut Window<D>,
+    acc: &mut PairBand<[FixedSum; D]>,
 ) -> (ChunkVirial, Option<BadPair>) {
     evaluate_chunk(chunk, acc)
 }
@@ -238,7 +219,7 @@ fn evaluate_chunk_avx2<const D: usize, K: PairKernel<D>>(
 #[inline(always)]
 fn evaluate_chunk<const D: usize, K: PairKernel<D>>(
     chunk: &ChunkInput<D, K>,
-    window: &mut Window<D>,
+    window: &mut PairBand<[FixedSum; D]>,
 ) -> (ChunkVirial, Option<BadPair>) {
     let ChunkInput {
         kernel,
@@ -251,23 +232,7 @@ fn evaluate_chunk<const D: usize, K: PairKernel<D>>(
     let n_owned = particles.n_owned;
     let (pos, vel, gid) = (&particles.pos, &particles.vel, &particles.gid);
     let rc2 = kernel.cutoff() * kernel.cutoff();
-    // The band of owned particles the chunk's pairs touch.
-    let (mut lo, mut hi) = (usize::MAX, 0);
-    for &[i, j] in pairs {
-        let j = (j & !NEAR_AT_BUILD) as usize;
-        let i = i as usize;
-        lo = lo.min(i);
-        hi = hi.max(i + 1);
-        if j < n_owned {
-            lo = lo.min(j);
-            hi = hi.max(j + 1);
-        }
-    }
-    let lo = lo.min(hi);
-    window.lo = lo;
-    let acc = &mut window.acc;
-    acc.clear();
-    acc.resize(hi - lo, [FixedSum::ZERO; D]);
+    let (lo, acc) = window.reset(pairs, n_owned, 1, [FixedSum::ZERO; D]);
     let mut virial = [FixedSum::ZERO; 27];
     let mut bad: Option<BadPair> = None;
     let mut near = [[0u32; 2]; BLOCK];
@@ -445,7 +410,7 @@ pub fn compute_forces<const D: usize, K: PairKernel<D>>(
     let n_owned = particles.n_owned;
     let chunks = rayon::current_num_threads().max(1);
     let at_build_positions = list.at_build_positions;
-    workspace.buffers.resize_with(chunks, Window::default);
+    workspace.buffers.resize_with(chunks, PairBand::default);
     let step_key = kernel.step_key(step);
     let avx2 = isa.has_avx2();
     let results: Vec<(ChunkVirial, Option<BadPair>)> = workspace
@@ -493,8 +458,8 @@ pub fn compute_forces<const D: usize, K: PairKernel<D>>(
             for d in 0..D {
                 let mut s = FixedSum::ZERO;
                 for b in buffers {
-                    if let Some(a) = b.get(i) {
-                        s.merge(&a[d]);
+                    if let Some(a) = b.get(i, 1) {
+                        s.merge(&a[0][d]);
                     }
                 }
                 // Added (the engine zeroes the forces before the first model): 0 + x = x
