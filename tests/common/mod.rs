@@ -102,14 +102,32 @@ pub fn assert_references_pass(name: &str, loaded: &LoadedCase) {
 /// which mutation the widened bound still catches; the stock length, with every tolerance as
 /// written, is `./run validate stock`'s.
 pub fn assert_shortened_references_pass(name: &str, overrides: &[&str], widened: &[(&str, f64)]) {
+    let edits: Vec<_> = widened.iter().map(|&(o, t)| (o, None, t)).collect();
+    shortened_references_pass(name, overrides, &edits);
+}
+
+/// The shortened twin of a stock case whose references depend on the run's window (a
+/// time-periodic flow averaged over less than a period): the stock case with `overrides`,
+/// with the value references on the observables named in `window` replaced by the value and
+/// tolerance given there (the window's own reference; the caller's doc comment says where it
+/// comes from, what was measured and which mutation fails it).
+pub fn assert_window_references_pass(name: &str, overrides: &[&str], window: &[(&str, f64, f64)]) {
+    let edits: Vec<_> = window.iter().map(|&(o, v, t)| (o, Some(v), t)).collect();
+    shortened_references_pass(name, overrides, &edits);
+}
+
+fn shortened_references_pass(name: &str, overrides: &[&str], edits: &[(&str, Option<f64>, f64)]) {
     let text = stock_text_with(name, overrides);
     let mut loaded = case_from_str(&text, name);
-    for (observable, tolerance) in widened {
+    for (observable, value, tolerance) in edits {
         let mut found = false;
         for r in &mut loaded.case.reference {
             if let config::ReferenceCfg::Value(v) = r
                 && v.observable == *observable
             {
+                if let Some(value) = value {
+                    v.value = *value;
+                }
                 v.tolerance = *tolerance;
                 found = true;
             }
