@@ -5,8 +5,8 @@
 
 use mesorheo::comm::SerialComm;
 use mesorheo::config;
+use mesorheo::facade::Engine;
 use mesorheo::models::{FieldKind, FieldSpec, ParticleModel};
-use mesorheo::output::checkpoint;
 use mesorheo::particles::Particles;
 use mesorheo::particles::{FieldFlags, VarStorage};
 use mesorheo::sim::Simulation;
@@ -56,13 +56,13 @@ fn main() {
         let mut path = PathBuf::new();
         for _ in 0..3 {
             let t = Instant::now();
-            path = checkpoint::write(&mut sim, dir.path(), 1).expect("write");
+            path = sim.write_checkpoint(dir.path(), 1).expect("write");
             times.push(t.elapsed().as_secs_f64());
         }
         times.sort_by(f64::total_cmp);
         let bytes = std::fs::metadata(&path).expect("size").len() as f64;
         let t = Instant::now();
-        let r = checkpoint::read::<3>(&path, &comm).expect("read");
+        let r = Simulation::<3>::read_checkpoint(&path, &comm).expect("read");
         let read = t.elapsed().as_secs_f64();
         assert_eq!(r.total, sim.total_particles);
         println!(

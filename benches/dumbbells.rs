@@ -14,6 +14,7 @@
 //! - `advance`: NEW through `HomogeneousEnsembles::advance` itself (end-to-end check).
 
 use mesorheo::comm::SerialComm;
+use mesorheo::facade::Ensembles;
 use mesorheo::models::dumbbells::{
     DumbbellParams, Scheme, Spring, noise_stream, sample_equilibrium, step_ensemble,
 };
@@ -173,7 +174,10 @@ fn median_and_best(mut t: Vec<f64>) -> (f64, f64) {
 
 /// Dumbbell-steps/s of OLD, NEW and `advance` (median and best of `REPS` interleaved
 /// repetitions).
-fn rates<const D: usize>(spring: Spring, scheme: Scheme, threads: usize) -> [(f64, f64); 3] {
+fn rates<const D: usize>(spring: Spring, scheme: Scheme, threads: usize) -> [(f64, f64); 3]
+where
+    for<'c> HomogeneousEnsembles<'c, D>: Ensembles<'c, D>,
+{
     let p = params(spring, scheme);
     let kappa = mesorheo::particles::tensor_rows(&Flow::SimpleShear { rate: 1.0 }.kappa::<D>(0.0));
     let pool = rayon::ThreadPoolBuilder::new()

@@ -5,6 +5,7 @@
 use criterion::{Criterion, criterion_group, criterion_main};
 use mesorheo::comm::SerialComm;
 use mesorheo::config;
+use mesorheo::facade::Engine;
 use mesorheo::fixed_sum::FixedSum;
 use mesorheo::neighbour::NeighbourList;
 use mesorheo::rng::{HashStream, Purpose, StreamKey};

@@ -23,6 +23,7 @@
 //! those points: `cargo run --release --example dumbbell_accuracy -- precision`.
 
 use mesorheo::comm::SerialComm;
+use mesorheo::facade::Ensembles;
 use mesorheo::models::dumbbells::{
     DumbbellParams, Scheme, Spring, hookean_discrete_moment, kramers_stress,
 };

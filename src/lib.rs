@@ -20,6 +20,10 @@
 //!   ([`models::sph`], its kernels in [`models::sph::kernels`]), dumbbell ensembles, and the
 //!   engine's test model. [`species`] gives walls their boundary particles; [`analytic`] holds
 //!   the series solutions the start-up references compare with.
+//! - [`facade`]: the entry points of [`sim::Simulation`] and of the homogeneous-flow ensembles
+//!   that other crates (tests, benchmarks, examples) call, compiled once here for D = 2 and 3
+//!   (release builds do not share generic code between crates: each test binary used to
+//!   compile the whole engine again).
 //! - [`config`] parses and validates case files (it knows the models' parameter types; no model
 //!   imports it: models see a case through [`models::fluid_model::CaseView`]); [`diagnostics`]
 //!   and [`summary`] average and report; [`output`] writes checkpoints and snapshots;
@@ -50,6 +54,7 @@ pub mod dpd_parameters;
 pub mod driver;
 pub mod error;
 pub mod estimate;
+pub mod facade;
 pub mod fixed_sum;
 pub mod flow_scene;
 pub mod geometry;

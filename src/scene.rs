@@ -551,7 +551,7 @@ pub(crate) fn set_aside_old_checkpoints(dir: &Path, comm: &dyn Comm) -> Result<(
 
 /// Writes a checkpoint of the current step, if output is on (collective).
 fn checkpoint(
-    scene: &mut impl Scene,
+    scene: &mut dyn Scene,
     options: &RunOptions,
     comm: &dyn Comm,
 ) -> Result<Option<PathBuf>, Error> {
@@ -576,6 +576,28 @@ fn checkpoint(
 /// its clean stops; then the summary.
 pub fn drive(
     mut scene: impl Scene,
+    case_file: &Path,
+    restarted_from: Option<&Path>,
+    comm: &dyn Comm,
+    options: &RunOptions,
+    threads: usize,
+) -> Result<Summary, Error> {
+    // The loop itself takes the scene as a trait object: compiled once, not once per scene
+    // type (the particle and the homogeneous-flow scenes in 2 and 3 dimensions). A call per
+    // step through the vtable costs nothing next to the step.
+    drive_scene(
+        &mut scene,
+        case_file,
+        restarted_from,
+        comm,
+        options,
+        threads,
+    )
+}
+
+/// [`drive`], not generic.
+fn drive_scene(
+    scene: &mut dyn Scene,
     case_file: &Path,
     restarted_from: Option<&Path>,
     comm: &dyn Comm,
@@ -672,7 +694,7 @@ pub fn drive(
             scene.request_stop();
         }
         if let Err(e) = scene.advance() {
-            return Err(keep_blown_up_state(&mut scene, options, e));
+            return Err(keep_blown_up_state(scene, options, e));
         }
         let step = scene.step();
         if let Some(row) = scene.observables_row() {
@@ -689,7 +711,7 @@ pub fn drive(
             if let Some(csv) = &mut csv {
                 csv.flush()?;
             }
-            last_checkpoint = checkpoint(&mut scene, options, comm)?;
+            last_checkpoint = checkpoint(scene, options, comm)?;
             checkpointed_at = Some(step);
         }
         // Agreed within the step itself, so every rank stops after the same step.
@@ -755,7 +777,7 @@ pub fn drive(
     let completed = scene.step() >= last_step;
     let wants_final = scene.output().checkpoint_at_end || !completed;
     if wants_final && options.out.is_some() && checkpointed_at != Some(scene.step()) {
-        last_checkpoint = checkpoint(&mut scene, options, comm)?;
+        last_checkpoint = checkpoint(scene, options, comm)?;
     }
     if stopped_by_signal || !completed {
         tracing::info!(
@@ -902,7 +924,7 @@ impl RebuildLog {
 /// as the detector found it to `OUT/blowup/` for inspection (`mesorheo info`, h5py): the
 /// offending particle with its position, velocity or ensemble is in it. The last good state is
 /// the newest checkpoint in `OUT/checkpoints/`. Other errors pass through unchanged.
-fn keep_blown_up_state(scene: &mut impl Scene, options: &RunOptions, error: Error) -> Error {
+fn keep_blown_up_state(scene: &mut dyn Scene, options: &RunOptions, error: Error) -> Error {
     let Some(out) = options.out.as_ref() else {
         return error;
     };

@@ -129,25 +129,49 @@ pub(crate) fn reduce_u64(acc: &mut [u64], other: &[u64], op: U64Op) {
 /// Runs `job` on `ranks` in-process ranks (threads connected by channels) and returns rank 0's
 /// result — what the tests use to check that results do not depend on the decomposition
 /// without launching `mpirun`.
+///
+/// Only this shell is generic: the threads are started and joined by [`run_rank_threads`],
+/// compiled once here. A generic function is compiled again in every crate that calls it, per
+/// closure (release builds do not share generics across crates), and the tests call this one
+/// with dozens of closures; see [`crate::facade`].
 pub fn in_process<T: Send + 'static, E: From<&'static str> + Send + 'static>(
     ranks: usize,
     job: impl Fn(&dyn Comm) -> Result<T, E> + Send + Sync + 'static,
 ) -> Result<T, E> {
-    let job = std::sync::Arc::new(job);
+    type Slot<T, E> = std::sync::Mutex<Option<Result<T, E>>>;
+    let slots: std::sync::Arc<Vec<Slot<T, E>>> =
+        std::sync::Arc::new((0..ranks).map(|_| Slot::default()).collect());
+    let filled = slots.clone();
+    run_rank_threads(
+        ranks,
+        std::sync::Arc::new(move |rank, comm: &dyn Comm| {
+            let result = job(comm);
+            *filled[rank].lock().unwrap_or_else(|e| e.into_inner()) = Some(result);
+        }),
+    );
+    // Every rank has finished; one that panicked left its slot empty. The other ranks'
+    // results are dropped with the slots.
+    let first = slots[0].lock().unwrap_or_else(|e| e.into_inner()).take();
+    first.unwrap_or_else(|| Err(E::from("a rank thread panicked")))
+}
+
+/// The job of one in-process rank: its rank number and communicator.
+type RankJob = std::sync::Arc<dyn Fn(usize, &dyn Comm) + Send + Sync>;
+
+/// Runs `job(rank, comm)` of every rank of a fresh [`local_universe`] of `ranks` on its own
+/// thread and waits for all of them (the non-generic part of [`in_process`]).
+fn run_rank_threads(ranks: usize, job: RankJob) {
     let comms = local_universe(ranks);
     let handles: Vec<_> = comms
         .into_iter()
-        .map(|comm| {
+        .enumerate()
+        .map(|(rank, comm)| {
             let job = job.clone();
-            std::thread::spawn(move || job(&comm))
+            std::thread::spawn(move || job(rank, &comm))
         })
         .collect();
-    let mut results: Vec<Result<T, E>> = handles
-        .into_iter()
-        .map(|h| {
-            h.join()
-                .unwrap_or_else(|_| Err(E::from("a rank thread panicked")))
-        })
-        .collect();
-    results.swap_remove(0)
+    for h in handles {
+        // A panicked rank is reported by its empty slot.
+        let _ = h.join();
+    }
 }

@@ -263,9 +263,11 @@ pub struct StressEstimate<const D: usize> {
     pub n2: (f64, f64),
 }
 
+// The heavy methods are `pub(crate)`: other crates call them through `facade::Ensembles`,
+// compiled once in this crate for D = 2 and 3 (see there why); the light accessors stay public.
 impl<'c, const D: usize> HomogeneousEnsembles<'c, D> {
     /// `total` particles × `n_d` dumbbells at equilibrium; this rank keeps its id block.
-    pub fn new(
+    pub(crate) fn new(
         comm: &'c dyn Comm,
         threads: usize,
         total: u64,
@@ -307,7 +309,7 @@ impl<'c, const D: usize> HomogeneousEnsembles<'c, D> {
     /// Ensembles restored from a checkpoint: `q` (and `control`) hold this rank's id block
     /// (`comm`'s [`id_block`]) at `step`.
     #[allow(clippy::too_many_arguments)]
-    pub fn from_state(
+    pub(crate) fn from_state(
         comm: &'c dyn Comm,
         threads: usize,
         total: u64,
@@ -380,7 +382,7 @@ impl<'c, const D: usize> HomogeneousEnsembles<'c, D> {
     /// connectors (the same stream), histograms them and keeps their moments as the step-0
     /// sample; only one thread's buffer of connectors exists at a time, never a whole rank's.
     #[allow(clippy::too_many_arguments)]
-    pub fn new_with_histograms(
+    pub(crate) fn new_with_histograms(
         comm: &'c dyn Comm,
         threads: usize,
         total: u64,
@@ -422,7 +424,7 @@ impl<'c, const D: usize> HomogeneousEnsembles<'c, D> {
     }
 
     /// Stores the connectors in single precision from now on (before the first step).
-    pub fn with_single_precision(mut self) -> Self {
+    pub(crate) fn with_single_precision(mut self) -> Self {
         assert_eq!(self.step, 0, "the storage precision is chosen at the start");
         let single = self
             .q
@@ -452,7 +454,7 @@ impl<'c, const D: usize> HomogeneousEnsembles<'c, D> {
 
     /// Bytes of connector storage on this rank (incl. the control copy; BDDFS: 8 per occupied
     /// cell).
-    pub fn memory_bytes(&self) -> usize {
+    pub(crate) fn memory_bytes(&self) -> usize {
         if let Some(h) = &self.histograms {
             return h.rows.iter().map(|r| r.len() * 8).sum();
         }
@@ -469,7 +471,7 @@ impl<'c, const D: usize> HomogeneousEnsembles<'c, D> {
 
     /// Switches on the control-variate variance reduction (before the first step; double
     /// precision only, so that both copies see the same arithmetic).
-    pub fn with_control_variates(mut self) -> Self {
+    pub(crate) fn with_control_variates(mut self) -> Self {
         assert_eq!(self.step, 0, "control variates start with the ensembles");
         assert!(
             self.q_single.is_none(),
@@ -487,7 +489,7 @@ impl<'c, const D: usize> HomogeneousEnsembles<'c, D> {
     /// Advances every ensemble by one step (κ frozen at the start of the step). A dumbbell left
     /// outside the spring's domain (not finite, or |Q|² ≥ b) stops the run, named by its
     /// particle and index (the lowest particle id, so the message does not depend on threads).
-    pub fn advance(&mut self) -> Result<(), Error> {
+    pub(crate) fn advance(&mut self) -> Result<(), Error> {
         // As rows for the per-dumbbell kernel (one conversion per step).
         let kappa = tensor_rows(&self.flow.kappa::<D>(self.time()));
         let (p, seed, step) = (self.params, self.seed, self.step);
@@ -587,7 +589,7 @@ impl<'c, const D: usize> HomogeneousEnsembles<'c, D> {
 
     /// τ/G of each particle of this rank: its ensemble average, with control variates the
     /// corrected estimator τ(Q) − τ(Q_eq) + E[τ_eq]; D × D row-major in the first D² entries.
-    pub fn particle_stresses(&self) -> Vec<[f64; 9]> {
+    pub(crate) fn particle_stresses(&self) -> Vec<[f64; 9]> {
         if let Some(h) = &self.histograms {
             return h.moments.iter().map(|m| m.stress).collect();
         }
@@ -629,7 +631,7 @@ impl<'c, const D: usize> HomogeneousEnsembles<'c, D> {
     /// variates ⟨|Q|²⟩ − ⟨|Q_eq|²⟩ + E[|Q_eq|²], where E[|Q_eq|²] is the exact discrete trace for
     /// Hookean springs and the continuum equilibrium D b/(b + D + 2) for FENE (Bird et al., DPL
     /// vol. 2: the FENE equilibrium density ∝ (1 − Q²/b)^(b/2)).
-    pub fn particle_mean_square_lengths(&self) -> Vec<f64> {
+    pub(crate) fn particle_mean_square_lengths(&self) -> Vec<f64> {
         if let Some(h) = &self.histograms {
             return h.moments.iter().map(|m| m.mean_q2).collect();
         }
@@ -665,7 +667,7 @@ impl<'c, const D: usize> HomogeneousEnsembles<'c, D> {
 
     /// BDDFS: the occupied histogram cells of each particle of this rank (None without
     /// histograms).
-    pub fn particle_occupied_cells(&self) -> Option<Vec<f64>> {
+    pub(crate) fn particle_occupied_cells(&self) -> Option<Vec<f64>> {
         self.histograms
             .as_ref()
             .map(|h| h.rows.iter().map(|r| r.len() as f64).collect())
@@ -673,18 +675,18 @@ impl<'c, const D: usize> HomogeneousEnsembles<'c, D> {
 
     /// The mean over all particles of all ranks of a per-particle value of this rank's particles,
     /// with the standard error from their spread (collective; exact sums).
-    pub fn particle_mean(&self, per: &[f64]) -> (f64, f64) {
+    pub(crate) fn particle_mean(&self, per: &[f64]) -> (f64, f64) {
         particle_moments(self.comm, per.len(), 1, self.total, |p, _| per[p])[0]
     }
 
     /// τ/G averaged over all particles of all ranks, with the standard error from the
     /// particle-to-particle spread (collective; exact sums, so rank-count independent).
-    pub fn stress(&self) -> StressEstimate<D> {
+    pub(crate) fn stress(&self) -> StressEstimate<D> {
         self.stress_of(&self.particle_stresses())
     }
 
     /// [`Self::stress`] of given [`Self::particle_stresses`] (collective).
-    pub fn stress_of(&self, per: &[[f64; 9]]) -> StressEstimate<D> {
+    pub(crate) fn stress_of(&self, per: &[[f64; 9]]) -> StressEstimate<D> {
         // Per particle: the D² components, then N₁ and N₂.
         let w = D * D + 2;
         let value = |s: &[f64; 9], i: usize| -> f64 {
@@ -714,7 +716,7 @@ impl<'c, const D: usize> HomogeneousEnsembles<'c, D> {
     }
 
     /// Largest |Q|² of any dumbbell (collective).
-    pub fn max_q2(&self) -> f64 {
+    pub(crate) fn max_q2(&self) -> f64 {
         let local = if let Some(h) = &self.histograms {
             h.moments.iter().map(|m| m.max_q2).fold(0.0, f64::max)
         } else {
@@ -739,14 +741,14 @@ impl<'c, const D: usize> HomogeneousEnsembles<'c, D> {
 
     /// Bytes of connector storage per particle over every rank ([`Self::memory_bytes`]
     /// summed, over the particle count; collective).
-    pub fn memory_bytes_per_particle(&self) -> f64 {
+    pub(crate) fn memory_bytes_per_particle(&self) -> f64 {
         let mut bytes = [self.memory_bytes() as u64];
         self.comm.allreduce_u64(&mut bytes, crate::comm::U64Op::Sum);
         bytes[0] as f64 / self.total.max(1) as f64
     }
 
     /// A digest of every connector vector (collective, order-independent).
-    pub fn digest(&self) -> u64 {
+    pub(crate) fn digest(&self) -> u64 {
         let mut acc = [0u64];
         for (i, &g) in self.gids.iter().enumerate() {
             let mut words = vec![g];

@@ -72,7 +72,7 @@ impl<'c, const D: usize> Simulation<'c, D> {
     /// The scalar observables of the current step, for the time series only (collective):
     /// nothing is averaged and no detector runs, so a step of the equilibration can be
     /// recorded without changing what the summary averages.
-    pub fn record(&mut self) -> Vec<(String, f64)> {
+    pub(crate) fn record(&mut self) -> Vec<(String, f64)> {
         let t0 = Instant::now();
         let values = self.measure();
         self.times.diagnostics += t0.elapsed().as_secs_f64();
@@ -88,7 +88,7 @@ impl<'c, const D: usize> Simulation<'c, D> {
     /// Feeds the symmetric traceless part of the current pressure tensor (kinetic +
     /// conservative + dissipative + random, the random forces the step used) to the block's
     /// Green–Kubo correlator (collective; exact sums, so the same on every rank).
-    pub fn correlate(&mut self) {
+    pub(crate) fn correlate(&mut self) {
         let t0 = Instant::now();
         let virial = self.current_virial();
         let n = self.particles.n_owned;
@@ -139,7 +139,7 @@ impl<'c, const D: usize> Simulation<'c, D> {
 
     /// Feeds the transverse currents J⊥(k_j) of the fluid particles, j = 1 … modes, to the
     /// block's correlators ([`crate::transverse_current`]; collective, exact sums).
-    pub fn sample_currents(&mut self) {
+    pub(crate) fn sample_currents(&mut self) {
         let t0 = Instant::now();
         let modes = self.case.diagnostics.transverse_current_modes;
         let channels = crate::transverse_current::channels(D);
@@ -175,7 +175,7 @@ impl<'c, const D: usize> Simulation<'c, D> {
 
     /// η_k and η₀ from the transverse-current correlators so far; `None` when the case does
     /// not ask for them.
-    pub fn transverse_current(
+    pub(crate) fn transverse_current(
         &self,
     ) -> Option<crate::transverse_current::TransverseCurrentEstimate> {
         let kt = self.case.fluid.model().thermal_energy()?;
@@ -220,7 +220,7 @@ impl<'c, const D: usize> Simulation<'c, D> {
 
     /// The Green–Kubo viscosity of the correlators so far ([`crate::green_kubo::estimate`]);
     /// `None` when the case does not ask for it.
-    pub fn green_kubo(&self) -> Option<crate::green_kubo::GreenKuboEstimate> {
+    pub(crate) fn green_kubo(&self) -> Option<crate::green_kubo::GreenKuboEstimate> {
         let kt = self.case.fluid.model().thermal_energy()?;
         if self.series.green_kubo.is_empty() {
             return None;
@@ -238,12 +238,12 @@ impl<'c, const D: usize> Simulation<'c, D> {
     /// Samples every observable the case asked for (collective). A thermostatted (DPD) fluid
     /// whose kinetic temperature has passed [`crate::models::FluidModel::heating`] stops the run (the
     /// decision is on an exactly reduced sum, so every rank count stops alike).
-    pub fn sample(&mut self) -> Result<(), Error> {
+    pub(crate) fn sample(&mut self) -> Result<(), Error> {
         self.sample_values().map(drop)
     }
 
     /// [`Self::sample`], returning the scalar values it averaged (collective).
-    pub fn sample_values(&mut self) -> Result<Vec<(String, f64)>, Error> {
+    pub(crate) fn sample_values(&mut self) -> Result<Vec<(String, f64)>, Error> {
         let t0 = Instant::now();
         let values = self.measure();
         self.times.diagnostics += t0.elapsed().as_secs_f64();
@@ -277,7 +277,7 @@ impl<'c, const D: usize> Simulation<'c, D> {
     }
 
     /// Instantaneous observables (collective).
-    pub fn measure(&mut self) -> Measurement {
+    pub(crate) fn measure(&mut self) -> Measurement {
         let virial = self.current_virial();
         let case = &self.case;
         let sheared = self.sim_box.sheared();

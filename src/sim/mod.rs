@@ -210,10 +210,12 @@ use measure::*;
 /// Name of the extra field that carries the neighbour-list build positions in checkpoints.
 pub const LIST_REFERENCE_FIELD: &str = "list_reference_position";
 
+// The heavy methods are `pub(crate)`: other crates call them through `facade::Engine`, compiled
+// once in this crate for D = 2 and 3 (see there why); the light accessors stay public.
 impl<'c, const D: usize> Simulation<'c, D> {
     /// Sets up the initial state on this rank and computes the initial forces.
     /// `threads` rayon workers serve this rank (0: all available cores).
-    pub fn new(case: &Case, comm: &'c dyn Comm, threads: usize) -> Result<Self, Error> {
+    pub(crate) fn new(case: &Case, comm: &'c dyn Comm, threads: usize) -> Result<Self, Error> {
         let (sim_box, slab) = Self::geometry(case, comm)?;
         let mut bodies = case
             .fluid
@@ -253,7 +255,7 @@ impl<'c, const D: usize> Simulation<'c, D> {
     /// the ghosts. The next rebuild then happens at the same step, with the same wrap, as in the
     /// uninterrupted run; forces are not recomputed (the saved ones are those of the step).
     #[allow(clippy::too_many_arguments)]
-    pub fn from_checkpoint(
+    pub(crate) fn from_checkpoint(
         case: &Case,
         comm: &'c dyn Comm,
         threads: usize,
@@ -448,7 +450,7 @@ impl<'c, const D: usize> Simulation<'c, D> {
     /// Attaches a model: registers its fields (on a restart, checks that the checkpoint brought
     /// the checkpointed ones), lets it initialise them, and resolves the ghost fields of its
     /// passes. A model attached after the set-up computed the forces joins from the next step.
-    pub fn attach(&mut self, mut model: Box<dyn ParticleModel<D>>) -> Result<(), Error> {
+    pub(crate) fn attach(&mut self, mut model: Box<dyn ParticleModel<D>>) -> Result<(), Error> {
         let p = &mut self.particles;
         for spec in model.fields() {
             let name = spec.name;
@@ -564,7 +566,7 @@ impl<'c, const D: usize> Simulation<'c, D> {
     /// each particle's index into it from its id and initial position. Call it on a fresh run
     /// before the first step (a restart brings the species back from its checkpoint). Rebuilds
     /// the halo, so the ghosts carry their species, and recomputes the forces. Collective.
-    pub fn set_species(
+    pub(crate) fn set_species(
         &mut self,
         table: Vec<Species>,
         assign: impl Fn(u64, &[f64; D]) -> u8,
@@ -629,7 +631,7 @@ impl<'c, const D: usize> Simulation<'c, D> {
     /// The values of the snapshot quantity `name` of the owned particles (in the rank's order),
     /// from the first model that gives it
     /// ([`crate::models::interface::ParticleModel::snapshot_values`]).
-    pub fn snapshot_values(&self, name: &str) -> Option<Vec<f64>> {
+    pub(crate) fn snapshot_values(&self, name: &str) -> Option<Vec<f64>> {
         self.models
             .iter()
             .find_map(|m| m.snapshot_values(name, &self.particles))
@@ -641,7 +643,7 @@ impl<'c, const D: usize> Simulation<'c, D> {
     /// variable-length fields (dumbbell ensembles, the largest state) are *moved* out, not
     /// copied, so a checkpoint never doubles them in memory: hand the particles back with
     /// [`Self::return_checkpoint_particles`] before the next step.
-    pub fn lend_checkpoint_particles(&mut self) -> Particles<D> {
+    pub(crate) fn lend_checkpoint_particles(&mut self) -> Particles<D> {
         let src = &mut self.particles;
         let n = src.n_owned;
         let mut p = src.owned_core();
@@ -692,7 +694,7 @@ impl<'c, const D: usize> Simulation<'c, D> {
 
     /// Jumps to `step` (as a restart would) and rebuilds halo and lists there; used by tests
     /// that need a non-zero Lees–Edwards offset.
-    pub fn jump_to_step(&mut self, step: u64) -> Result<(), Error> {
+    pub(crate) fn jump_to_step(&mut self, step: u64) -> Result<(), Error> {
         self.step = step;
         self.rebuild()?;
         self.compute_forces(VirialScope::Off)?;
@@ -754,7 +756,7 @@ impl<'c, const D: usize> Simulation<'c, D> {
 
     /// Evaluates the forces (and the virial when asked) again at the current step, leaving the
     /// state as it was: what the pair-force benchmark times.
-    pub fn recompute_forces(&mut self, want_virial: bool) -> Result<(), Error> {
+    pub(crate) fn recompute_forces(&mut self, want_virial: bool) -> Result<(), Error> {
         let scope = if want_virial {
             VirialScope::Full
         } else {
@@ -888,7 +890,7 @@ impl<'c, const D: usize> Simulation<'c, D> {
     /// Advances one time step: each of the integrator's stages moves the particles, brings
     /// lists and ghosts up to date and evaluates the forces (the first stage also advances the
     /// step counter and the models' per-particle state).
-    pub fn advance(&mut self) -> Result<(), Error> {
+    pub(crate) fn advance(&mut self) -> Result<(), Error> {
         let stages = self.integrator.stages();
         for stage in 0..stages {
             self.advance_stage(stage, stage + 1 == stages)?;
@@ -1106,7 +1108,7 @@ impl<'c, const D: usize> Simulation<'c, D> {
     /// every registered field of every particle — combined over particles with an
     /// order-independent wrapping sum and xor, so it is the same for any decomposition
     /// (collective).
-    pub fn state_digest(&self) -> String {
+    pub(crate) fn state_digest(&self) -> String {
         let p = &self.particles;
         let mut acc = [0u64, 0u64];
         for i in 0..p.n_owned {
@@ -1149,7 +1151,7 @@ impl<'c, const D: usize> Simulation<'c, D> {
     }
 
     /// The models' counted warnings (summed over the ranks), the non-zero ones. Collective.
-    pub fn counted_warnings(&self) -> Vec<String> {
+    pub(crate) fn counted_warnings(&self) -> Vec<String> {
         let mut counts = Vec::new();
         let mut texts = Vec::new();
         for model in &self.models {
@@ -1173,7 +1175,7 @@ impl<'c, const D: usize> Simulation<'c, D> {
     /// Dumbbells in the whole system (the rows of the `connectors` ensemble field over every
     /// rank, / D; or the counts of the BDDFS `histograms`), or None without ensembles.
     /// Collective.
-    pub fn dumbbell_count(&self) -> Option<u64> {
+    pub(crate) fn dumbbell_count(&self) -> Option<u64> {
         use crate::models::dumbbell_ensemble::{CONNECTORS, HISTOGRAMS};
         let p = &self.particles;
         let f = p
@@ -1195,7 +1197,7 @@ impl<'c, const D: usize> Simulation<'c, D> {
     /// The bytes the variable-length fields (dumbbell connectors, BDDFS histograms) hold per
     /// particle that carries any, over every rank (8 per f64 or word, 4 per f32), or None
     /// without such fields. Collective.
-    pub fn ensemble_bytes_per_particle(&self) -> Option<f64> {
+    pub(crate) fn ensemble_bytes_per_particle(&self) -> Option<f64> {
         use crate::particles::VarStorage;
         let p = &self.particles;
         let first = p.var.first()?;
@@ -1216,19 +1218,14 @@ impl<'c, const D: usize> Simulation<'c, D> {
         Some(total[0] as f64 / total[1].max(1) as f64)
     }
 
-    /// Runs `steps` steps, sampling on schedule and calling `progress` every step (rank-local).
-    pub fn run_steps(
-        &mut self,
-        steps: u64,
-        mut progress: impl FnMut(&Self),
-    ) -> Result<Duration, Error> {
+    /// Runs `steps` steps, sampling on schedule.
+    pub(crate) fn run_steps(&mut self, steps: u64) -> Result<Duration, Error> {
         let start = Instant::now();
         for _ in 0..steps {
             self.advance()?;
             if self.is_sample_step() {
                 self.sample()?;
             }
-            progress(self);
         }
         Ok(start.elapsed())
     }

@@ -6,6 +6,7 @@
 use crate::common::{assert_all_equal, case_from_str, digests_on_1_to_4_ranks, mean_se};
 use mesorheo::comm::{Comm, SerialComm};
 use mesorheo::driver::in_process;
+use mesorheo::facade::Engine;
 use mesorheo::output::checkpoint;
 use mesorheo::sim::Simulation;
 use std::path::Path;
@@ -62,12 +63,12 @@ fn body_velocity_variance(
     let case = case_from_str(text, "colloids").case;
     let comm = SerialComm::new();
     let mut sim = Simulation::<3>::new(&case, &comm, 1).expect("set up");
-    sim.run_steps(equilibrate, |_| {}).expect("equilibrate");
+    sim.run_steps(equilibrate).expect("equilibrate");
     let mut out = Vec::new();
     for _ in 0..blocks {
         let (mut s, mut n) = (0.0, 0.0);
         for _ in 0..per_block / every {
-            sim.run_steps(every, |_| {}).expect("run");
+            sim.run_steps(every).expect("run");
             for b in sim.rigid_bodies().expect("bodies").bodies() {
                 for d in 0..3 {
                     s += b.velocity[d] * b.velocity[d];
@@ -152,7 +153,7 @@ fn solvent_and_body_momentum_is_conserved() {
     let mut particle_drift: f64 = 0.0;
     let mut system_drift: f64 = 0.0;
     for _ in 0..30 {
-        sim.run_steps(10, |_| {}).expect("run");
+        sim.run_steps(10).expect("run");
         let (now, now_particles) = momenta(&sim);
         for d in 0..3 {
             system_drift = system_drift.max((now[d] - start[d]).abs());
@@ -225,7 +226,7 @@ fn run_to(
     let mut sim = match from {
         None => Simulation::<3>::new(&case, comm, 1)?,
         Some(path) => {
-            let r = checkpoint::read::<3>(path, comm).map_err(|e| e.to_string())?;
+            let r = Simulation::<3>::read_checkpoint(path, comm).map_err(|e| e.to_string())?;
             Simulation::<3>::from_checkpoint(
                 &r.case,
                 comm,
@@ -241,9 +242,9 @@ fn run_to(
         }
     };
     let steps = to_step - sim.step;
-    sim.run_steps(steps, |_| {})?;
+    sim.run_steps(steps)?;
     if let Some(dir) = save_to {
-        checkpoint::write(&mut sim, dir, 2)?;
+        sim.write_checkpoint(dir, 2)?;
     }
     Ok(sim.state_digest())
 }
@@ -372,14 +373,14 @@ fn suspension_stress_is_the_flux_of_the_conserved_momentum() {
     let case = case_from_str(&text, "flux").case;
     let comm = SerialComm::new();
     let mut sim = Simulation::<3>::new(&case, &comm, 1).expect("set up");
-    sim.run_steps(300, |_| {}).expect("equilibrate");
+    sim.run_steps(300).expect("equilibrate");
     let (blocks, per_block, every) = (10, 200, 5);
     let (mut eta, mut difference, mut constraint) = (Vec::new(), Vec::new(), Vec::new());
     for _ in 0..blocks {
         let (mut e, mut d, mut c) = (0.0, 0.0, 0.0);
         let n = per_block / every;
         for _ in 0..n {
-            sim.run_steps(every, |_| {}).expect("run");
+            sim.run_steps(every).expect("run");
             let s = flux_sample(&mut sim);
             e += s.viscosity;
             c += s.constraint;
@@ -429,12 +430,12 @@ fn colloid_velocity_variance_observable_obeys_translational_equipartition() {
         let b = sim.rigid_bodies().expect("bodies");
         (b.body_mass(), b.moment_of_inertia())
     };
-    sim.run_steps(200, |_| {}).expect("equilibrate");
+    sim.run_steps(200).expect("equilibrate");
     let (mut translational, mut rotational) = (Vec::new(), Vec::new());
     for _ in 0..10 {
         let (mut v, mut w) = (0.0, 0.0);
         for _ in 0..40 {
-            sim.run_steps(5, |_| {}).expect("run");
+            sim.run_steps(5).expect("run");
             let values = sim.measure().scalars;
             let get = |name: &str| values.iter().find(|(n, _)| n == name).expect(name).1;
             v += get("colloid_velocity_variance");
@@ -480,7 +481,7 @@ fn fixed_cylinder_holds_the_whole_body_force() {
     let case = case_from_str(&text, "cylinder array").case;
     let comm = SerialComm::new();
     let mut sim = Simulation::<2>::new(&case, &comm, 1).expect("set up");
-    sim.run_steps(2000, |_| {}).expect("equilibrate");
+    sim.run_steps(2000).expect("equilibrate");
     let (fluid, mass, g) = (800.0, 0.5, 0.6);
     let (mut forces, mut velocities) = (Vec::new(), Vec::new());
     // The colloid–solvent RDF's bins, one series each (`rdf_check` below).
@@ -488,7 +489,7 @@ fn fixed_cylinder_holds_the_whole_body_force() {
     for _ in 0..10 {
         let (mut f, mut u) = (0.0, 0.0);
         for _ in 0..160 {
-            sim.run_steps(5, |_| {}).expect("run");
+            sim.run_steps(5).expect("run");
             let bins = sim.measure().scalars.into_iter().filter(|(name, _)| {
                 name.starts_with(mesorheo::observable::COLLOID_SOLVENT_RDF_PREFIX)
             });

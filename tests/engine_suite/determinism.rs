@@ -7,6 +7,7 @@
 use crate::common;
 use common::{assert_all_equal, case_from_str, digests_on_1_to_4_ranks, small_dpd};
 use mesorheo::driver::run_in_process;
+use mesorheo::facade::Engine;
 
 fn digests(text: &str, name: &str) -> Vec<(usize, usize, String)> {
     digests_on_1_to_4_ranks(text, name, |s| {
@@ -95,7 +96,7 @@ fn walls_keep_particles_inside_and_are_decomposition_invariant() {
                 std::thread::spawn(move || {
                     let mut sim =
                         mesorheo::sim::Simulation::<3>::new(&case, &comm, 1).expect("setup");
-                    sim.run_steps(200, |_| {}).expect("run");
+                    sim.run_steps(200).expect("run");
                     let p = &sim.particles;
                     let inside = p.pos[..p.n_owned].iter().all(|x| x[1] >= 0.0 && x[1] < 6.0);
                     (inside, sim.state_digest())

@@ -6,6 +6,7 @@ use crate::common;
 use common::{case_from_str, small_dpd, stock_case, stock_text_with, with_overrides};
 use mesorheo::comm::SerialComm;
 use mesorheo::driver::run_in_process;
+use mesorheo::facade::Engine;
 use mesorheo::sim::Simulation;
 
 fn assert_validations_pass(name: &str, ranks: usize, threads: usize) {
@@ -81,11 +82,14 @@ fn momentum_is_conserved_to_round_off() {
     }
 }
 
-fn drift<const D: usize>(sim: &mut Simulation<D>) -> f64 {
+fn drift<const D: usize>(sim: &mut Simulation<D>) -> f64
+where
+    for<'c> Simulation<'c, D>: Engine<'c, D>,
+{
     let p0: Vec<f64> = sim.measure().scalars.iter().map(|(_, v)| *v).collect();
     let mut worst = 0.0f64;
     for _ in 0..20 {
-        sim.run_steps(25, |_| {}).expect("steps");
+        sim.run_steps(25).expect("steps");
         let p: Vec<f64> = sim.measure().scalars.iter().map(|(_, v)| *v).collect();
         for (a, b) in p.iter().zip(&p0) {
             worst = worst.max((a - b).abs());

@@ -8,6 +8,8 @@ use crate::common;
 use common::{case_from_str, small_dpd};
 use mesorheo::comm::{Comm, SerialComm, U64Op};
 use mesorheo::driver::in_process;
+use mesorheo::facade::Engine;
+use mesorheo::facade::Ensembles;
 use mesorheo::models::dumbbell_ensemble::{CONNECTORS, DumbbellEnsemble, VelocityGradient};
 use mesorheo::models::dumbbells::{DumbbellParams, Scheme, Spring};
 use mesorheo::models::homogeneous_flow::{Flow, HomogeneousEnsembles};
@@ -99,7 +101,7 @@ fn mismatches(
         let model =
             DumbbellEnsemble::<3>::new(params(scheme), N_D, 1.0, SEED, precision, source.clone())?;
         sim.attach(Box::new(model)).map_err(|e| e.to_string())?;
-        sim.run_steps(STEPS, |_| {}).map_err(|e| e.to_string())?;
+        sim.run_steps(STEPS).map_err(|e| e.to_string())?;
         let p = &sim.particles;
         let k = (p.var.iter().position(|f| f.name == CONNECTORS)).ok_or("no connectors")?;
         let mut counts = [0u64, p.n_owned as u64];

@@ -13,6 +13,7 @@
 
 use crate::common::{self, mean_se};
 use mesorheo::comm::SerialComm;
+use mesorheo::facade::Ensembles;
 use mesorheo::models::dumbbells::{
     DumbbellParams, Scheme, Spring, hookean_discrete_moment, kramers_stress,
 };

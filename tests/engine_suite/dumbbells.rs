@@ -10,6 +10,7 @@
 use crate::common::mean_se;
 use mesorheo::comm::Comm;
 use mesorheo::driver::in_process;
+use mesorheo::facade::Ensembles;
 use mesorheo::models::dumbbells::{DumbbellParams, Scheme, Spring, hookean_discrete_moment};
 use mesorheo::models::homogeneous_flow::{Flow, HomogeneousEnsembles};
 use mesorheo::particles::tensor_rows;
@@ -37,7 +38,10 @@ fn within(got: f64, se: f64, want: f64, k: f64, what: &str) {
     );
 }
 
-fn shear_start_up<const D: usize>(wi: f64) {
+fn shear_start_up<const D: usize>(wi: f64)
+where
+    for<'c> HomogeneousEnsembles<'c, D>: Ensembles<'c, D>,
+{
     let dt = 0.01 / wi.max(1.0);
     let p = params(Scheme::Heun, dt);
     let flow = Flow::SimpleShear { rate: wi };

@@ -158,6 +158,7 @@ fn corrupt_flow_checkpoint_falls_back_to_the_previous_one() {
 #[test]
 fn single_precision_storage_halves_memory_and_changes_only_rounding() {
     use mesorheo::comm::SerialComm;
+    use mesorheo::facade::Ensembles;
     use mesorheo::models::dumbbells::{DumbbellParams, Scheme, Spring};
     use mesorheo::models::homogeneous_flow::{Flow, HomogeneousEnsembles};
     let comm = SerialComm::new();
@@ -251,6 +252,7 @@ fn stock_dumbbell_scenes_pass_their_references() {
 #[test]
 fn a_runaway_dumbbell_is_stopped_at_the_step_it_leaves_its_domain() {
     use mesorheo::comm::SerialComm;
+    use mesorheo::facade::Ensembles;
     use mesorheo::models::dumbbells::{DumbbellParams, Scheme, Spring, outside_domain};
     use mesorheo::models::homogeneous_flow::{Flow, HomogeneousEnsembles};
     let comm = SerialComm::new();

@@ -9,6 +9,7 @@ use crate::common;
 use common::{assert_all_equal, case_from_str, digests_on_1_to_4_ranks, small_gas};
 use mesorheo::comm::Comm;
 use mesorheo::driver::{in_process, run_in_process};
+use mesorheo::facade::Engine;
 use mesorheo::models::interface::{
     FieldKind, FieldSpec, ParticleModel, PassContext, PassOutput, PassSpec,
 };
@@ -101,7 +102,10 @@ fn probe<const D: usize>(
     case: &mesorheo::config::Case,
     comm: &dyn Comm,
     want: f64,
-) -> Result<[f64; 3], mesorheo::error::Error> {
+) -> Result<[f64; 3], mesorheo::error::Error>
+where
+    for<'c> Simulation<'c, D>: Engine<'c, D>,
+{
     let sim = Simulation::<D>::new(case, comm, 1)?;
     let p = &sim.particles;
     let k = p.extra_index(DENSITY).ok_or("no density field")?;
@@ -254,7 +258,7 @@ fn ghost_fields_are_refreshed_with_the_lees_edwards_shift_on_velocity_like_field
                 fields: (0, 0),
                 one_rank: comm.size() == 1,
             }))?;
-            sim.run_steps(30, |_| {})?;
+            sim.run_steps(30)?;
             Ok::<_, mesorheo::error::Error>(())
         })
         .unwrap_or_else(|e| panic!("{ranks} ranks: {e}"));

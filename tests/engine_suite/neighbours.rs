@@ -4,6 +4,7 @@
 use crate::common;
 use common::{case_from_str, small_dpd};
 use mesorheo::comm::{Comm, local_universe};
+use mesorheo::facade::Engine;
 use mesorheo::sim::Simulation;
 use std::collections::BTreeMap;
 
@@ -44,7 +45,10 @@ struct Global<const D: usize> {
     vel: Vec<[f64; D]>,
 }
 
-fn check<const D: usize>(text: &str, ranks: usize, step: u64) {
+fn check<const D: usize>(text: &str, ranks: usize, step: u64)
+where
+    for<'c> Simulation<'c, D>: Engine<'c, D>,
+{
     let loaded = case_from_str(text, "nl");
     let comms = local_universe(ranks);
     let handles: Vec<_> = comms

@@ -10,6 +10,7 @@ use crate::common;
 use common::{case_from_str, small_dpd, stock_text_with};
 use mesorheo::comm::Comm;
 use mesorheo::driver::{CHECKPOINT_REFUSED, RunOptions, in_process, restart_case, run_case};
+use mesorheo::facade::Engine;
 use mesorheo::models::{FieldKind, FieldSpec, ParticleModel};
 use mesorheo::output::checkpoint;
 use mesorheo::particles::Particles;
@@ -250,7 +251,7 @@ fn model_run(
     let mut sim = match from {
         None => Simulation::<3>::new(&case, comm, 1)?,
         Some(path) => {
-            let r = checkpoint::read::<3>(path, comm).map_err(|e| e.to_string())?;
+            let r = Simulation::<3>::read_checkpoint(path, comm).map_err(|e| e.to_string())?;
             Simulation::<3>::from_checkpoint(
                 &r.case,
                 comm,
@@ -267,9 +268,9 @@ fn model_run(
     };
     sim.attach(Box::new(TensorAndArray))?;
     let steps = to_step - sim.step;
-    sim.run_steps(steps, |_| {})?;
+    sim.run_steps(steps)?;
     if let Some(dir) = save_to {
-        checkpoint::write(&mut sim, dir, 2)?;
+        sim.write_checkpoint(dir, 2)?;
     }
     Ok(sim.state_digest())
 }
@@ -347,7 +348,8 @@ fn a_corrupt_or_truncated_checkpoint_is_refused_and_the_previous_one_used() {
         }
         // Refused when named explicitly…
         let n = newest.clone();
-        let read = move |c: &dyn Comm| checkpoint::read::<2>(&n, c).map_err(|e| e.to_string());
+        let read =
+            move |c: &dyn Comm| Simulation::<2>::read_checkpoint(&n, c).map_err(|e| e.to_string());
         let err =
             in_process(1, move |c| read(c).map(|_| ())).expect_err("damaged checkpoint accepted");
         let expect = if damage == "flip" { "checksum" } else { "HDF5" };

@@ -8,7 +8,7 @@ use crate::common;
 use common::case_from_str;
 use mesorheo::comm::Comm;
 use mesorheo::driver::{RunOptions, in_process, restart_case};
-use mesorheo::scene::{ParticleScene, drive};
+use mesorheo::facade::Engine;
 use mesorheo::sim::Simulation;
 use mesorheo::species::{Motion, Species};
 use std::path::Path;
@@ -87,20 +87,13 @@ fn run(
 ) -> Result<(String, f64), mesorheo::error::Error> {
     let loaded = case_from_str(text, "walls");
     let mut sim = Simulation::<2>::new(&loaded.case, comm, threads)?;
-    sim.set_species(table(), assign)?;
+    sim.set_species(table(), &assign)?;
     let options = RunOptions {
         threads,
         out: out.map(Path::to_path_buf),
         ..RunOptions::default()
     };
-    let s = drive(
-        ParticleScene::new(sim),
-        Path::new("walls"),
-        None,
-        comm,
-        &options,
-        threads,
-    )?;
+    let s = sim.drive(Path::new("walls"), None, comm, &options, threads)?;
     Ok((s.state_digest, s.observables["temperature"].mean))
 }
 
@@ -138,12 +131,12 @@ fn frozen_particles_stay_and_prescribed_ones_move_at_their_velocity() {
     in_process(2, move |comm| {
         let loaded = case_from_str(&text, "walls");
         let mut sim = Simulation::<2>::new(&loaded.case, comm, 1).map_err(|e| e.to_string())?;
-        sim.set_species(table(), assign)
+        sim.set_species(table(), &assign)
             .map_err(|e| e.to_string())?;
         let start: std::collections::HashMap<u64, [f64; 2]> = (0..sim.particles.n_owned)
             .map(|i| (sim.particles.gid[i], sim.particles.pos[i]))
             .collect();
-        sim.run_steps(100, |_| {}).map_err(|e| e.to_string())?;
+        sim.run_steps(100).map_err(|e| e.to_string())?;
         let p = &sim.particles;
         let (mut frozen, mut moving, mut fluid_moved) = (0.0, 0.0, 0.0);
         // k_BT of the fluid alone, computed here: Σ m |v − ū|² / (D (N_f − 1)), ū the fluid's

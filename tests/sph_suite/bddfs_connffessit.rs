@@ -14,6 +14,7 @@ use crate::common;
 use common::{assert_all_equal, case_from_str, digests_on_1_to_4_ranks, stock_text_with};
 use mesorheo::comm::SerialComm;
 use mesorheo::diagnostics::integrated_autocorrelation_time;
+use mesorheo::facade::Engine;
 use mesorheo::models::dumbbell_ensemble::HISTOGRAMS;
 use mesorheo::sim::Simulation;
 

@@ -14,6 +14,7 @@ use common::{
     stock_text_with, with_overrides,
 };
 use mesorheo::comm::SerialComm;
+use mesorheo::facade::Engine;
 use mesorheo::models::dumbbell_ensemble::CONNECTORS;
 use mesorheo::models::sph::FLUID;
 use mesorheo::sim::Simulation;

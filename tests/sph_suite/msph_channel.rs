@@ -19,6 +19,7 @@ use common::{
     assert_all_equal, assert_references_pass, case_from_str, digests_on_1_to_4_ranks, stock_text,
 };
 use mesorheo::comm::SerialComm;
+use mesorheo::facade::Engine;
 use mesorheo::models::sph::{FLUID, VISCOUS_STRESS};
 use mesorheo::sim::Simulation;
 
@@ -38,7 +39,10 @@ fn to_t50(text: &str) -> String {
 /// U = γ̇L) with v_x = γ̇ y imposed on every fluid particle; returns (fluid particles,
 /// max |κ_xy − γ̇|/γ̇, max |a|), κ_xy read from the nested summation's σ̄_xy = (1 − s)η(κ_xy +
 /// κ_yx) with (1 − s)η = 0.9.
-fn couette_through_mirror_walls<const D: usize>(text: &str, rate: f64) -> (usize, f64, f64) {
+fn couette_through_mirror_walls<const D: usize>(text: &str, rate: f64) -> (usize, f64, f64)
+where
+    for<'c> Simulation<'c, D>: Engine<'c, D>,
+{
     let loaded = case_from_str(text, "couette.toml");
     let comm = SerialComm::new();
     let mut sim = Simulation::<D>::new(&loaded.case, &comm, 1).expect("set up");

@@ -21,6 +21,7 @@ use common::{
 };
 use mesorheo::comm::SerialComm;
 use mesorheo::driver::run_in_process;
+use mesorheo::facade::Engine;
 use mesorheo::sim::Simulation;
 
 /// A channel between walls at y = 0 and y = 1 (Δ = 0.02, Lucy support 2.5Δ), the upper wall
@@ -75,7 +76,7 @@ fn shear_wave_decays_at_the_viscous_rate() {
         let amp = 0.01;
         set_velocity(&mut sim, |y| amp * (k * y).sin());
         let steps = 200;
-        sim.run_steps(steps, |_| {}).expect("run");
+        sim.run_steps(steps).expect("run");
         let t = steps as f64 * 1e-4;
         let (mut num, mut den) = (0.0, 0.0);
         for i in 0..sim.particles.n_owned {
@@ -112,7 +113,7 @@ fn morris_images_keep_steady_couette_flow_linear() {
         let comm = SerialComm::new();
         let mut sim = Simulation::<2>::new(&loaded.case, &comm, 1).expect("set up");
         set_velocity(&mut sim, |y| y);
-        sim.run_steps(1000, |_| {}).expect("run");
+        sim.run_steps(1000).expect("run");
         let worst = (0..sim.particles.n_owned)
             .filter(|&i| sim.particles.species_of(i) == 0)
             .map(|i| (sim.particles.vel[i][0] - sim.particles.pos[i][1]).abs())
@@ -182,7 +183,7 @@ fn momentum_is_conserved_to_round_off() {
             p
         };
         let before = momentum(&sim);
-        sim.run_steps(200, |_| {}).expect("run");
+        sim.run_steps(200).expect("run");
         let after = momentum(&sim);
         for d in 0..2 {
             // 2500 velocities of 0.1, each rounded at 1e-17 per step: 1e-11 is round-off.
@@ -255,7 +256,7 @@ fn startup_velocities_at(poiseuille: bool, integrator: &str, dt: f64) -> Vec<[f6
     let comm = SerialComm::new();
     let mut sim = Simulation::<2>::new(&loaded.case, &comm, 1).expect("set up");
     let steps = (t_end / dt).round() as u64;
-    sim.run_steps(steps, |_| {}).expect("run");
+    sim.run_steps(steps).expect("run");
     let p = &sim.particles;
     let mut fluid: Vec<(u64, [f64; 2])> = (0..p.n_owned)
         .filter(|&i| p.species_of(i) == 0)
@@ -363,11 +364,11 @@ fn poiseuille_in_3d_agrees_with_2d() {
             .collect();
         let profile = if dimension == 2 {
             let mut sim = Simulation::<2>::new(&loaded.case, &comm, 2).expect("set up");
-            sim.run_steps((t / dt).round() as u64, |_| {}).expect("run");
+            sim.run_steps((t / dt).round() as u64).expect("run");
             row_profile(&sim, delta)
         } else {
             let mut sim = Simulation::<3>::new(&loaded.case, &comm, 2).expect("set up");
-            sim.run_steps((t / dt).round() as u64, |_| {}).expect("run");
+            sim.run_steps((t / dt).round() as u64).expect("run");
             row_profile(&sim, delta)
         };
         let error = profile
@@ -472,7 +473,7 @@ fn xsph_correction_is_the_smoothed_velocity_difference() {
             (p.gid[i], p.pos[i], step)
         })
         .collect();
-    sim.run_steps(1, |_| {}).expect("step");
+    sim.run_steps(1).expect("step");
     let p = &sim.particles;
     let index: std::collections::HashMap<u64, usize> =
         (0..p.n_owned).map(|i| (p.gid[i], i)).collect();
@@ -590,7 +591,7 @@ fn wall_shear_stress_follows_the_startup_series() {
             );
         }
         let steps = (t / 1e-4_f64).round() as u64;
-        sim.run_steps(steps - done, |_| {}).expect("run");
+        sim.run_steps(steps - done).expect("run");
         done = steps;
         let (lower, upper) = wall_shear_stresses(&mut sim);
         let (want_lower, want_upper) = (slope(t, false), -slope(t, true));
@@ -627,7 +628,7 @@ fn closest_approach(speed: f64, strength: f64) -> f64 {
     sim.jump_to_step(0).expect("forces");
     let mut closest = f64::INFINITY;
     for _ in 0..400 {
-        sim.run_steps(1, |_| {}).expect("run");
+        sim.run_steps(1).expect("run");
         let p = &sim.particles;
         for i in (0..p.n_owned).filter(|&i| p.species_of(i) == 0) {
             closest = closest.min(p.pos[i][1]);

@@ -17,6 +17,7 @@ use common::{
     digests_on_1_to_4_ranks, stock_case,
 };
 use mesorheo::comm::SerialComm;
+use mesorheo::facade::Engine;
 use mesorheo::sim::Simulation;
 
 /// The stock Newtonian inclusion cell, shortened (issue #40: a quarter of its steps; the stock
@@ -87,7 +88,7 @@ fn shear_rate_near_the_inclusion_follows_stokes() {
     let loaded = stock_case("inclusion_newtonian_2d.toml");
     let comm = SerialComm::new();
     let mut sim = Simulation::<2>::new(&loaded.case, &comm, 2).expect("set up");
-    sim.run_steps(5556, |_| {}).expect("run");
+    sim.run_steps(5556).expect("run");
     let p = &sim.particles;
     let stress = p.extra_index("viscous_stress").expect("viscous stress");
     let (r0, spacing) = (0.1, 0.02);

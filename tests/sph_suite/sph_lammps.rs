@@ -14,6 +14,7 @@
 use crate::common;
 use common::stock_case;
 use mesorheo::comm::SerialComm;
+use mesorheo::facade::Engine;
 use mesorheo::sim::Simulation;
 
 const LAMMPS_KE_100: f64 = 0.009980551567;
@@ -36,7 +37,7 @@ fn shear_wave_kinetic_energy_matches_lammps() {
             .sum::<f64>()
     };
     assert!((ke(&sim) - 0.01).abs() < 1e-15, "initial KE {}", ke(&sim));
-    sim.run_steps(100, |_| {}).expect("run");
+    sim.run_steps(100).expect("run");
     let got = ke(&sim);
     eprintln!("KE(100) = {got:.12} (LAMMPS {LAMMPS_KE_100})");
     assert!(

@@ -39,7 +39,9 @@ use crate::diagnostics::Series;
 use crate::sim::hash_words;
 use std::path::{Path, PathBuf};
 
-pub use particles::{Restored, read, read_case, write};
+pub use particles::{Restored, read_case};
+// Generic over D: other crates read and write through `crate::facade::Engine` (compiled here once).
+pub(crate) use particles::{read, write};
 
 /// Value of the `format` attribute.
 pub const FORMAT: &str = "mesorheo-checkpoint";

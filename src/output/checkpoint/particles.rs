@@ -56,7 +56,7 @@ fn checksum<const D: usize>(p: &Particles<D>, comm: &dyn Comm, scalars: &[u64]) 
 
 /// Writes the checkpoint of the current step into `dir` and keeps the newest `keep`
 /// (collective). Returns the path.
-pub fn write<const D: usize>(
+pub(crate) fn write<const D: usize>(
     sim: &mut Simulation<'_, D>,
     dir: &Path,
     keep: usize,
@@ -248,7 +248,10 @@ fn parse_echo(path: &Path, text: &str, echo: &Path) -> Result<Case, CheckpointEr
 
 /// Reads and verifies a checkpoint (collective; every rank returns the same verdict). Each rank
 /// reads one block of ids; [`Simulation::from_checkpoint`] sends the particles to their owners.
-pub fn read<const D: usize>(path: &Path, comm: &dyn Comm) -> Result<Restored<D>, CheckpointError> {
+pub(crate) fn read<const D: usize>(
+    path: &Path,
+    comm: &dyn Comm,
+) -> Result<Restored<D>, CheckpointError> {
     let (restored, scalars) = agree(read_local::<D>(path, comm), path, comm)?;
     // Checksum (collective); the stored value travels as the last scalar.
     let (stored, scalars) = scalars
