@@ -395,9 +395,10 @@ impl<T: Copy> PairBand<T> {
     /// The `width` entries of particle `i`, if in the band.
     #[inline]
     pub fn get(&self, i: usize, width: usize) -> Option<&[T]> {
+        // i below the band wraps to a huge k, which every checked step below turns into None.
         let k = i.wrapping_sub(self.lo);
         self.acc
-            .get(k.checked_mul(width)?..(k + 1).checked_mul(width)?)
+            .get(k.checked_mul(width)?..k.checked_add(1)?.checked_mul(width)?)
     }
 }
 

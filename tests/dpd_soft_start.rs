@@ -199,7 +199,12 @@ fn a_soft_started_random_start_survives_where_the_raw_one_blows_up_at_once() {
                 "run.beyond_stability_limits=true",
             ],
         );
-        let soft = run_in_process(&case_from_str(&base, "soft.toml"), 1, 2, None);
+        let soft = run_in_process(
+            &case_from_str(&base, "soft.toml"),
+            1,
+            common::PHYSICS_THREADS,
+            None,
+        );
         assert!(
             soft.as_ref().is_ok_and(|s| s.steps == 200),
             "seed {seed}: the soft start blew up: {:?}",

@@ -82,7 +82,11 @@ fn hookean_grid_diffusion_is_dq2_over_6_per_step_and_grows_as_dq2_over_dt() {
     let mut excesses = Vec::new();
     for (cells, dt) in [(64usize, 0.1), (64, 0.05), (32, 0.1)] {
         let case = hookean_rest(cells, dt);
-        let s = run(&case, 1, options(2, None, None));
+        let s = run(
+            &case,
+            1,
+            options(crate::common::PHYSICS_THREADS, None, None),
+        );
         assert!(s.completed);
         let (q2, se) = observed(&s, "mean_square_connector_length");
         let grid = case.polymer.histogram_grid().expect("bddfs");
@@ -161,7 +165,11 @@ sample_every = 5
 progress_seconds = 0
 "#,
     );
-    let s = run(&case, 1, options(2, None, None));
+    let s = run(
+        &case,
+        1,
+        options(crate::common::PHYSICS_THREADS, None, None),
+    );
     assert!(s.completed);
     assert!(s.warnings.is_empty(), "{:?}", s.warnings);
     for (name, want) in [

@@ -381,8 +381,13 @@ fn sheared_temperature_does_not_depend_on_the_bin_count() {
         )
     };
     let kt = |bins: usize| {
-        let s = run_in_process(&case_from_str(&text(bins), "kt.toml"), 1, 2, None)
-            .unwrap_or_else(|e| panic!("{e}"));
+        let s = run_in_process(
+            &case_from_str(&text(bins), "kt.toml"),
+            1,
+            crate::common::PHYSICS_THREADS,
+            None,
+        )
+        .unwrap_or_else(|e| panic!("{e}"));
         s.observables["temperature"]
     };
     let (fine, coarse) = (kt(30), kt(5));
@@ -432,43 +437,56 @@ fn exponential_thermostat_keeps_k_bt_where_the_explicit_step_diverges() {
 }
 
 /// The reverse Poiseuille flow (the n = 4 level of Nguyen's §3.4: 20 × 20, n = 4, m = 2, g = ±1, the
-/// stock case shortened to t = 38, sampled after t = 8).
+/// stock case shortened to t = 23, sampled after t = 8; 11 500 steps, 49 s on one thread).
 ///
 /// 1. The binned shear stress against the momentum balance alone, τ_xy = ρ g (L_y/4 − |s|),
 ///    τ_max = 40, which holds whatever the viscosity: every bin within 4.5 of its block errors
 ///    (20 blocks), and the bins averaging to the box's −P_xy (the segment shares sum to one
-///    pair's whole virial). Mutation run: the dissipative and random parts left out of the
+///    pair's whole virial). The block errors must be below 1.5 (3.75 % of τ_max; the largest
+///    is 1.12 on this window, 2026-11-28: the guard leaves room for the ±16 % scatter of a
+///    20-block error estimate). Mutation run: the dissipative and random parts left out of the
 ///    binned pair stress give τ = −0.37 ± 0.03 against −36 in the first bin (this fluid's stress
-///    is almost all dissipative) and fail.
+///    is almost all dissipative) and fail by more than 20 block errors.
 /// 2. The mapped viscosity (issue #40: the decisive check of the physical-parameter mapping,
 ///    which the stress cannot see): the binned u_x(y) projected on the start-up solution of
 ///    ∂u/∂t = ν ∂²u/∂y² + g(y) from rest with the case's η = 30 (its Fourier series, written
 ///    here: square-wave force, modes k_n = 2πn/L_y, n odd, each relaxing as e^{−νk_n²t},
 ///    averaged over the sampling window and over each bin). The amplitude A = Σu φ/Σφ² is
 ///    η_input/η_fluid at steady state (a box-mean drift drops out: φ is odd). Measured here
-///    A = 1.0189 ± 0.0014 (the fluid's η 1.9 % below the input; the n = 8 stock case at t = 300
-///    measured 1.4 % above: the kinetic-theory mapping is good to about 2 %). Bound: |A − 1| <
-///    2.5 %, the mapping's 2 % and 4σ of this run; a 5 % error of the mapping must fail either
-///    way (mutation run, 2026-11-27: γ mapped from 1.05 η gives A = 0.9616 ± 0.0013, from
-///    0.95 η A = 1.0633 ± 0.0014; both fail).
+///    (2026-11-28) A = 1.0018 ± 0.0011. Bound: |A − 1| < 2 %, the accuracy of the kinetic-theory
+///    mapping (the n = 8 stock case at t = 300 measured 1.4 % above); a 5 % error of the
+///    mapping must fail either way. Mutation runs (2026-11-28, `fluid.physical.viscosity` set
+///    to 31.5 resp. 28.5 while the analysis keeps η = 30, which is γ mapped from 1.05 η resp.
+///    0.95 η): A = 0.9699 ± 0.0012 and 1.0600 ± 0.0016, both fail (by 8σ and 33σ).
+///    Not understood yet: the same run to t = 38 gave A = 1.0189 ± 0.0014, so the amplitude
+///    still moves after t = 23 by more than its error bar, and the mutations move it by
+///    −3.2 % and +5.8 % rather than ∓4.8 % and +5.3 %.
 #[test]
 fn double_poiseuille_shear_stress_follows_the_momentum_balance() {
+    let (steps, equilibration) = (11_500_u32, 4000_u32);
     let text = stock_text_with(
         "dpd_double_poiseuille_2d_n4.toml",
         &[
-            "run.steps=19000",
-            "run.equilibration=4000",
+            &format!("run.steps={steps}"),
+            &format!("run.equilibration={equilibration}"),
             "diagnostics.observables=[\"temperature\", \"velocity_profile\", \"shear_stress_profile\", \"stress\"]",
             "diagnostics.blocks=20",
         ],
     );
-    let s = run_in_process(&case_from_str(&text, "dp_stress.toml"), 1, 2, None)
-        .unwrap_or_else(|e| panic!("{e}"));
+    let s = run_in_process(
+        &case_from_str(&text, "dp_stress.toml"),
+        1,
+        crate::common::PHYSICS_THREADS,
+        None,
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
     let profile = &s.shear_stress_profile;
     assert_eq!(profile.len(), 20);
+    let worst = profile.iter().map(|p| p.stderr).fold(0.0, f64::max);
+    eprintln!("reverse Poiseuille: the largest block error of a τ_xy bin is {worst:.3}");
     for p in profile {
         assert!(
-            p.stderr < 0.8 && (p.mean - p.expected).abs() < 4.5 * p.stderr,
+            p.stderr < 1.5 && (p.mean - p.expected).abs() < 4.5 * p.stderr,
             "τ_xy at y = {}: {} ± {} against {}",
             p.y,
             p.mean,
@@ -486,7 +504,7 @@ fn double_poiseuille_shear_stress_follows_the_momentum_balance() {
     // 2. The viscosity the mapping promises, from the velocity profile.
     // ρ is the mass density n m = 4 × 2 (the n = 4 level keeps Nguyen's ρ = 8).
     let (ly, rho, g, eta, dt) = (20.0, 8.0, 1.0, 30.0, 0.002);
-    let (t1, t2) = (4000.0 * dt, 19000.0 * dt);
+    let (t1, t2) = (f64::from(equilibration) * dt, f64::from(steps) * dt);
     let u = &s.velocity_profile;
     assert_eq!(u.len(), 20);
     let (mut num, mut den, mut var) = (0.0, 0.0, 0.0);
@@ -500,7 +518,7 @@ fn double_poiseuille_shear_stress_follows_the_momentum_balance() {
     let (amplitude, error) = (num / den, var.sqrt() / den);
     eprintln!("reverse Poiseuille: amplitude η_input/η_fluid = {amplitude:.4} ± {error:.4}");
     assert!(
-        error < 0.01 && (amplitude - 1.0).abs() < 0.025,
+        error < 0.01 && (amplitude - 1.0).abs() < 0.02,
         "the velocity profile is {amplitude:.4} ± {error:.4} × the one of η = {eta}: the fluid's \
          viscosity is {:.2}",
         eta / amplitude

@@ -48,8 +48,16 @@ where
     let checkpoints = [0.5, 1.0, 2.0, 4.0];
     let (particles, n_d) = (400u64, 100usize);
     let comm = mesorheo::comm::SerialComm::new();
-    let mut e =
-        HomogeneousEnsembles::<D>::new(&comm, 0, particles, n_d, p, flow, 17).expect("ensembles");
+    let mut e = HomogeneousEnsembles::<D>::new(
+        &comm,
+        crate::common::PHYSICS_THREADS,
+        particles,
+        n_d,
+        p,
+        flow,
+        17,
+    )
+    .expect("ensembles");
     for &t in &checkpoints {
         let steps = (t / dt).round() as u64;
         while e.step < steps {
@@ -128,7 +136,9 @@ fn steady_shear_viscometric_functions_of_hookean_dumbbells() {
     let p = params(Scheme::Heun, 0.01);
     let flow = Flow::SimpleShear { rate: 1.0 };
     let comm = mesorheo::comm::SerialComm::new();
-    let mut e = HomogeneousEnsembles::<3>::new(&comm, 0, 500, 200, p, flow, 3).expect("ensembles");
+    let mut e =
+        HomogeneousEnsembles::<3>::new(&comm, crate::common::PHYSICS_THREADS, 500, 200, p, flow, 3)
+            .expect("ensembles");
     while e.time() < 5.0 - 1e-9 {
         e.advance().expect("a stable step");
     }
@@ -177,7 +187,9 @@ fn uniaxial_elongation_below_the_coil_stretch_transition() {
     let p = params(Scheme::Heun, 0.01);
     let flow = Flow::UniaxialElongation { rate: wi };
     let comm = mesorheo::comm::SerialComm::new();
-    let mut e = HomogeneousEnsembles::<3>::new(&comm, 0, 400, 100, p, flow, 5).expect("ensembles");
+    let mut e =
+        HomogeneousEnsembles::<3>::new(&comm, crate::common::PHYSICS_THREADS, 400, 100, p, flow, 5)
+            .expect("ensembles");
     for t in [1.0, 3.0] {
         let steps = (t / p.dt).round() as u64;
         while e.step < steps {
@@ -264,7 +276,16 @@ fn weak_order_one_for_euler_and_two_for_heun() {
     // (Euler–Maruyama, Δt = 0.1λ: the bias of ⟨Q_xQ_x⟩, 0.04, is many error bars wide).
     let p = params(Scheme::EulerMaruyama, 0.1);
     let comm = mesorheo::comm::SerialComm::new();
-    let mut e = HomogeneousEnsembles::<2>::new(&comm, 0, 1000, 400, p, flow, 9).expect("ensembles");
+    let mut e = HomogeneousEnsembles::<2>::new(
+        &comm,
+        crate::common::PHYSICS_THREADS,
+        1000,
+        400,
+        p,
+        flow,
+        9,
+    )
+    .expect("ensembles");
     for _ in 0..10 {
         e.advance().expect("a stable step");
     }
@@ -293,8 +314,16 @@ fn stress_noise_falls_as_one_over_root_n_d() {
     let mut ys = vec![];
     for n_d in [10usize, 100, 1000, 10000] {
         let particles = 200u64;
-        let mut e = HomogeneousEnsembles::<2>::new(&comm, 0, particles, n_d, p, flow, 21)
-            .expect("ensembles");
+        let mut e = HomogeneousEnsembles::<2>::new(
+            &comm,
+            crate::common::PHYSICS_THREADS,
+            particles,
+            n_d,
+            p,
+            flow,
+            21,
+        )
+        .expect("ensembles");
         for _ in 0..50 {
             e.advance().expect("a stable step");
         }
@@ -325,8 +354,16 @@ fn fene_equilibrium_and_the_explicit_schemes_refused() {
         };
         // Equilibrium sampling: ⟨Q²⟩ = D b / (b + D + 2).
         let comm = mesorheo::comm::SerialComm::new();
-        let e = HomogeneousEnsembles::<3>::new(&comm, 0, 200, 500, p, Flow::Rest, 2)
-            .expect("ensembles");
+        let e = HomogeneousEnsembles::<3>::new(
+            &comm,
+            crate::common::PHYSICS_THREADS,
+            200,
+            500,
+            p,
+            Flow::Rest,
+            2,
+        )
+        .expect("ensembles");
         let q2: Vec<f64> =
             e.q.iter()
                 .map(|q| q.iter().map(|v| v * v).sum::<f64>() / 500.0)
@@ -397,8 +434,16 @@ fn control_variates_cut_the_error_bar_without_bias() {
         let c = hookean_discrete_moment::<2>(&tensor_rows(&flow.kappa::<2>(0.0)), &p, steps);
         let mut se = [0.0; 2];
         for (k, cv) in [false, true].into_iter().enumerate() {
-            let mut e =
-                HomogeneousEnsembles::<2>::new(&comm, 0, 400, 100, p, flow, 31).expect("ensembles");
+            let mut e = HomogeneousEnsembles::<2>::new(
+                &comm,
+                crate::common::PHYSICS_THREADS,
+                400,
+                100,
+                p,
+                flow,
+                31,
+            )
+            .expect("ensembles");
             if cv {
                 e = e.with_control_variates();
             }
@@ -457,7 +502,7 @@ fn fene_at_wi_100_matches_the_fokker_planck_tail_and_extension() {
     let comm = mesorheo::comm::SerialComm::new();
     let mut e = HomogeneousEnsembles::<2>::new(
         &comm,
-        0,
+        crate::common::PHYSICS_THREADS,
         100,
         1000,
         p,

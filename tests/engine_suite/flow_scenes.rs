@@ -229,7 +229,11 @@ fn stock_dumbbell_scenes_pass_their_references() {
         let CaseScene::HomogeneousFlow(case) = loaded.scene else {
             panic!("{name} is a homogeneous-flow scene");
         };
-        let s = run(&case, 1, options(2, None, None));
+        let s = run(
+            &case,
+            1,
+            options(crate::common::PHYSICS_THREADS, None, None),
+        );
         assert!(s.completed);
         assert!(!s.validation.is_empty(), "{name} has references");
         for v in &s.validation {

@@ -59,7 +59,8 @@ blocks = 10
 
 fn run(text: &str, name: &str) -> Summary {
     let loaded = case_from_str(text, name);
-    run_in_process(&loaded, 1, 2, None).unwrap_or_else(|e| panic!("{name}: {e}"))
+    run_in_process(&loaded, 1, crate::common::PHYSICS_THREADS, None)
+        .unwrap_or_else(|e| panic!("{name}: {e}"))
 }
 
 /// (mean, standard error) of an observable.

@@ -31,7 +31,8 @@ fn shear_series(case: &str, overrides: &[&str]) -> ([Vec<f64>; 3], f64) {
     all.extend_from_slice(overrides);
     let loaded = case_from_str(&stock_text_with(case, &all), case);
     let comm = SerialComm::new();
-    let mut sim = Simulation::<2>::new(&loaded.case, &comm, 2).expect("set up");
+    let mut sim =
+        Simulation::<2>::new(&loaded.case, &comm, crate::common::PHYSICS_THREADS).expect("set up");
     let mut series: [Vec<f64>; 3] = Default::default();
     while sim.step < 6000 {
         sim.advance().expect("a stable step");

@@ -201,7 +201,8 @@ fn literal_paper_walls_give_a_wrong_near_wall_flow() {
     );
     let text = with(&text, "tolerance = 0.03", "tolerance = 1.0");
     let loaded = case_from_str(&text, "literal.toml");
-    let s = mesorheo::driver::run_in_process(&loaded, 1, 2, None).expect("the literal run");
+    let s = mesorheo::driver::run_in_process(&loaded, 1, crate::common::PHYSICS_THREADS, None)
+        .expect("the literal run");
     let first = s.velocity_profile.first().expect("profile").mean;
     eprintln!("literal scheme: first-row u_x at t = 50 is {first:.4e} (series 3.81e-3)");
     assert!(

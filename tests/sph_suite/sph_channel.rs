@@ -363,11 +363,13 @@ fn poiseuille_in_3d_agrees_with_2d() {
             .map(|k| mesorheo::analytic::poiseuille((k as f64 + 0.5) * delta, t, 1.0, 1.0, 0.125))
             .collect();
         let profile = if dimension == 2 {
-            let mut sim = Simulation::<2>::new(&loaded.case, &comm, 2).expect("set up");
+            let mut sim = Simulation::<2>::new(&loaded.case, &comm, crate::common::PHYSICS_THREADS)
+                .expect("set up");
             sim.run_steps((t / dt).round() as u64).expect("run");
             row_profile(&sim, delta)
         } else {
-            let mut sim = Simulation::<3>::new(&loaded.case, &comm, 2).expect("set up");
+            let mut sim = Simulation::<3>::new(&loaded.case, &comm, crate::common::PHYSICS_THREADS)
+                .expect("set up");
             sim.run_steps((t / dt).round() as u64).expect("run");
             row_profile(&sim, delta)
         };
@@ -516,7 +518,7 @@ fn density_profile_is_hydrostatic_under_gravity() {
         ],
     );
     let loaded = case_from_str(&text, "hydrostatic.toml");
-    let s = run_in_process(&loaded, 1, 2, None).expect("run");
+    let s = run_in_process(&loaded, 1, crate::common::PHYSICS_THREADS, None).expect("run");
     let profile = &s.density_profile;
     assert_eq!(profile.len(), 50);
     let interior: Vec<_> = profile.iter().filter(|b| b.y > 0.2 && b.y < 0.8).collect();

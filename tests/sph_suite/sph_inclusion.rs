@@ -87,7 +87,8 @@ fn stokes_shear_rate(x: f64, y: f64, r0: f64) -> f64 {
 fn shear_rate_near_the_inclusion_follows_stokes() {
     let loaded = stock_case("inclusion_newtonian_2d.toml");
     let comm = SerialComm::new();
-    let mut sim = Simulation::<2>::new(&loaded.case, &comm, 2).expect("set up");
+    let mut sim =
+        Simulation::<2>::new(&loaded.case, &comm, crate::common::PHYSICS_THREADS).expect("set up");
     sim.run_steps(5556).expect("run");
     let p = &sim.particles;
     let stress = p.extra_index("viscous_stress").expect("viscous stress");

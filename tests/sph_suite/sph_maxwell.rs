@@ -186,8 +186,13 @@ fn maxwell_fluid_tends_to_the_newtonian_one_as_lambda_vanishes() {
         "the stock Couette case changed its layout"
     );
     let run = |text: &str, name: &str| {
-        mesorheo::driver::run_in_process(&case_from_str(text, name), 1, 2, None)
-            .unwrap_or_else(|e| panic!("{name}: {e}"))
+        mesorheo::driver::run_in_process(
+            &case_from_str(text, name),
+            1,
+            crate::common::PHYSICS_THREADS,
+            None,
+        )
+        .unwrap_or_else(|e| panic!("{name}: {e}"))
     };
     let (n, m) = (run(&newtonian, "newtonian"), run(&maxwell, "maxwell"));
     assert_eq!(n.validation.len(), m.validation.len());
@@ -231,8 +236,13 @@ fn maxwell_fluid_tends_to_the_newtonian_one_as_lambda_vanishes() {
 #[test]
 fn oldroyd_b_start_up_couette_follows_the_series() {
     let name = "maxwell_couette_startup_2d.toml";
-    let s = mesorheo::driver::run_in_process(&stock_case(name), 1, 2, None)
-        .unwrap_or_else(|e| panic!("{name}: {e}"));
+    let s = mesorheo::driver::run_in_process(
+        &stock_case(name),
+        1,
+        crate::common::PHYSICS_THREADS,
+        None,
+    )
+    .unwrap_or_else(|e| panic!("{name}: {e}"));
     assert_eq!(s.validation.len(), 6, "{name}: one check per listed time");
     for v in &s.validation {
         let worst = v
