@@ -18,7 +18,7 @@ use mesorheo::facade::Ensembles;
 use mesorheo::models::dumbbells::{
     DumbbellParams, Scheme, Spring, noise_stream, sample_equilibrium, step_ensemble,
 };
-use mesorheo::models::homogeneous_flow::{Flow, HomogeneousEnsembles};
+use mesorheo::models::homogeneous_flow::{EnsembleSpec, Flow, HomogeneousEnsembles};
 use mesorheo::rng::{HashStream, NormalStream, Purpose};
 use rayon::prelude::*;
 use std::time::Instant;
@@ -199,12 +199,14 @@ where
     let comm = SerialComm::new();
     let mut e = HomogeneousEnsembles::<D>::new(
         &comm,
-        threads,
-        PARTICLES,
-        N_D,
-        p,
-        Flow::SimpleShear { rate: 1.0 },
-        1,
+        EnsembleSpec {
+            threads,
+            total: PARTICLES,
+            n_d: N_D,
+            params: p,
+            flow: Flow::SimpleShear { rate: 1.0 },
+            seed: 1,
+        },
     )
     .expect("ensembles");
     let mut times = [Vec::new(), Vec::new(), Vec::new()];

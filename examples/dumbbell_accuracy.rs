@@ -27,7 +27,7 @@ use mesorheo::facade::Ensembles;
 use mesorheo::models::dumbbells::{
     DumbbellParams, Scheme, Spring, hookean_discrete_moment, kramers_stress,
 };
-use mesorheo::models::homogeneous_flow::{Flow, HomogeneousEnsembles};
+use mesorheo::models::homogeneous_flow::{EnsembleSpec, Flow, HomogeneousEnsembles};
 use std::time::Instant;
 
 struct Point {
@@ -87,8 +87,18 @@ fn run(pt: &Point, seed: u64) -> Result {
     let comm = SerialComm::new();
     let t0 = Instant::now();
     let c0 = cpu_seconds();
-    let mut e = HomogeneousEnsembles::<3>::new(&comm, 1, pt.particles, pt.n_d, p, flow, seed)
-        .expect("ensembles");
+    let mut e = HomogeneousEnsembles::<3>::new(
+        &comm,
+        EnsembleSpec {
+            threads: 1,
+            total: pt.particles,
+            n_d: pt.n_d,
+            params: p,
+            flow,
+            seed,
+        },
+    )
+    .expect("ensembles");
     if pt.cv {
         e = e.with_control_variates();
     }

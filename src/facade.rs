@@ -36,8 +36,9 @@ use crate::config::Case;
 use crate::diagnostics::Series;
 use crate::error::Error;
 use crate::models::bddfs::QGrid;
-use crate::models::dumbbells::DumbbellParams;
-use crate::models::homogeneous_flow::{Connectors, Flow, HomogeneousEnsembles, StressEstimate};
+use crate::models::homogeneous_flow::{
+    Connectors, EnsembleSpec, HomogeneousEnsembles, StressEstimate,
+};
 use crate::models::interface::ParticleModel;
 use crate::particles::Particles;
 use crate::scene::RunOptions;
@@ -329,42 +330,23 @@ engine_for_dimension!(3);
 /// crate (the module documentation says why). Each method is the inherent method of the same
 /// name.
 pub trait Ensembles<'c, const D: usize>: Sized {
-    /// `total` particles × `n_d` dumbbells at equilibrium; this rank keeps its id block.
-    fn new(
-        comm: &'c dyn Comm,
-        threads: usize,
-        total: u64,
-        n_d: usize,
-        params: DumbbellParams,
-        flow: Flow,
-        seed: u64,
-    ) -> Result<Self, String>;
+    /// `spec.total` particles × `spec.n_d` dumbbells at equilibrium; this rank keeps its id
+    /// block.
+    fn new(comm: &'c dyn Comm, spec: EnsembleSpec) -> Result<Self, String>;
 
     /// Ensembles restored from a checkpoint at `step` (this rank's id block).
-    #[allow(clippy::too_many_arguments)]
     fn from_state(
         comm: &'c dyn Comm,
-        threads: usize,
-        total: u64,
-        n_d: usize,
-        params: DumbbellParams,
-        flow: Flow,
-        seed: u64,
+        spec: EnsembleSpec,
         step: u64,
         q: Connectors,
         control: Option<Vec<Vec<f64>>>,
     ) -> Result<Self, String>;
 
     /// BDDFS: histograms on `grid` instead of connectors.
-    #[allow(clippy::too_many_arguments)]
     fn new_with_histograms(
         comm: &'c dyn Comm,
-        threads: usize,
-        total: u64,
-        n_d: usize,
-        params: DumbbellParams,
-        flow: Flow,
-        seed: u64,
+        spec: EnsembleSpec,
         grid: QGrid,
     ) -> Result<Self, String>;
 
@@ -414,48 +396,26 @@ pub trait Ensembles<'c, const D: usize>: Sized {
 macro_rules! ensembles_for_dimension {
     ($d:literal) => {
         impl<'c> Ensembles<'c, $d> for HomogeneousEnsembles<'c, $d> {
-            fn new(
-                comm: &'c dyn Comm,
-                threads: usize,
-                total: u64,
-                n_d: usize,
-                params: DumbbellParams,
-                flow: Flow,
-                seed: u64,
-            ) -> Result<Self, String> {
-                HomogeneousEnsembles::<$d>::new(comm, threads, total, n_d, params, flow, seed)
+            fn new(comm: &'c dyn Comm, spec: EnsembleSpec) -> Result<Self, String> {
+                HomogeneousEnsembles::<$d>::new(comm, spec)
             }
 
             fn from_state(
                 comm: &'c dyn Comm,
-                threads: usize,
-                total: u64,
-                n_d: usize,
-                params: DumbbellParams,
-                flow: Flow,
-                seed: u64,
+                spec: EnsembleSpec,
                 step: u64,
                 q: Connectors,
                 control: Option<Vec<Vec<f64>>>,
             ) -> Result<Self, String> {
-                HomogeneousEnsembles::<$d>::from_state(
-                    comm, threads, total, n_d, params, flow, seed, step, q, control,
-                )
+                HomogeneousEnsembles::<$d>::from_state(comm, spec, step, q, control)
             }
 
             fn new_with_histograms(
                 comm: &'c dyn Comm,
-                threads: usize,
-                total: u64,
-                n_d: usize,
-                params: DumbbellParams,
-                flow: Flow,
-                seed: u64,
+                spec: EnsembleSpec,
                 grid: QGrid,
             ) -> Result<Self, String> {
-                HomogeneousEnsembles::<$d>::new_with_histograms(
-                    comm, threads, total, n_d, params, flow, seed, grid,
-                )
+                HomogeneousEnsembles::<$d>::new_with_histograms(comm, spec, grid)
             }
 
             fn with_single_precision(self) -> Self {

@@ -27,7 +27,9 @@ use crate::config::{FlowCase, OutputCfg, RunCfg};
 use crate::diagnostics::{Series, tensor_components};
 use crate::domain::id_block;
 use crate::error::{Error, Unstable};
-use crate::models::homogeneous_flow::{HomogeneousEnsembles, ParticleAverages, particle_moments};
+use crate::models::homogeneous_flow::{
+    EnsembleSpec, HomogeneousEnsembles, ParticleAverages, particle_moments,
+};
 use crate::particles::tensor_rows;
 use crate::scene::{Scene, SceneReport};
 use crate::sim::PhaseTimes;
@@ -54,6 +56,18 @@ const HEADLINE: [&str; 5] = [
 /// Suffix of the per-sample standard errors (particle-to-particle spread) in the series.
 const STDERR: &str = "_stderr";
 
+/// The case's ensembles: `total` particles (the case's, or a checkpoint's) on `threads`.
+fn ensemble_spec(case: &FlowCase, threads: usize, total: u64) -> EnsembleSpec {
+    EnsembleSpec {
+        threads,
+        total,
+        n_d: case.polymer.per_particle,
+        params: case.dumbbell_params(),
+        flow: case.flow_model(),
+        seed: case.seed,
+    }
+}
+
 fn fresh<'c, const D: usize>(
     case: &FlowCase,
     comm: &'c dyn Comm,
@@ -63,24 +77,12 @@ fn fresh<'c, const D: usize>(
         // BDDFS: validation refused single precision and control variates.
         return HomogeneousEnsembles::<D>::new_with_histograms(
             comm,
-            threads,
-            case.flow.particles,
-            case.polymer.per_particle,
-            case.dumbbell_params(),
-            case.flow_model(),
-            case.seed,
+            ensemble_spec(case, threads, case.flow.particles),
             grid,
         );
     }
-    let mut e = HomogeneousEnsembles::<D>::new(
-        comm,
-        threads,
-        case.flow.particles,
-        case.polymer.per_particle,
-        case.dumbbell_params(),
-        case.flow_model(),
-        case.seed,
-    )?;
+    let mut e =
+        HomogeneousEnsembles::<D>::new(comm, ensemble_spec(case, threads, case.flow.particles))?;
     if case.polymer.variance_reduction {
         e = e.with_control_variates();
     }
@@ -412,12 +414,7 @@ impl<'c, const D: usize> FlowScene<'c, D> {
         }
         let e = HomogeneousEnsembles::<D>::from_state(
             comm,
-            threads,
-            r.total,
-            case.polymer.per_particle,
-            case.dumbbell_params(),
-            case.flow_model(),
-            case.seed,
+            ensemble_spec(&case, threads, r.total),
             r.step,
             r.connectors,
             r.control,

@@ -250,6 +250,25 @@ pub enum ConnectorsRef<'a> {
     Histograms(&'a [Vec<u64>]),
 }
 
+/// What one run's ensembles are, on every rank alike: `total` particles of `n_d` dumbbells each,
+/// their model, the flow, the seed of their streams, and the worker threads that advance a
+/// rank's share (0: one per core).
+#[derive(Clone, Copy, Debug)]
+pub struct EnsembleSpec {
+    /// Worker threads of this rank (0: one per core).
+    pub threads: usize,
+    /// Particles over all ranks (each carries one ensemble).
+    pub total: u64,
+    /// Dumbbells per ensemble.
+    pub n_d: usize,
+    /// The dumbbell model and its integration.
+    pub params: DumbbellParams,
+    /// The imposed homogeneous flow.
+    pub flow: Flow,
+    /// The seed of every particle's streams.
+    pub seed: u64,
+}
+
 /// Ensemble-averaged stress with its error bar.
 #[derive(Clone, Debug, PartialEq)]
 pub struct StressEstimate<const D: usize> {
@@ -266,16 +285,17 @@ pub struct StressEstimate<const D: usize> {
 // The heavy methods are `pub(crate)`: other crates call them through `facade::Ensembles`,
 // compiled once in this crate for D = 2 and 3 (see there why); the light accessors stay public.
 impl<'c, const D: usize> HomogeneousEnsembles<'c, D> {
-    /// `total` particles × `n_d` dumbbells at equilibrium; this rank keeps its id block.
-    pub(crate) fn new(
-        comm: &'c dyn Comm,
-        threads: usize,
-        total: u64,
-        n_d: usize,
-        params: DumbbellParams,
-        flow: Flow,
-        seed: u64,
-    ) -> Result<Self, String> {
+    /// `spec.total` particles × `spec.n_d` dumbbells at equilibrium; this rank keeps its id
+    /// block.
+    pub(crate) fn new(comm: &'c dyn Comm, spec: EnsembleSpec) -> Result<Self, String> {
+        let EnsembleSpec {
+            threads,
+            total,
+            n_d,
+            params,
+            flow,
+            seed,
+        } = spec;
         params.check()?;
         let pool = crate::workers::worker_pool(comm, threads)?;
         let gids: Vec<u64> = id_block(total, comm.size(), comm.rank()).collect();
@@ -308,19 +328,21 @@ impl<'c, const D: usize> HomogeneousEnsembles<'c, D> {
 
     /// Ensembles restored from a checkpoint: `q` (and `control`) hold this rank's id block
     /// (`comm`'s [`id_block`]) at `step`.
-    #[allow(clippy::too_many_arguments)]
     pub(crate) fn from_state(
         comm: &'c dyn Comm,
-        threads: usize,
-        total: u64,
-        n_d: usize,
-        params: DumbbellParams,
-        flow: Flow,
-        seed: u64,
+        spec: EnsembleSpec,
         step: u64,
         q: Connectors,
         control: Option<Vec<Vec<f64>>>,
     ) -> Result<Self, String> {
+        let EnsembleSpec {
+            threads,
+            total,
+            n_d,
+            params,
+            flow,
+            seed,
+        } = spec;
         params.check()?;
         let gids: Vec<u64> = id_block(total, comm.size(), comm.rank()).collect();
         let rows = match &q {
@@ -381,20 +403,15 @@ impl<'c, const D: usize> HomogeneousEnsembles<'c, D> {
     /// histogram of them on `grid` (BDDFS): each particle draws the plain ensembles' initial
     /// connectors (the same stream), histograms them and keeps their moments as the step-0
     /// sample; only one thread's buffer of connectors exists at a time, never a whole rank's.
-    #[allow(clippy::too_many_arguments)]
     pub(crate) fn new_with_histograms(
         comm: &'c dyn Comm,
-        threads: usize,
-        total: u64,
-        n_d: usize,
-        params: DumbbellParams,
-        flow: Flow,
-        seed: u64,
+        spec: EnsembleSpec,
         grid: QGrid,
     ) -> Result<Self, String> {
-        let mut e = Self::new(comm, threads, total, 0, params, flow, seed)?;
+        let (n_d, seed) = (spec.n_d, spec.seed);
+        let mut e = Self::new(comm, EnsembleSpec { n_d: 0, ..spec })?;
         e.n_d = n_d;
-        let spring = params.spring;
+        let spring = spec.params.spring;
         let per: Vec<(Vec<u64>, StepMoments, u64)> = e.pool.install(|| {
             e.gids
                 .par_iter()
@@ -790,12 +807,14 @@ mod tests {
                         let q = Connectors::Double(vec![vec![0.0; 3]; rows]);
                         HomogeneousEnsembles::<3>::from_state(
                             &comm,
-                            1,
-                            10,
-                            1,
-                            params,
-                            Flow::Rest,
-                            1,
+                            EnsembleSpec {
+                                threads: 1,
+                                total: 10,
+                                n_d: 1,
+                                params,
+                                flow: Flow::Rest,
+                                seed: 1,
+                            },
                             0,
                             q,
                             None,

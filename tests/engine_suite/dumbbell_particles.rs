@@ -12,7 +12,7 @@ use mesorheo::facade::Engine;
 use mesorheo::facade::Ensembles;
 use mesorheo::models::dumbbell_ensemble::{CONNECTORS, DumbbellEnsemble, VelocityGradient};
 use mesorheo::models::dumbbells::{DumbbellParams, Scheme, Spring};
-use mesorheo::models::homogeneous_flow::{Flow, HomogeneousEnsembles};
+use mesorheo::models::homogeneous_flow::{EnsembleSpec, Flow, HomogeneousEnsembles};
 use mesorheo::models::{FieldKind, FieldSpec, ParticleModel};
 use mesorheo::particles::{FieldFlags, Particles, Precision, Tensor};
 use mesorheo::sim::Simulation;
@@ -40,8 +40,18 @@ fn params(scheme: Scheme) -> DumbbellParams {
 /// Every particle's connectors after `STEPS` steps of the homogeneous-flow ensembles, by id.
 fn reference(total: u64, scheme: Scheme, precision: Precision) -> Vec<Vec<f64>> {
     let comm = SerialComm::new();
-    let mut e = HomogeneousEnsembles::<3>::new(&comm, 1, total, N_D, params(scheme), FLOW, SEED)
-        .expect("ensembles");
+    let mut e = HomogeneousEnsembles::<3>::new(
+        &comm,
+        EnsembleSpec {
+            threads: 1,
+            total,
+            n_d: N_D,
+            params: params(scheme),
+            flow: FLOW,
+            seed: SEED,
+        },
+    )
+    .expect("ensembles");
     if precision == Precision::Single {
         e = e.with_single_precision();
     }

@@ -17,7 +17,7 @@ use mesorheo::facade::Ensembles;
 use mesorheo::models::dumbbells::{
     DumbbellParams, Scheme, Spring, hookean_discrete_moment, kramers_stress,
 };
-use mesorheo::models::homogeneous_flow::{Flow, HomogeneousEnsembles};
+use mesorheo::models::homogeneous_flow::{EnsembleSpec, Flow, HomogeneousEnsembles};
 use mesorheo::particles::tensor_rows;
 
 fn within(got: f64, se: f64, want: f64, k: f64, what: &str) {
@@ -71,9 +71,18 @@ fn stress_autocorrelation(scheme: Scheme, dt: f64, seed: u64) -> Autocorrelation
     let fit_lags = (2.0 / dt).round() as usize; // fit on t ∈ [0, 2λ]
     let gk_lags = (8.0 / dt).round() as usize; // Green–Kubo to 8λ (e^{−8} = 3·10⁻⁴)
     let comm = SerialComm::new();
-    let mut e =
-        HomogeneousEnsembles::<3>::new(&comm, 1, particles as u64, n_d, p, Flow::Rest, seed)
-            .expect("ensembles");
+    let mut e = HomogeneousEnsembles::<3>::new(
+        &comm,
+        EnsembleSpec {
+            threads: 1,
+            total: particles as u64,
+            n_d,
+            params: p,
+            flow: Flow::Rest,
+            seed,
+        },
+    )
+    .expect("ensembles");
     // series[(particle·3 + component)·(steps+1) + n]
     let len = steps + 1;
     let mut series = vec![0.0; particles * 3 * len];
@@ -390,8 +399,18 @@ fn hookean_shear_reversal_follows_the_exact_moments_and_ucm_at_wi_1_and_5() {
                 }
             }
         }
-        let mut e =
-            HomogeneousEnsembles::<3>::new(&comm, 1, 400, 100, p, flow, seed).expect("ensembles");
+        let mut e = HomogeneousEnsembles::<3>::new(
+            &comm,
+            EnsembleSpec {
+                threads: 1,
+                total: 400,
+                n_d: 100,
+                params: p,
+                flow,
+                seed,
+            },
+        )
+        .expect("ensembles");
         while e.step < r_steps {
             e.advance().expect("a stable step");
         }
@@ -535,12 +554,14 @@ fn steady_shear(
     let comm = SerialComm::new();
     let mut e = HomogeneousEnsembles::<3>::new(
         &comm,
-        1,
-        particles,
-        n_d,
-        p,
-        Flow::SimpleShear { rate: wi },
-        seed,
+        EnsembleSpec {
+            threads: 1,
+            total: particles,
+            n_d,
+            params: p,
+            flow: Flow::SimpleShear { rate: wi },
+            seed,
+        },
     )
     .expect("ensembles");
     if cv {

@@ -12,7 +12,7 @@ use mesorheo::comm::Comm;
 use mesorheo::driver::in_process;
 use mesorheo::facade::Ensembles;
 use mesorheo::models::dumbbells::{DumbbellParams, Scheme, Spring, hookean_discrete_moment};
-use mesorheo::models::homogeneous_flow::{Flow, HomogeneousEnsembles};
+use mesorheo::models::homogeneous_flow::{EnsembleSpec, Flow, HomogeneousEnsembles};
 use mesorheo::particles::tensor_rows;
 
 fn params(scheme: Scheme, dt: f64) -> DumbbellParams {
@@ -50,12 +50,14 @@ where
     let comm = mesorheo::comm::SerialComm::new();
     let mut e = HomogeneousEnsembles::<D>::new(
         &comm,
-        crate::common::PHYSICS_THREADS,
-        particles,
-        n_d,
-        p,
-        flow,
-        17,
+        EnsembleSpec {
+            threads: crate::common::PHYSICS_THREADS,
+            total: particles,
+            n_d,
+            params: p,
+            flow,
+            seed: 17,
+        },
     )
     .expect("ensembles");
     for &t in &checkpoints {
@@ -136,9 +138,18 @@ fn steady_shear_viscometric_functions_of_hookean_dumbbells() {
     let p = params(Scheme::Heun, 0.01);
     let flow = Flow::SimpleShear { rate: 1.0 };
     let comm = mesorheo::comm::SerialComm::new();
-    let mut e =
-        HomogeneousEnsembles::<3>::new(&comm, crate::common::PHYSICS_THREADS, 500, 200, p, flow, 3)
-            .expect("ensembles");
+    let mut e = HomogeneousEnsembles::<3>::new(
+        &comm,
+        EnsembleSpec {
+            threads: crate::common::PHYSICS_THREADS,
+            total: 500,
+            n_d: 200,
+            params: p,
+            flow,
+            seed: 3,
+        },
+    )
+    .expect("ensembles");
     while e.time() < 5.0 - 1e-9 {
         e.advance().expect("a stable step");
     }
@@ -187,9 +198,18 @@ fn uniaxial_elongation_below_the_coil_stretch_transition() {
     let p = params(Scheme::Heun, 0.01);
     let flow = Flow::UniaxialElongation { rate: wi };
     let comm = mesorheo::comm::SerialComm::new();
-    let mut e =
-        HomogeneousEnsembles::<3>::new(&comm, crate::common::PHYSICS_THREADS, 400, 100, p, flow, 5)
-            .expect("ensembles");
+    let mut e = HomogeneousEnsembles::<3>::new(
+        &comm,
+        EnsembleSpec {
+            threads: crate::common::PHYSICS_THREADS,
+            total: 400,
+            n_d: 100,
+            params: p,
+            flow,
+            seed: 5,
+        },
+    )
+    .expect("ensembles");
     for t in [1.0, 3.0] {
         let steps = (t / p.dt).round() as u64;
         while e.step < steps {
@@ -278,12 +298,14 @@ fn weak_order_one_for_euler_and_two_for_heun() {
     let comm = mesorheo::comm::SerialComm::new();
     let mut e = HomogeneousEnsembles::<2>::new(
         &comm,
-        crate::common::PHYSICS_THREADS,
-        1000,
-        400,
-        p,
-        flow,
-        9,
+        EnsembleSpec {
+            threads: crate::common::PHYSICS_THREADS,
+            total: 1000,
+            n_d: 400,
+            params: p,
+            flow,
+            seed: 9,
+        },
     )
     .expect("ensembles");
     for _ in 0..10 {
@@ -316,12 +338,14 @@ fn stress_noise_falls_as_one_over_root_n_d() {
         let particles = 200u64;
         let mut e = HomogeneousEnsembles::<2>::new(
             &comm,
-            crate::common::PHYSICS_THREADS,
-            particles,
-            n_d,
-            p,
-            flow,
-            21,
+            EnsembleSpec {
+                threads: crate::common::PHYSICS_THREADS,
+                total: particles,
+                n_d,
+                params: p,
+                flow,
+                seed: 21,
+            },
         )
         .expect("ensembles");
         for _ in 0..50 {
@@ -356,12 +380,14 @@ fn fene_equilibrium_and_the_explicit_schemes_refused() {
         let comm = mesorheo::comm::SerialComm::new();
         let e = HomogeneousEnsembles::<3>::new(
             &comm,
-            crate::common::PHYSICS_THREADS,
-            200,
-            500,
-            p,
-            Flow::Rest,
-            2,
+            EnsembleSpec {
+                threads: crate::common::PHYSICS_THREADS,
+                total: 200,
+                n_d: 500,
+                params: p,
+                flow: Flow::Rest,
+                seed: 2,
+            },
         )
         .expect("ensembles");
         let q2: Vec<f64> =
@@ -398,12 +424,14 @@ fn ensembles_are_bitwise_identical_on_1_to_3_ranks_and_1_to_2_threads() {
             let d = in_process(ranks, move |c: &dyn Comm| {
                 let mut e = HomogeneousEnsembles::<3>::new(
                     c,
-                    threads,
-                    37,
-                    50,
-                    p,
-                    Flow::SimpleShear { rate: 2.0 },
-                    8,
+                    EnsembleSpec {
+                        threads,
+                        total: 37,
+                        n_d: 50,
+                        params: p,
+                        flow: Flow::SimpleShear { rate: 2.0 },
+                        seed: 8,
+                    },
                 )?;
                 for _ in 0..30 {
                     e.advance().expect("a stable step");
@@ -436,12 +464,14 @@ fn control_variates_cut_the_error_bar_without_bias() {
         for (k, cv) in [false, true].into_iter().enumerate() {
             let mut e = HomogeneousEnsembles::<2>::new(
                 &comm,
-                crate::common::PHYSICS_THREADS,
-                400,
-                100,
-                p,
-                flow,
-                31,
+                EnsembleSpec {
+                    threads: crate::common::PHYSICS_THREADS,
+                    total: 400,
+                    n_d: 100,
+                    params: p,
+                    flow,
+                    seed: 31,
+                },
             )
             .expect("ensembles");
             if cv {
@@ -502,12 +532,14 @@ fn fene_at_wi_100_matches_the_fokker_planck_tail_and_extension() {
     let comm = mesorheo::comm::SerialComm::new();
     let mut e = HomogeneousEnsembles::<2>::new(
         &comm,
-        crate::common::PHYSICS_THREADS,
-        100,
-        1000,
-        p,
-        Flow::SimpleShear { rate: 100.0 },
-        8,
+        EnsembleSpec {
+            threads: crate::common::PHYSICS_THREADS,
+            total: 100,
+            n_d: 1000,
+            params: p,
+            flow: Flow::SimpleShear { rate: 100.0 },
+            seed: 8,
+        },
     )
     .expect("ensembles");
     for _ in 0..500 {

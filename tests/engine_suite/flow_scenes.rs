@@ -160,7 +160,7 @@ fn single_precision_storage_halves_memory_and_changes_only_rounding() {
     use mesorheo::comm::SerialComm;
     use mesorheo::facade::Ensembles;
     use mesorheo::models::dumbbells::{DumbbellParams, Scheme, Spring};
-    use mesorheo::models::homogeneous_flow::{Flow, HomogeneousEnsembles};
+    use mesorheo::models::homogeneous_flow::{EnsembleSpec, Flow, HomogeneousEnsembles};
     let comm = SerialComm::new();
     let p = DumbbellParams {
         spring: Spring::Hookean,
@@ -169,10 +169,31 @@ fn single_precision_storage_halves_memory_and_changes_only_rounding() {
         dt: 0.01,
     };
     let flow = Flow::SimpleShear { rate: 3.0 };
-    let mut double = HomogeneousEnsembles::<3>::new(&comm, 1, 50, 200, p, flow, 9).unwrap();
-    let mut single = HomogeneousEnsembles::<3>::new(&comm, 1, 50, 200, p, flow, 9)
-        .unwrap()
-        .with_single_precision();
+    let mut double = HomogeneousEnsembles::<3>::new(
+        &comm,
+        EnsembleSpec {
+            threads: 1,
+            total: 50,
+            n_d: 200,
+            params: p,
+            flow,
+            seed: 9,
+        },
+    )
+    .unwrap();
+    let mut single = HomogeneousEnsembles::<3>::new(
+        &comm,
+        EnsembleSpec {
+            threads: 1,
+            total: 50,
+            n_d: 200,
+            params: p,
+            flow,
+            seed: 9,
+        },
+    )
+    .unwrap()
+    .with_single_precision();
     assert_eq!(2 * single.memory_bytes(), double.memory_bytes());
     for _ in 0..200 {
         double.advance().expect("a stable step");
@@ -258,7 +279,7 @@ fn a_runaway_dumbbell_is_stopped_at_the_step_it_leaves_its_domain() {
     use mesorheo::comm::SerialComm;
     use mesorheo::facade::Ensembles;
     use mesorheo::models::dumbbells::{DumbbellParams, Scheme, Spring, outside_domain};
-    use mesorheo::models::homogeneous_flow::{Flow, HomogeneousEnsembles};
+    use mesorheo::models::homogeneous_flow::{EnsembleSpec, Flow, HomogeneousEnsembles};
     let comm = SerialComm::new();
     let p = DumbbellParams {
         spring: Spring::Hookean,
@@ -274,7 +295,18 @@ fn a_runaway_dumbbell_is_stopped_at_the_step_it_leaves_its_domain() {
             .hookean_runaway_q2(3, 1.0)
             .is_infinite()
     );
-    let mut e = HomogeneousEnsembles::<3>::new(&comm, 1, 6, 40, p, flow, 4).unwrap();
+    let mut e = HomogeneousEnsembles::<3>::new(
+        &comm,
+        EnsembleSpec {
+            threads: 1,
+            total: 6,
+            n_d: 40,
+            params: p,
+            flow,
+            seed: 4,
+        },
+    )
+    .unwrap();
     let mut steps = 0;
     let err = loop {
         let inside = (0..6).all(|i| outside_domain::<3, f64>(&e.ensemble(i), bound).is_none());
