@@ -335,16 +335,8 @@ impl<'c, const D: usize> HomogeneousEnsembles<'c, D> {
         q: Connectors,
         control: Option<Vec<Vec<f64>>>,
     ) -> Result<Self, String> {
-        let EnsembleSpec {
-            threads,
-            total,
-            n_d,
-            params,
-            flow,
-            seed,
-        } = spec;
-        params.check()?;
-        let gids: Vec<u64> = id_block(total, comm.size(), comm.rank()).collect();
+        spec.params.check()?;
+        let gids: Vec<u64> = id_block(spec.total, comm.size(), comm.rank()).collect();
         let rows = match &q {
             Connectors::Double(q) => q.len(),
             Connectors::Single(q) => q.len(),
@@ -366,7 +358,7 @@ impl<'c, const D: usize> HomogeneousEnsembles<'c, D> {
                 "another rank restored a wrong number of ensembles for its id block".to_owned()
             });
         }
-        let pool = crate::workers::worker_pool(comm, threads)?;
+        let pool = crate::workers::worker_pool(comm, spec.threads)?;
         let mut histograms = None;
         let (q, q_single) = match q {
             Connectors::Double(q) => (q, None),
@@ -386,12 +378,12 @@ impl<'c, const D: usize> HomogeneousEnsembles<'c, D> {
             comm,
             gids,
             q,
-            n_d,
-            params,
-            flow,
-            seed,
+            n_d: spec.n_d,
+            params: spec.params,
+            flow: spec.flow,
+            seed: spec.seed,
             step,
-            total,
+            total: spec.total,
             control,
             q_single,
             histograms,

@@ -168,32 +168,18 @@ fn single_precision_storage_halves_memory_and_changes_only_rounding() {
         lambda: 1.0,
         dt: 0.01,
     };
-    let flow = Flow::SimpleShear { rate: 3.0 };
-    let mut double = HomogeneousEnsembles::<3>::new(
-        &comm,
-        EnsembleSpec {
-            threads: 1,
-            total: 50,
-            n_d: 200,
-            params: p,
-            flow,
-            seed: 9,
-        },
-    )
-    .unwrap();
-    let mut single = HomogeneousEnsembles::<3>::new(
-        &comm,
-        EnsembleSpec {
-            threads: 1,
-            total: 50,
-            n_d: 200,
-            params: p,
-            flow,
-            seed: 9,
-        },
-    )
-    .unwrap()
-    .with_single_precision();
+    let spec = EnsembleSpec {
+        threads: 1,
+        total: 50,
+        n_d: 200,
+        params: p,
+        flow: Flow::SimpleShear { rate: 3.0 },
+        seed: 9,
+    };
+    let mut double = HomogeneousEnsembles::<3>::new(&comm, spec).unwrap();
+    let mut single = HomogeneousEnsembles::<3>::new(&comm, spec)
+        .unwrap()
+        .with_single_precision();
     assert_eq!(2 * single.memory_bytes(), double.memory_bytes());
     for _ in 0..200 {
         double.advance().expect("a stable step");
