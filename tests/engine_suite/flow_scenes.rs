@@ -222,12 +222,15 @@ fn scenes_that_do_not_fit_the_memory_are_refused() {
 
 #[test]
 fn stock_dumbbell_scenes_pass_their_references() {
-    // Every stock homogeneous-flow scene (each under a minute): the FENE scene's references
-    // are the Fokker–Planck solution of tools/fene_fokker_planck.py.
+    // The stock Hookean homogeneous-flow scenes (21 and 15 s on one thread). The FENE scene
+    // (`dumbbells_fene_shear_3d.toml`, b = 50 at Wi = 1 against the Fokker–Planck solution; 31 s)
+    // is `./run validate stock`'s (issue #40, CI time): here `dumbbell_rheology::fene_b50_steady_shear`
+    // checks the same b and Wi against the same solution more sharply (Richardson-extrapolated in
+    // Δt, 3σ ≤ 1 %), through the same library stress (`kramers_stress`) and ⟨|Q|²⟩; the scene's
+    // observables are spring-independent means of those, which the Hookean scenes check.
     for name in [
         "dumbbells_hookean_shear_3d.toml",
         "dumbbells_elongation_3d.toml",
-        "dumbbells_fene_shear_3d.toml",
     ] {
         let path = Path::new(env!("CARGO_MANIFEST_DIR"))
             .join("cases")

@@ -43,8 +43,16 @@ fn stock_newtonian_inclusion_passes_its_window_references() {
     );
 }
 
-/// The stock Maxwell inclusion cell passes its references.
+/// The stock Maxwell inclusion cell passes its references. Run by `./run validate stock`, not by
+/// `./run test` (issue #40, CI time: 157 s of the test phase's 3 262 test-seconds): its
+/// momentum-flux reference needs the whole window. Shortened, the flux misses its 0.5 % on
+/// either side: to 5 000 steps −0.77 ± 0.94 % (2026-11-27), and on the Newtonian cell's early
+/// window t ∈ [0.09, 0.252] (630 steps, equilibration 225) η_eff 1.0720 against 1.0945 (−2.1 %)
+/// and the torque −0.0546 against −0.0648 (2026-11-28; the Maxwell cell keeps Morris's images,
+/// and its stock window is t ∈ [1, 3]). The cell's bits are still checked here, on 1–4 ranks
+/// (`inclusion_cell_is_bitwise_rank_invariant`).
 #[test]
+#[ignore = "in ./run validate stock: its flux reference needs the full 7 500 steps (≈ 80 s alone)"]
 fn stock_maxwell_inclusion_passes_its_references() {
     let name = "inclusion_maxwell_2d.toml";
     assert_references_pass(name, &stock_case(name));
@@ -74,22 +82,22 @@ fn stokes_shear_rate(x: f64, y: f64, r0: f64) -> f64 {
 
 /// Above and below the cylinder (|x − x₀| < Δ), in the band R + Δ/2 < r < R + 3Δ, the fluid
 /// particles' own shear rate S_xy/η = ∂_y v_x + ∂_x v_y against the Stokes solution at their
-/// positions, which rises to 3γ̇ at the surface (2.5γ̇ at r = R + Δ/4). Measured at t = 0.5 of
-/// the stock cell with its fitted images (2026-11-28): the band's mean 1.4490 against Stokes
-/// 1.4295 (+1.4 %, 9 particles; the periodic images and Re = 1 change the field by a few per
-/// cent); with Morris's images, the stock setting before, 1.4272 against 1.4329 (−0.4 %, 10
-/// particles). In the first row (r < R + Δ/2, not tested) the kernel (support 3.1Δ) smears
-/// the steep gradient: 1.85 against 2.5 (Morris's images). The bound, 4 % on the band's mean,
-/// failed Morris's images switched off (images = "morris" with morris_cap = 1: the disc's
-/// particles seen at rest; measured −9.2 % when Morris's images were the stock setting; not
-/// rerun since).
+/// positions, which rises to 3γ̇ at the surface (2.5γ̇ at r = R + Δ/4). Measured at t = 0.125
+/// (1 389 steps; the disc's disturbance develops in R²/ν = 0.01) of the stock cell with its
+/// fitted images (2026-11-28): the band's mean 1.4314 against Stokes 1.4196 (+0.83 %, 10
+/// particles; the periodic images and Re = 1 change the field by a few per cent); at t = 0.25
+/// +1.32 %, at t = 0.5 (the test's time before issue #40's CI budget) +1.36 %. In the first row
+/// (r < R + Δ/2, not tested) the kernel (support 3.1Δ) smears the steep gradient: 1.85 against
+/// 2.5 (Morris's images). The bound, 4 % on the band's mean, fails Morris's images switched off
+/// (images = "morris" with morris_cap = 1: the disc's particles seen at rest): −10.6 % at
+/// t = 0.125, −9.9 % at t = 0.25 (2026-11-28).
 #[test]
 fn shear_rate_near_the_inclusion_follows_stokes() {
     let loaded = stock_case("inclusion_newtonian_2d.toml");
     let comm = SerialComm::new();
     let mut sim =
         Simulation::<2>::new(&loaded.case, &comm, crate::common::PHYSICS_THREADS).expect("set up");
-    sim.run_steps(5556).expect("run");
+    sim.run_steps(1389).expect("run");
     let p = &sim.particles;
     let stress = p.extra_index("viscous_stress").expect("viscous stress");
     let (r0, spacing) = (0.1, 0.02);

@@ -226,9 +226,11 @@ fn maxwell_fluid_tends_to_the_newtonian_one_as_lambda_vanishes() {
 /// Elastic start-up Couette flow of an Oldroyd-B fluid (`cases/maxwell_couette_startup_2d.toml`:
 /// upper-convected Maxwell polymer, λ = 0.05, β = η_s/η₀ = 0.1, Δ = 0.01, Lucy 3Δ, Morris walls
 /// with β_max = 6) against the Oldroyd-B series `couette_oldroyd_b`, within 1 % of U in every
-/// one of the 100 bins at t = 0.04, 0.05, 0.1, 0.2, 0.3, 0.5 (measured 0.71, 0.59, 0.29, 0.15,
-/// 0.16, 0.20 %). The elastic wave (speed √(η_p/ρλ) = 4.24) crosses the gap by t ≈ 0.24 and
-/// reflects, so the listed times see it leave the moving wall, cross, and come back.
+/// one of the 100 bins at t = 0.04, 0.05, 0.1, 0.2, 0.3 (measured 0.71, 0.59, 0.29, 0.15,
+/// 0.16 %). The elastic wave (speed √(η_p/ρλ) = 4.24) crosses the gap by t ≈ 0.24 and
+/// reflects, so the listed times see it leave the moving wall, cross, and come back. The case's
+/// last time, t = 0.5 (0.20 %), is left to `./run validate stock` (issue #40, CI time: the run
+/// to t = 0.3 is 1 500 of the 2 500 steps).
 /// Mutations (run; the test stops at the first time that fails): the polymer's (2η_p/λ) D term
 /// × 0.97 in the upper-convected rate (what the lattice sums of Lucy 2.5Δ do to η_p): 1.87 % at
 /// t = 0.04; Morris's wall images carrying the boundary particle's own τ instead of the fluid
@@ -236,14 +238,21 @@ fn maxwell_fluid_tends_to_the_newtonian_one_as_lambda_vanishes() {
 #[test]
 fn oldroyd_b_start_up_couette_follows_the_series() {
     let name = "maxwell_couette_startup_2d.toml";
+    let times = "times = [0.04, 0.05, 0.1, 0.2, 0.3, 0.5]";
+    let text = stock_text(name);
+    assert!(text.contains(times), "{name}: `{times}` not in the case");
+    let text = with_overrides(
+        &text.replace(times, "times = [0.04, 0.05, 0.1, 0.2, 0.3]"),
+        &["run.steps=1500"],
+    );
     let s = mesorheo::driver::run_in_process(
-        &stock_case(name),
+        &case_from_str(&text, name),
         1,
         crate::common::PHYSICS_THREADS,
         None,
     )
     .unwrap_or_else(|e| panic!("{name}: {e}"));
-    assert_eq!(s.validation.len(), 6, "{name}: one check per listed time");
+    assert_eq!(s.validation.len(), 5, "{name}: one check per listed time");
     for v in &s.validation {
         let worst = v
             .profile
