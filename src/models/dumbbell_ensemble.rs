@@ -373,11 +373,18 @@ impl<const D: usize> ParticleModel<D> for DumbbellEnsemble<D> {
         let Particles {
             var, extra, gid, ..
         } = p;
-        // BDDFS writes the stress it measures during the step (the field is put back below).
-        let mut measured = match self.grid {
-            Some(_) => std::mem::take(&mut extra[self.stress].data),
-            None => Vec::new(),
-        };
+        // Every branch writes τ_p of the advanced ensemble during the step, while its connectors
+        // are in cache (a second pass copied and read all of them again: 8 % of a CONNFFESSIT
+        // channel's step, 2026-11-29); BDDFS measures it on connectors it does not keep. The
+        // field is taken out (κ may be read from `extra` meanwhile) and put back below.
+        let mut measured = std::mem::take(&mut extra[self.stress].data);
+        let w = packed_width(D);
+        let spring = params.spring;
+        // Zipped below with the rows: a shorter field would leave ensembles unadvanced.
+        assert!(
+            measured.len() >= var[self.connectors].data.len() * w,
+            "the polymer-stress field is shorter than the ensembles"
+        );
         let kappa_of = |i: usize| -> [[f64; D]; D] {
             match (imposed, self.kappa_field) {
                 (Some(k), _) => k,
@@ -401,31 +408,39 @@ impl<const D: usize> ParticleModel<D> for DumbbellEnsemble<D> {
         let blow_up = match &mut var[self.connectors].data {
             VarData::Double(rows) => rows
                 .par_iter_mut()
+                .zip(measured.par_chunks_mut(w))
                 .enumerate()
-                .filter_map(|(i, q)| {
+                .filter_map(|(i, (q, out))| {
                     if q.is_empty() {
+                        out.fill(0.0);
                         return None;
                     }
                     let mut noise = noise_stream(seed, streams.stream_owner(gid[i]), n, 0);
                     step_ensemble::<D>(q, &kappa_of(i), &params, &mut noise);
+                    self.write_stress(&kramers_stress::<D>(q, spring), out);
                     outside_domain::<D, f64>(q, limit).map(|(k, q2)| (gid[i], k, q2))
                 })
                 .min_by_key(|v| (v.0, v.1)),
             VarData::Single(rows) => {
                 // Widened to f64, advanced with the same arithmetic, rounded back.
                 rows.par_iter_mut()
+                    .zip(measured.par_chunks_mut(w))
                     .enumerate()
-                    .map_init(Vec::new, |wide: &mut Vec<f64>, (i, q)| {
+                    .map_init(Vec::new, |wide: &mut Vec<f64>, (i, (q, out))| {
                         if q.is_empty() {
+                            out.fill(0.0);
                             return None;
                         }
                         wide.clear();
                         wide.extend(q.iter().map(|&x| f64::from(x)));
                         let mut noise = noise_stream(seed, streams.stream_owner(gid[i]), n, 0);
                         step_ensemble::<D>(wide, &kappa_of(i), &params, &mut noise);
-                        for (s, w) in q.iter_mut().zip(wide.iter()) {
-                            *s = *w as f32;
+                        // τ_p of what is stored: the rounded connectors, widened again.
+                        for (s, x) in q.iter_mut().zip(wide.iter_mut()) {
+                            *s = *x as f32;
+                            *x = f64::from(*s);
                         }
+                        self.write_stress(&kramers_stress::<D>(wide, spring), out);
                         outside_domain::<D, f32>(q, limit).map(|(k, q2)| (gid[i], k, q2))
                     })
                     .flatten()
@@ -436,7 +451,7 @@ impl<const D: usize> ParticleModel<D> for DumbbellEnsemble<D> {
                 // keyed by the same (seed, owner, step) as the connectors' above.
                 let grid = self.grid.expect("histogram storage has a grid");
                 rows.par_iter_mut()
-                    .zip(measured.par_chunks_mut(packed_width(D)))
+                    .zip(measured.par_chunks_mut(w))
                     .enumerate()
                     .map_init(Workspace::default, |ws, (i, (row, out))| {
                         if row.is_empty() {
@@ -463,11 +478,7 @@ impl<const D: usize> ParticleModel<D> for DumbbellEnsemble<D> {
                     .min_by_key(|v| (v.0, v.1))
             }
         };
-        if self.grid.is_some() {
-            extra[self.stress].data = measured;
-        } else {
-            self.update_stress(p);
-        }
+        extra[self.stress].data = measured;
         blow_up.map(|(gid, k, q2)| StateBlowUp {
             gid,
             item: k as u64,
