@@ -1,5 +1,5 @@
 //! Checkpoint write/read time with per-particle ensembles (the variable-length state of the
-//! CONNFFESSIT models): N particles × N_d dumbbells × 3 numbers, one rank (`cargo bench --bench
+//! CONNFFESSIT models): N particles × N_d dumbbells × 3 numbers, one rank (`cargo bench --features bench --bench
 //! checkpoint_ensembles`). Prints a Markdown table; the ensembles are synthetic (a test-only
 //! model fills them), the I/O path is the production one.
 

@@ -1,4 +1,4 @@
-//! Dumbbell-steps per second per core (`cargo bench --bench dumbbells`): Hookean Euler–Maruyama
+//! Dumbbell-steps per second per core (`cargo bench --features bench --bench dumbbells`): Hookean Euler–Maruyama
 //! (2D, 3D), Heun/SRK2, semi-implicit (Hookean, FENE), on 1 and 2 threads, OLD against NEW in
 //! the same run, repetitions interleaved (the machine is shared: ratios of interleaved medians
 //! are what to quote; the best repetition is the least disturbed), plus the generators alone.

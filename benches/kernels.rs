@@ -1,6 +1,6 @@
 //! Micro-benchmarks of the hot kernels (single rank): the DPD pair force with its noise, the
 //! neighbour-list build, the exact accumulator and the random-number generators.
-//! Run with `cargo bench --bench kernels` (or `./run bench`); figures in docs/performance.md.
+//! Run with `cargo bench --features bench --bench kernels` (or `./run bench`); figures in docs/performance.md.
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use mesorheo::comm::SerialComm;

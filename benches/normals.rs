@@ -1,6 +1,6 @@
 //! Standard normals: the hand-written 256-layer ziggurats of `src/rng.rs` against rand_distr's
 //! `StandardNormal` (the same method, Doornik's variant) drawn from the same keyed generators
-//! through `rand_core::RngCore` (`cargo bench --bench normals`).
+//! through `rand_core::RngCore` (`cargo bench --features bench --bench normals`).
 //!
 //! Both sides draw from identical bit streams (the newtypes below forward `next_u64`), so the
 //! comparison isolates the normal transform. The drawn values differ — rand_distr splits the

@@ -7,9 +7,10 @@ use mesorheo::config;
 use mesorheo::driver::{RunOptions, restart_case, run_case, write_summary};
 use std::path::PathBuf;
 use std::process::ExitCode;
+use tracing_subscriber::filter::Targets;
 use tracing_subscriber::layer::SubscriberExt;
 use tracing_subscriber::util::SubscriberInitExt;
-use tracing_subscriber::{EnvFilter, Layer, fmt};
+use tracing_subscriber::{Layer, fmt};
 
 #[derive(Parser)]
 #[command(
@@ -686,7 +687,7 @@ fn init_logging(
     let file_layer = fmt::layer()
         .with_ansi(false)
         .with_writer(writer)
-        .with_filter(EnvFilter::new(file_level));
+        .with_filter(targets(&file_level));
     let console_level = if logs.quiet {
         "warn"
     } else if logs.verbose {
@@ -700,9 +701,7 @@ fn init_logging(
             .with_writer(std::io::stderr)
             .with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr()))
             .with_target(false)
-            .with_filter(
-                EnvFilter::new(console_level).and(filter_fn(|meta| meta.target() != FILES_ONLY)),
-            )
+            .with_filter(targets(&console_level).and(filter_fn(|meta| meta.target() != FILES_ONLY)))
     });
     tracing_subscriber::registry()
         .with(file_layer)
@@ -710,6 +709,14 @@ fn init_logging(
         .try_init()
         .map_err(|e| format!("cannot start logging: {e}"))?;
     Ok(guard)
+}
+
+/// The filter of a level or directive list that [`log_level`] accepted (`Targets`: `level`,
+/// `target=level`, comma-separated; tracing's `EnvFilter` with its span-field regexes pulled the
+/// regex crates into every build for a syntax no one used).
+fn targets(text: &str) -> Targets {
+    text.parse()
+        .unwrap_or_else(|_| Targets::new().with_default(tracing::Level::INFO))
 }
 
 /// `--log-level` and MESORHEO_LOG: a level or a tracing directive.
@@ -727,8 +734,7 @@ fn log_level(text: &str) -> Result<String, String> {
              directive such as mesorheo=debug"
         ));
     }
-    EnvFilter::builder()
-        .parse(text)
+    text.parse::<Targets>()
         .map(|_| text.to_owned())
         .map_err(|e| {
             format!(
