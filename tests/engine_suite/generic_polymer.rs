@@ -191,6 +191,30 @@ fn smoothed_gradient_keeps_the_fdt_at_rest_and_is_bitwise_on_1_to_4_ranks() {
     assert_all_equal("GENERIC polymer, smoothed κ, Lees–Edwards 2D", &d);
 }
 
+/// The first-order corrected gradient in the Q equation (`conformation_gradient =
+/// "corrected"`): under Lees–Edwards shear with the noise on, the run is bitwise the same on
+/// 1–4 ranks × 1–2 threads (B_i is summed exactly in the main pass, like κ_i), and it is not
+/// the particle-gradient run (the key reaches the Q equation). Its exactness for a linear
+/// field is the unit test `corrected_gradient_is_exact_for_a_linear_field_on_scattered_particles`.
+#[test]
+fn corrected_gradient_is_bitwise_on_1_to_4_ranks_and_reaches_the_q_equation() {
+    let corrected = "conformation_gradient = \"corrected\"";
+    let text = at_rest(0.01, 60, 0.3, corrected);
+    let d = digests_on_1_to_4_ranks(&text, "generic_polymer_corrected", |s| {
+        assert_eq!(s.steps, 60);
+        assert!(
+            !s.warnings
+                .iter()
+                .any(|w| w.contains("corrected conformation gradients")),
+            "{:?}",
+            s.warnings
+        );
+    });
+    assert_all_equal("GENERIC polymer, corrected κ, Lees–Edwards 2D", &d);
+    let plain = digests_on_1_to_4_ranks(&at_rest(0.01, 60, 0.3, ""), "generic_polymer", |_| {});
+    assert_ne!(plain[0].2, d[0].2, "the corrected gradient changed nothing");
+}
+
 /// The thesis's T1 in a 0.4 × 0.4 box (400 particles, r_c = 0.08, the reduced parameters of
 /// `cases/generic_polymer_shear_2d.toml`), Lees–Edwards γ̇λ_H = 1.25, start-up from equilibrium,
 /// `steps` steps of Δt = 5·10⁻⁴λ_H, averaged after `equilibration`, with `extra` appended to

@@ -44,9 +44,9 @@ pub const KEYS: &[KeyDoc] = &[
     ),
     key(
         "fluid.conformation_gradient",
-        "\"particle\" | \"smoothed\"",
+        "\"particle\" | \"smoothed\" | \"corrected\"",
         "\"particle\"",
-        "GENERIC polymer fluid: the velocity gradient κ the conformation equation dQ = Q·κ dt + … reads. \"particle\": the particle's own SPH gradient κ_i = (1/d_i) Σ_j ω_ij ⊗ v_ij (Eq. 4.60). \"smoothed\": its Shepard average over the kernel, κ̄_i = Σ_j W_ij κ_j / Σ_j W_ij (self included; one more pair pass), the same continuum gradient with less particle-scale noise, which the multiplicative Q·κ term would otherwise rectify into extra stretching; the momentum equation is unchanged, so the reversible part no longer conserves energy exactly (docs/theory/generic_polymer_particle.md §2.8).",
+        "GENERIC polymer fluid: the velocity gradient κ the conformation equation dQ = Q·κ dt + … reads. \"particle\": the particle's own SPH gradient κ_i = (1/d_i) Σ_j ω_ij ⊗ v_ij (Eq. 4.60). \"smoothed\": its Shepard average over the kernel, κ̄_i = Σ_j W_ij κ_j / Σ_j W_ij (self included; one more pair pass), the same continuum gradient with less particle-scale noise, which the multiplicative Q·κ term would otherwise rectify into extra stretching; the momentum equation is unchanged, so the reversible part no longer conserves energy exactly (docs/theory/generic_polymer_particle.md §2.8). \"corrected\": the first-order corrected estimate κ_i = B_i⁻¹ Σ_j ω_ij ⊗ v_ij with B_i = Σ_j ω_ij ⊗ r_ij (CONNFFESSIT's velocity_gradient = \"corrected\"), exact for a linear field on any arrangement, where the particle's own estimate reads a sheared, disordered arrangement's rate ~1 % low (N₁ ∝ γ̇² ~2 % low); the same energy caveat; a particle with det(B_i/d_i) < 10⁻³ keeps its own κ_i and the summary counts it.",
     ),
     key(
         "fluid.explicit_dumbbells",

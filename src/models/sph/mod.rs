@@ -107,6 +107,9 @@ pub use config::*;
 use density::*;
 pub use fields::*;
 use gradient::*;
+/// The first-order gradient correction's inverse and its singularity guard, shared with the
+/// GENERIC polymer particle's corrected conformation gradient.
+pub(crate) use gradient::{MIN_CORRECTION_DETERMINANT, determinant_and_inverse};
 pub use model::SphModel;
 use momentum::*;
 
