@@ -375,7 +375,7 @@ impl<const D: usize> ParticleModel<D> for DumbbellEnsemble<D> {
         } = p;
         // Every branch writes τ_p of the advanced ensemble during the step, while its connectors
         // are in cache (a second pass copied and read all of them again: 8 % of a CONNFFESSIT
-        // channel's step, 2026-11-29); BDDFS measures it on connectors it does not keep. The
+        // channel's step, 2026-11-28); BDDFS measures it on connectors it does not keep. The
         // field is taken out (κ may be read from `extra` meanwhile) and put back below.
         let mut measured = std::mem::take(&mut extra[self.stress].data);
         let w = packed_width(D);

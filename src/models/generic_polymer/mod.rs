@@ -485,20 +485,16 @@ impl<const D: usize> GatherKernel<D> for SmoothGradientKernel<D> {
 /// number density `d`: for v linear, v_ij,b = Σ_c r_ij,c κ_cb, so G = Bκ exactly on any
 /// arrangement (on a complete lattice B ≈ d 1, and κ ≈ G/d is the particle's own estimate).
 /// `None` when det(B/d) is below [`MIN_CORRECTION_DETERMINANT`] (too few neighbours).
-fn corrected_gradient<const D: usize>(g: &[f64], b: &[f64], d: f64) -> Option<Vec<f64>> {
+fn corrected_gradient<const D: usize>(g: &[f64], b: &[f64], d: f64) -> Option<[[f64; D]; D]> {
     let m: [[f64; D]; D] = std::array::from_fn(|a| std::array::from_fn(|c| b[a * D + c] / d));
     let (det, inv) = determinant_and_inverse(&m);
     if !(det > MIN_CORRECTION_DETERMINANT && det.is_finite()) {
         return None;
     }
-    // κ = (B/d)⁻¹ (G/d).
-    let mut kappa = vec![0.0; D * D];
-    for c in 0..D {
-        for bb in 0..D {
-            kappa[c * D + bb] = (0..D).map(|a| inv[c][a] * g[a * D + bb] / d).sum();
-        }
-    }
-    Some(kappa)
+    // κ = (B/d)⁻¹ (G/d), on the stack (once per particle and step).
+    Some(std::array::from_fn(|c| {
+        std::array::from_fn(|bb| (0..D).map(|a| inv[c][a] * g[a * D + bb] / d).sum())
+    }))
 }
 
 /// The model of a run (module documentation).
@@ -1067,7 +1063,9 @@ impl<const D: usize> ParticleModel<D> for GenericPolymer<D> {
                 let g = &s[1..1 + D * D];
                 let b = &s[width - D * D..];
                 match corrected_gradient::<D>(g, b, d_i) {
-                    Some(kappa) => self.store_conformation_rate(p, i, &kappa, 1.0, q_key),
+                    Some(kappa) => {
+                        self.store_conformation_rate(p, i, kappa.as_flattened(), 1.0, q_key)
+                    }
                     None => {
                         self.uncorrected_gradients += 1;
                         self.store_conformation_rate(p, i, g, d_i, q_key);
@@ -1324,7 +1322,7 @@ mod tests {
             let kappa = corrected_gradient::<2>(g, &s[width - 4..], d_i).expect("invertible");
             for a in 0..2 {
                 for b in 0..2 {
-                    worst = worst.max((kappa[a * 2 + b] - k[a][b]).abs());
+                    worst = worst.max((kappa[a][b] - k[a][b]).abs());
                     worst_plain = worst_plain.max((g[a * 2 + b] / d_i - k[a][b]).abs());
                 }
             }
