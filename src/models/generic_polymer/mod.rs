@@ -67,6 +67,7 @@
 //! derives it and the tests measure it).
 
 pub mod keys;
+mod momentum_flux;
 pub mod spec;
 pub mod units;
 
@@ -84,6 +85,7 @@ use crate::observable::Observable;
 use crate::particles::{FieldFlags, Particles};
 use crate::rng::{HashStream, Purpose};
 use serde::{Deserialize, Serialize};
+pub use momentum_flux::GENERIC_STRESS_PARTS;
 pub use units::SiUnitsCfg;
 
 /// The continuity density ρ_i.
@@ -1036,6 +1038,18 @@ impl<const D: usize> ParticleModel<D> for GenericPolymer<D> {
             }
         }
         let kernel = self.kernel(step);
+        // The momentum flux of this evaluation's pair forces, on the steps the diagnostics
+        // sample ([`momentum_flux`]).
+        let virial = (ctx.virial != crate::models::pair_loop::VirialScope::Off)
+            .then(|| momentum_flux::momentum_virial(&kernel, p, ctx.list))
+            .transpose()
+            .map_err(|e| {
+                e.at_step(
+                    crate::error::Quantity::MomentumFlux,
+                    step,
+                    "GENERIC polymer momentum flux",
+                )
+            })?;
         let mut sums = std::mem::take(&mut self.sums);
         let result = gather(&kernel, p, full, &mut sums);
         if let Err(e) = result {
@@ -1083,7 +1097,10 @@ impl<const D: usize> ParticleModel<D> for GenericPolymer<D> {
             }
         }
         self.sums = sums;
-        Ok(PassOutput::default())
+        Ok(PassOutput {
+            virial,
+            ..PassOutput::default()
+        })
     }
 
     fn counted_warnings(&self) -> Vec<(u64, &'static str)> {

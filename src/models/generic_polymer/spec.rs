@@ -266,7 +266,12 @@ impl FluidModel for GenericPolymerCfg {
             Observable::Conformation,
         ];
         if case.shear_rate() != 0.0 {
-            out.push(Observable::ConstitutiveStress);
+            // The particle-averaged polymer stress and the momentum flux side by side.
+            out.extend([
+                Observable::ConstitutiveStress,
+                Observable::Viscosity,
+                Observable::FirstNormalStressDifference,
+            ]);
         }
         out
     }
@@ -275,19 +280,20 @@ impl FluidModel for GenericPolymerCfg {
         if matches!(o, Observable::ConstitutiveStress | Observable::Conformation) {
             return Ok(());
         }
-        if o.needs_pair_virial() {
-            return Err(format!(
-                "\"{}\" needs the pair virial, which the GENERIC polymer fluid does not compute \
-                 yet; the particle-averaged polymer stress's viscometric functions are \
-                 \"constitutive_stress\", the conformation moments \"conformation\"",
-                o.name()
-            ));
-        }
+        // The pair-virial observables are the momentum flux of the applied pair forces
+        // (`super::momentum_flux`).
         generic_support(o)
     }
 
     fn stress_parts(&self) -> Vec<&'static str> {
-        crate::models::fluid_model::CENTRAL_STRESS_PARTS.to_vec()
+        // the pair parts of `super::momentum_flux`, after the total and the kinetic part
+        super::GENERIC_STRESS_PARTS.to_vec()
+    }
+
+    /// The friction lies along v_ij and the polymer term along Π·ω_ij: the momentum flux is
+    /// not symmetric.
+    fn symmetric_stress(&self) -> bool {
+        false
     }
 
     fn report(&self, case: &dyn CaseView, density: f64, line: &mut dyn FnMut(String)) {
