@@ -84,8 +84,8 @@ use crate::models::summation_gas::DensityKernel;
 use crate::observable::Observable;
 use crate::particles::{FieldFlags, Particles};
 use crate::rng::{HashStream, Purpose};
-use serde::{Deserialize, Serialize};
 pub use momentum_flux::GENERIC_STRESS_PARTS;
+use serde::{Deserialize, Serialize};
 pub use units::SiUnitsCfg;
 
 /// The continuity density ρ_i.

@@ -36,6 +36,7 @@ use super::PairKernel;
 use crate::fixed_sum::FixedSum;
 use crate::models::gather::{GatherKernel, PairError};
 use crate::models::pair_loop::Virial;
+use crate::models::sph::kernels::Kernel;
 use crate::neighbour::{NEAR_AT_BUILD, NeighbourList};
 use crate::particles::Particles;
 use rayon::prelude::*;
