@@ -11,6 +11,7 @@ pub mod generic_polymer;
 pub mod homogeneous_flow;
 pub mod interface;
 pub mod pair_loop;
+pub mod pair_virial;
 pub mod sph;
 pub mod stress_profile;
 pub mod summation_gas;

@@ -27,26 +27,21 @@
 //! force; its momentum flux m V ⊗ ½Δt a^t is O(Δt) and is left out) and the conformation noise
 //! (not a force).
 //!
-//! Every pair adds ½ of its term twice: an owned–ghost pair once on each of its two ranks (the
-//! same bits on both, the pair force being exactly antisymmetric), an owned–owned pair twice
-//! on its rank. Each term is accumulated exactly ([`FixedSum`]), so the sum is the same integer
-//! on any rank and thread count.
+//! The pair sum is [`half_list_virial`] (exact, half weight per owned end; the pair force is
+//! exactly antisymmetric, unit test `pair_terms_are_bitwise_antisymmetric`), so the flux is the
+//! same on any rank and thread count.
 
 use super::PairKernel;
-use crate::fixed_sum::FixedSum;
 use crate::models::gather::{GatherKernel, PairError};
 use crate::models::pair_loop::Virial;
+use crate::models::pair_virial::half_list_virial;
 use crate::models::sph::kernels::Kernel;
-use crate::neighbour::{NEAR_AT_BUILD, NeighbourList};
+use crate::neighbour::NeighbourList;
 use crate::particles::Particles;
-use rayon::prelude::*;
 
 /// Names of the GENERIC fluid's stress parts, after the total and the kinetic part, in
 /// [`Virial`] order.
 pub const GENERIC_STRESS_PARTS: [&str; 5] = ["total", "kinetic", "pressure", "viscous", "polymer"];
-
-/// Pairs between renormalisations of the accumulators.
-const NORMALIZE_EVERY: usize = 1024;
 
 /// The widest row [`PairKernel::pair`] writes: 1 + D² + D + D + D² ≤ 25 in 3D.
 const MAX_WIDTH: usize = 32;
@@ -108,66 +103,14 @@ impl<const D: usize> PairKernel<D> {
 }
 
 /// Σ_pairs F_ij ⊗ r_ij per part over the half list (component a·D + b = Σ F^a r^b), an
-/// owned–ghost pair at half weight; exact, and the same on any number of threads and ranks.
+/// owned–ghost pair at half weight ([`half_list_virial`]); exact, and the same on any number of
+/// threads and ranks.
 pub(super) fn momentum_virial<const D: usize>(
     kernel: &PairKernel<D>,
     p: &Particles<D>,
     list: &NeighbourList<D>,
 ) -> Result<Virial, PairError> {
-    let n_owned = p.n_owned;
-    let rc2 = kernel.cutoff() * kernel.cutoff();
-    let chunks = rayon::current_num_threads().max(1);
-    let results: Vec<Result<Vec<FixedSum>, PairError>> = list
-        .pair_chunks(chunks)
-        .map(|pairs| {
-            let mut sums = vec![FixedSum::ZERO; 3 * D * D];
-            for (n, &[i, j]) in pairs.iter().enumerate() {
-                let (i, j) = (i as usize, (j & !NEAR_AT_BUILD) as usize);
-                let x: [f64; D] = std::array::from_fn(|d| p.pos[i][d] - p.pos[j][d]);
-                let r2: f64 = x.iter().map(|v| v * v).sum();
-                if r2 >= rc2 || r2 == 0.0 {
-                    continue;
-                }
-                let parts = kernel.force_parts(p, i, j, &x, r2.sqrt());
-                // ½ of the term, once per end that this rank owns (module doc): round(½t) +
-                // round(½t) is the same integer on any decomposition, where round(t) once
-                // would not be.
-                let copies = if j < n_owned { 2 } else { 1 };
-                for (k, part) in parts.iter().enumerate() {
-                    for a in 0..D {
-                        for b in 0..D {
-                            let term = 0.5 * part[a] * x[b];
-                            if !FixedSum::representable(term) {
-                                return Err(PairError {
-                                    gid_i: p.gid[i],
-                                    gid_j: p.gid[j],
-                                    quantity: k * D * D + a * D + b,
-                                    value: term,
-                                    max_term: FixedSum::MAX_TERM,
-                                });
-                            }
-                            for _ in 0..copies {
-                                sums[k * D * D + a * D + b].add(term);
-                            }
-                        }
-                    }
-                }
-                if n % NORMALIZE_EVERY == NORMALIZE_EVERY - 1 {
-                    sums.iter_mut().for_each(FixedSum::normalize);
-                }
-            }
-            sums.iter_mut().for_each(FixedSum::normalize);
-            Ok(sums)
-        })
-        .collect();
-    let mut total = vec![FixedSum::ZERO; 3 * D * D];
-    for chunk in results {
-        for (t, x) in total.iter_mut().zip(chunk?) {
-            t.merge(&x);
-            t.normalize();
-        }
-    }
-    Ok(std::array::from_fn(|k| {
-        total[k * D * D..(k + 1) * D * D].to_vec()
-    }))
+    half_list_virial(p, list, kernel.cutoff(), |i, j, x, r| {
+        Some((kernel.force_parts(p, i, j, x, r), *x))
+    })
 }

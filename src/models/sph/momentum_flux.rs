@@ -26,10 +26,9 @@
 //!   from turning is in it: the antisymmetric part of the cell stress (Batchelor 1970).
 //! - two boundary particles: no force, nothing.
 //!
-//! Every pair adds ½ of its term twice: an owned–ghost pair once on each of its two ranks (the
-//! same bits on both, the pair terms being exactly antisymmetric), an owned–owned pair twice on
-//! its rank. Each term is accumulated exactly ([`FixedSum`], which rounds a term once to its
-//! resolution), so the sum is the same integer on any rank and thread count.
+//! The pair sum is [`half_list_virial`]: every pair adds ½ of its term once per owned end,
+//! exactly (the pair terms being exactly antisymmetric), so the sum is the same integer on any
+//! rank and thread count.
 //!
 //! The parts (the `stress` observable's `pressure`, `viscous`, `polymer` parts): the pressure
 //! (with the background pressure and the wall repulsion), the polymer stress term, and the rest
@@ -37,21 +36,17 @@
 //! the force actually applied.
 
 use super::{FLUID, INCLUSION, MomentumKernel};
-use crate::fixed_sum::FixedSum;
 use crate::models::gather::GatherKernel;
 use crate::models::gather::PairError;
 use crate::models::pair_loop::Virial;
-use crate::neighbour::{NEAR_AT_BUILD, NeighbourList};
+use crate::models::pair_virial::half_list_virial;
+use crate::neighbour::NeighbourList;
 use crate::particles::Particles;
-use rayon::prelude::*;
 
 use super::kernels::Kernel;
 
 /// Names of the three parts of the SPH virial, in [`Virial`] order.
 pub const SPH_STRESS_PARTS: [&str; 3] = ["pressure", "viscous", "polymer"];
-
-/// Pairs between renormalisations of the accumulators.
-const NORMALIZE_EVERY: usize = 1024;
 
 impl<K: Kernel, const D: usize> MomentumKernel<'_, K, D> {
     /// The momentum equation's pair force F_ij on i, split into [pressure, viscous, polymer]
@@ -125,69 +120,14 @@ impl<K: Kernel, const D: usize> MomentumKernel<'_, K, D> {
 }
 
 /// Σ_pairs F_ij ⊗ ℓ_ij per part over the half list (component a·D + b = Σ F^a ℓ^b), an
-/// owned–ghost pair at half weight; exact, and the same on any number of threads.
+/// owned–ghost pair at half weight ([`half_list_virial`]); exact, and the same on any number of
+/// threads and ranks.
 pub(super) fn momentum_virial<K: Kernel, const D: usize>(
     kernel: &MomentumKernel<'_, K, D>,
     p: &Particles<D>,
     list: &NeighbourList<D>,
 ) -> Result<Virial, PairError> {
-    let n_owned = p.n_owned;
-    let rc2 = kernel.cutoff() * kernel.cutoff();
-    let chunks = rayon::current_num_threads().max(1);
-    let results: Vec<Result<Vec<FixedSum>, PairError>> = list
-        .pair_chunks(chunks)
-        .map(|pairs| {
-            let mut sums = vec![FixedSum::ZERO; 3 * D * D];
-            for (n, &[i, j]) in pairs.iter().enumerate() {
-                let (i, j) = (i as usize, (j & !NEAR_AT_BUILD) as usize);
-                let x: [f64; D] = std::array::from_fn(|d| p.pos[i][d] - p.pos[j][d]);
-                let r2: f64 = x.iter().map(|v| v * v).sum();
-                if r2 >= rc2 || r2 == 0.0 {
-                    continue;
-                }
-                let Some((parts, lever)) = kernel.flux_terms(p, i, j, &x, r2.sqrt()) else {
-                    continue;
-                };
-                // Every pair adds ½ of its term twice: once on each end's rank for an owned–ghost
-                // pair, twice here for an owned–owned one. The fixed-point sum rounds each term to
-                // its resolution, so round(½t) + round(½t) is the same integer on any
-                // decomposition, where round(t) once would not be.
-                let copies = if j < n_owned { 2 } else { 1 };
-                for (k, part) in parts.iter().enumerate() {
-                    for a in 0..D {
-                        for b in 0..D {
-                            let term = 0.5 * part[a] * lever[b];
-                            if !FixedSum::representable(term) {
-                                return Err(PairError {
-                                    gid_i: p.gid[i],
-                                    gid_j: p.gid[j],
-                                    quantity: k * D * D + a * D + b,
-                                    value: term,
-                                    max_term: FixedSum::MAX_TERM,
-                                });
-                            }
-                            for _ in 0..copies {
-                                sums[k * D * D + a * D + b].add(term);
-                            }
-                        }
-                    }
-                }
-                if n % NORMALIZE_EVERY == NORMALIZE_EVERY - 1 {
-                    sums.iter_mut().for_each(FixedSum::normalize);
-                }
-            }
-            sums.iter_mut().for_each(FixedSum::normalize);
-            Ok(sums)
-        })
-        .collect();
-    let mut total = vec![FixedSum::ZERO; 3 * D * D];
-    for chunk in results {
-        for (t, x) in total.iter_mut().zip(chunk?) {
-            t.merge(&x);
-            t.normalize();
-        }
-    }
-    Ok(std::array::from_fn(|k| {
-        total[k * D * D..(k + 1) * D * D].to_vec()
-    }))
+    half_list_virial(p, list, kernel.cutoff(), |i, j, x, r| {
+        kernel.flux_terms(p, i, j, x, r)
+    })
 }
