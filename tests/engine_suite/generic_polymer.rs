@@ -147,8 +147,13 @@ fn the_printed_eq_4_48_drift_fails_the_fdt_test() {
 /// `text` (from [`at_rest`]) with the momentum flux sampled too: `viscosity`, N₁ and every
 /// part of `stress`.
 fn with_flux(text: &str) -> String {
+    let plain = r#"observables = ["temperature", "momentum", "conformation"]"#;
+    assert!(
+        text.contains(plain),
+        "at_rest's observables changed: {text}"
+    );
     text.replace(
-        r#"observables = ["temperature", "momentum", "conformation"]"#,
+        plain,
         r#"observables = ["temperature", "momentum", "conformation", "viscosity", "first_normal_stress_difference", "stress"]"#,
     )
 }
