@@ -380,46 +380,18 @@ fn model_a_is_bitwise_identical_on_1_to_4_ranks_and_1_to_2_threads() {
 
 /// Model A in the CONNFFESSIT units of `studies/cases/generic_polymer_model_a_shear_2d.toml`
 /// (400 particles, r_c = 0.15, c_s = 10, η_s = 0.5, G = 0.5, λ = 1, Wi = γ̇λ = 1, p_b = 5,
-/// no velocity noise), 20 explicit dumbbells per particle, `steps` steps of Δt = 1.5·10⁻³
-/// averaged after `equilibration`, with the momentum flux and the particle-averaged stress.
+/// no velocity noise), that case with 20 explicit dumbbells per particle, `steps` steps of
+/// Δt = 1.5·10⁻³ averaged after `equilibration`, with the momentum flux and the
+/// particle-averaged stress.
 fn model_a_flux_shear(steps: u64, equilibration: u64) -> String {
-    format!(
-        r#"title = "GENERIC Model A, momentum flux"
-dimension = 2
-seed = 3
-[box]
-lengths = [1.0, 1.0]
-shear_rate = 1.0
-[particles]
-lattice = "cubic"
-density = 400.0
-mass = 0.0025
-temperature = 0.0
-[fluid]
-kind = "generic_polymer"
-smoothing_length = 0.15
-sound_speed = 10.0
-solvent_viscosity = 0.5
-kt = 1.0
-spring_constant = 1.0
-relaxation_time = 1.0
-dumbbell_density = 0.5
-velocity_noise = false
-explicit_dumbbells = 20
-background_pressure = 5.0
-[integrator]
-kind = "kick_drift_kick"
-dt = 1.5e-3
-[neighbour]
-skin = 0.02
-[run]
-steps = {steps}
-equilibration = {equilibration}
-sample_every = 10
-[diagnostics]
-observables = ["constitutive_stress", "viscosity", "first_normal_stress_difference", "stress"]
-blocks = 5
-"#
+    common::stock_text_with(
+        "../studies/cases/generic_polymer_model_a_shear_2d.toml",
+        &[
+            "fluid.explicit_dumbbells=20",
+            &format!("run.steps={steps}"),
+            &format!("run.equilibration={equilibration}"),
+            r#"diagnostics.observables=["constitutive_stress", "viscosity", "first_normal_stress_difference", "stress"]"#,
+        ],
     )
 }
 
